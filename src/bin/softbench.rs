@@ -1,0 +1,2 @@
+//! The `softbench` command line.
+fn main() {}

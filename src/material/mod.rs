@@ -1,0 +1,70 @@
+//! Strain energy densities psi(F) with the first Piola–Kirchhoff stress P = dpsi/dF and its
+//! derivative dP/dF, all in closed form.
+//!
+//! Index convention: `vec(F)` is column-major, `vec(F)[i + 3 j] = F[(i, j)]` (nalgebra's
+//! storage order), and `dP/dF` is the 9×9 matrix `D[(i + 3 j, k + 3 l)] = dP_ij / dF_kl`.
+//!
+//! Materials are small `Copy` structs behind the [`Material`] trait; element loops are generic
+//! over it, and [`MaterialModel`] dispatches once per loop, never per element.
+
+mod lame;
+mod neo_hookean;
+
+pub use lame::{LameParameters, MaterialError};
+pub use neo_hookean::NeoHookean;
+
+use nalgebra::{Matrix3, SMatrix};
+
+/// The 9×9 derivative of the first Piola–Kirchhoff stress with respect to `vec(F)`.
+pub type Matrix9 = SMatrix<f64, 9, 9>;
+
+/// A deformation gradient at which a material's energy is undefined (for example J <= 0 for
+/// the course Neo-Hookean, whose J^(-2/3) term has no real value there).
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+#[error("energy undefined at det F = {det_f:.3e} (element inverted or collapsed)")]
+pub struct InvalidDeformation {
+    /// det F at the offending deformation.
+    pub det_f: f64,
+}
+
+/// A hyperelastic strain energy density, evaluated per element at the deformation gradient F.
+pub trait Material: Copy + Send + Sync + std::fmt::Debug {
+    /// Whether the energy is defined for inverted elements (det F <= 0).
+    const HANDLES_INVERSION: bool;
+
+    /// psi(F), energy per unit rest volume.
+    fn energy_density(&self, f: &Matrix3<f64>) -> Result<f64, InvalidDeformation>;
+
+    /// P(F) = dpsi/dF.
+    fn first_piola(&self, f: &Matrix3<f64>) -> Result<Matrix3<f64>, InvalidDeformation>;
+
+    /// dP/dF as a 9×9 matrix over column-major `vec(F)` (symmetric).
+    fn first_piola_derivative(&self, f: &Matrix3<f64>) -> Result<Matrix9, InvalidDeformation>;
+}
+
+/// The cofactor matrix cof(F) = det(F) F^{-T} = dJ/dF, defined for every F.
+#[inline]
+pub fn cofactor(f: &Matrix3<f64>) -> Matrix3<f64> {
+    let c0 = f.column(1).cross(&f.column(2));
+    let c1 = f.column(2).cross(&f.column(0));
+    let c2 = f.column(0).cross(&f.column(1));
+    Matrix3::from_columns(&[c0, c1, c2])
+}
+
+/// d²J/dF² as a 9×9 matrix over column-major `vec(F)`: the block matrix
+/// `[[0, -[f2]x, [f1]x], [[f2]x, 0, -[f0]x], [-[f1]x, [f0]x, 0]]` with `fj` the columns of F.
+#[inline]
+pub fn det_hessian(f: &Matrix3<f64>) -> Matrix9 {
+    let mut h = Matrix9::zeros();
+    let cross = |v: nalgebra::VectorView3<f64, nalgebra::U1, nalgebra::U3>| v.cross_matrix();
+    let f0 = cross(f.column(0));
+    let f1 = cross(f.column(1));
+    let f2 = cross(f.column(2));
+    h.fixed_view_mut::<3, 3>(0, 3).copy_from(&(-f2));
+    h.fixed_view_mut::<3, 3>(0, 6).copy_from(&f1);
+    h.fixed_view_mut::<3, 3>(3, 0).copy_from(&f2);
+    h.fixed_view_mut::<3, 3>(3, 6).copy_from(&(-f0));
+    h.fixed_view_mut::<3, 3>(6, 0).copy_from(&(-f1));
+    h.fixed_view_mut::<3, 3>(6, 3).copy_from(&f0);
+    h
+}

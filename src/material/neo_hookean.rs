@@ -1,0 +1,88 @@
+//! The course Neo-Hookean model (CSC417 A3):
+//! psi(F) = C (J^(-2/3) tr(F^T F) - 3) + D (J - 1)^2, with C = mu/2 and D = lambda/2.
+//!
+//! Its isochoric term J^(-2/3) has no real value for J <= 0, so inverted elements are an
+//! [`InvalidDeformation`] rather than a NaN.
+
+use super::{InvalidDeformation, LameParameters, Material, Matrix9, cofactor, det_hessian};
+use nalgebra::Matrix3;
+
+/// The course Neo-Hookean energy with its constants C and D (Pa).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NeoHookean {
+    /// Coefficient of the isochoric term, C = mu / 2.
+    pub c: f64,
+    /// Coefficient of the volumetric term, D = lambda / 2.
+    pub d: f64,
+}
+
+impl NeoHookean {
+    /// From Lamé parameters: C = mu/2, D = lambda/2 (the course's choice).
+    pub fn new(lame: LameParameters) -> Self {
+        Self {
+            c: 0.5 * lame.mu,
+            d: 0.5 * lame.lambda,
+        }
+    }
+
+    /// From C and D given directly.
+    pub fn from_c_d(c: f64, d: f64) -> Self {
+        Self { c, d }
+    }
+
+    /// J and J^(-1/3), or the error for J <= 0.
+    #[inline]
+    fn volume_ratio(f: &Matrix3<f64>) -> Result<(f64, f64), InvalidDeformation> {
+        let j = f.determinant();
+        if j > 0.0 && j.is_finite() {
+            Ok((j, 1.0 / j.cbrt()))
+        } else {
+            Err(InvalidDeformation { det_f: j })
+        }
+    }
+}
+
+impl Material for NeoHookean {
+    const HANDLES_INVERSION: bool = false;
+
+    #[inline]
+    fn energy_density(&self, f: &Matrix3<f64>) -> Result<f64, InvalidDeformation> {
+        let (j, j13) = Self::volume_ratio(f)?;
+        let i1 = f.norm_squared();
+        Ok(self.c * (j13 * j13 * i1 - 3.0) + self.d * (j - 1.0) * (j - 1.0))
+    }
+
+    #[inline]
+    fn first_piola(&self, f: &Matrix3<f64>) -> Result<Matrix3<f64>, InvalidDeformation> {
+        let (j, j13) = Self::volume_ratio(f)?;
+        let j23 = j13 * j13;
+        let i1 = f.norm_squared();
+        let g = cofactor(f);
+        let s = -(2.0 / 3.0) * self.c * j23 / j * i1 + 2.0 * self.d * (j - 1.0);
+        Ok(f * (2.0 * self.c * j23) + g * s)
+    }
+
+    #[inline]
+    fn first_piola_derivative(&self, f: &Matrix3<f64>) -> Result<Matrix9, InvalidDeformation> {
+        let (j, j13) = Self::volume_ratio(f)?;
+        let j23 = j13 * j13;
+        let j53 = j23 / j;
+        let j83 = j53 / j;
+        let i1 = f.norm_squared();
+        let g = cofactor(f);
+        let gv = nalgebra::SVector::<f64, 9>::from_column_slice(g.as_slice());
+        let fv = nalgebra::SVector::<f64, 9>::from_column_slice(f.as_slice());
+        let s = -(2.0 / 3.0) * self.c * j53 * i1 + 2.0 * self.d * (j - 1.0);
+        let mixed = -(4.0 / 3.0) * self.c * j53;
+        let gg = (10.0 / 9.0) * self.c * j83 * i1 + 2.0 * self.d;
+        let mut h = det_hessian(f) * s;
+        for col in 0..9 {
+            for row in 0..9 {
+                h[(row, col)] +=
+                    mixed * (fv[row] * gv[col] + gv[row] * fv[col]) + gg * gv[row] * gv[col];
+            }
+            h[(col, col)] += 2.0 * self.c * j23;
+        }
+        Ok(h)
+    }
+}

@@ -1,0 +1,30 @@
+//! Errors from reading and validating meshes. Every message names the file and, where there
+//! is one, the 1-based line.
+
+use std::path::PathBuf;
+
+/// What went wrong while reading a mesh file.
+#[derive(Debug, thiserror::Error)]
+pub enum MeshError {
+    /// The file could not be opened or read.
+    #[error("{path}: cannot read: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// The content is malformed at a given line.
+    #[error("{path}:{line}: {message}")]
+    Parse {
+        path: PathBuf,
+        /// 1-based line number.
+        line: usize,
+        message: String,
+    },
+    /// The content is malformed as a whole (no line to point at).
+    #[error("{path}: {message}")]
+    Invalid { path: PathBuf, message: String },
+    /// The format could not be told from the extension or content.
+    #[error("{path}: unknown mesh format: {message}")]
+    UnknownFormat { path: PathBuf, message: String },
+}

@@ -1,0 +1,141 @@
+//! Symmetric sparse matrices over the free DOFs: the pattern is built once per scene and the
+//! values are refilled in place on every assembly.
+//!
+//! Storage is compressed sparse column with *both* triangles and sorted row indices, so the
+//! same matrix serves mat-vec and CG directly, and Cholesky reads its lower triangle through a
+//! zero-copy faer view.
+
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
+
+/// The sparsity pattern of a symmetric `n × n` matrix (both triangles, rows sorted per column).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SparsityPattern {
+    n: usize,
+    col_ptr: Vec<usize>,
+    row_idx: Vec<usize>,
+}
+
+impl SparsityPattern {
+    /// From CSC arrays. Panics if they are inconsistent (a programming error, not user input).
+    pub fn from_csc(n: usize, col_ptr: Vec<usize>, row_idx: Vec<usize>) -> Self {
+        assert_eq!(col_ptr.len(), n + 1, "col_ptr must have n + 1 entries");
+        assert_eq!(*col_ptr.last().unwrap(), row_idx.len());
+        for c in 0..n {
+            let rows = &row_idx[col_ptr[c]..col_ptr[c + 1]];
+            assert!(rows.windows(2).all(|w| w[0] < w[1]), "rows must be sorted and unique");
+            assert!(rows.iter().all(|&r| r < n), "row index out of range");
+        }
+        Self { n, col_ptr, row_idx }
+    }
+
+    /// Matrix dimension.
+    pub fn dim(&self) -> usize {
+        self.n
+    }
+
+    /// Number of stored entries (both triangles).
+    pub fn nnz(&self) -> usize {
+        self.row_idx.len()
+    }
+
+    /// Column pointers (`dim() + 1` entries).
+    pub fn col_ptr(&self) -> &[usize] {
+        &self.col_ptr
+    }
+
+    /// Row indices, sorted within each column.
+    pub fn row_idx(&self) -> &[usize] {
+        &self.row_idx
+    }
+
+    /// Position of entry (row, col) in the value array, if stored.
+    pub fn find(&self, row: usize, col: usize) -> Option<usize> {
+        let start = self.col_ptr[col];
+        let rows = &self.row_idx[start..self.col_ptr[col + 1]];
+        rows.binary_search(&row).ok().map(|k| start + k)
+    }
+
+    /// A zero-copy faer view of the pattern.
+    pub fn as_faer(&self) -> SymbolicSparseColMatRef<'_, usize> {
+        SymbolicSparseColMatRef::new_checked(self.n, self.n, &self.col_ptr, None, &self.row_idx)
+    }
+}
+
+/// A symmetric sparse matrix: a shared pattern plus one value per stored entry.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SymmetricMatrix {
+    pattern: std::sync::Arc<SparsityPattern>,
+    values: Vec<f64>,
+}
+
+impl SymmetricMatrix {
+    /// A zero matrix over `pattern`.
+    pub fn zeros(pattern: std::sync::Arc<SparsityPattern>) -> Self {
+        let values = vec![0.0; pattern.nnz()];
+        Self { pattern, values }
+    }
+
+    /// The pattern (shared with every matrix assembled over it).
+    pub fn pattern(&self) -> &std::sync::Arc<SparsityPattern> {
+        &self.pattern
+    }
+
+    /// Matrix dimension.
+    pub fn dim(&self) -> usize {
+        self.pattern.n
+    }
+
+    /// Stored values, in pattern order.
+    pub fn values(&self) -> &[f64] {
+        &self.values
+    }
+
+    /// Stored values, in pattern order, for refilling in place.
+    pub fn values_mut(&mut self) -> &mut [f64] {
+        &mut self.values
+    }
+
+    /// Entry (row, col), zero when not stored.
+    pub fn get(&self, row: usize, col: usize) -> f64 {
+        self.pattern.find(row, col).map_or(0.0, |k| self.values[k])
+    }
+
+    /// `y = A x`.
+    pub fn mul_vec(&self, x: &[f64], y: &mut [f64]) {
+        assert_eq!(x.len(), self.dim());
+        assert_eq!(y.len(), self.dim());
+        y.fill(0.0);
+        let p = &self.pattern;
+        for (c, &xc) in x.iter().enumerate() {
+            for k in p.col_ptr[c]..p.col_ptr[c + 1] {
+                y[p.row_idx[k]] += self.values[k] * xc;
+            }
+        }
+    }
+
+    /// `self = a * self + b * other` over the same pattern (e.g. M + dt² K).
+    pub fn axpby(&mut self, a: f64, b: f64, other: &SymmetricMatrix) {
+        assert!(std::sync::Arc::ptr_eq(&self.pattern, &other.pattern) || self.pattern == other.pattern);
+        for (s, o) in self.values.iter_mut().zip(&other.values) {
+            *s = a * *s + b * *o;
+        }
+    }
+
+    /// A dense copy (for tests and tiny systems).
+    pub fn to_dense(&self) -> nalgebra::DMatrix<f64> {
+        let n = self.dim();
+        let mut d = nalgebra::DMatrix::zeros(n, n);
+        let p = &self.pattern;
+        for c in 0..n {
+            for k in p.col_ptr[c]..p.col_ptr[c + 1] {
+                d[(p.row_idx[k], c)] = self.values[k];
+            }
+        }
+        d
+    }
+
+    /// A zero-copy faer view (both triangles).
+    pub fn as_faer(&self) -> SparseColMatRef<'_, usize, f64> {
+        SparseColMatRef::new(self.pattern.as_faer(), &self.values)
+    }
+}
