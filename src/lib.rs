@@ -18,4 +18,5 @@ pub mod material;
 pub mod mesh;
 pub mod model;
 pub mod parallel;
+pub mod rng;
 pub mod sparse;
