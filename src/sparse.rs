@@ -22,10 +22,17 @@ impl SparsityPattern {
         assert_eq!(*col_ptr.last().unwrap(), row_idx.len());
         for c in 0..n {
             let rows = &row_idx[col_ptr[c]..col_ptr[c + 1]];
-            assert!(rows.windows(2).all(|w| w[0] < w[1]), "rows must be sorted and unique");
+            assert!(
+                rows.windows(2).all(|w| w[0] < w[1]),
+                "rows must be sorted and unique"
+            );
             assert!(rows.iter().all(|&r| r < n), "row index out of range");
         }
-        Self { n, col_ptr, row_idx }
+        Self {
+            n,
+            col_ptr,
+            row_idx,
+        }
     }
 
     /// Matrix dimension.
@@ -115,7 +122,9 @@ impl SymmetricMatrix {
 
     /// `self = a * self + b * other` over the same pattern (e.g. M + dt² K).
     pub fn axpby(&mut self, a: f64, b: f64, other: &SymmetricMatrix) {
-        assert!(std::sync::Arc::ptr_eq(&self.pattern, &other.pattern) || self.pattern == other.pattern);
+        assert!(
+            std::sync::Arc::ptr_eq(&self.pattern, &other.pattern) || self.pattern == other.pattern
+        );
         for (s, o) in self.values.iter_mut().zip(&other.values) {
             *s = a * *s + b * *o;
         }

@@ -5,7 +5,9 @@
 pub enum MaterialError {
     #[error("youngs_modulus must be positive and finite (got {0})")]
     YoungsModulus(f64),
-    #[error("poisson_ratio must lie in (-1, 0.5) (got {0}); 0.5 is incompressible and has no finite Lamé lambda")]
+    #[error(
+        "poisson_ratio must lie in (-1, 0.5) (got {0}); 0.5 is incompressible and has no finite Lamé lambda"
+    )]
     PoissonRatio(f64),
     #[error("{name} must be finite and non-negative (got {value})")]
     Parameter { name: &'static str, value: f64 },

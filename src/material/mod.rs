@@ -68,3 +68,19 @@ pub fn det_hessian(f: &Matrix3<f64>) -> Matrix9 {
     h.fixed_view_mut::<3, 3>(6, 3).copy_from(&f0);
     h
 }
+
+/// A material chosen at run time. Element loops `match` on it once and then run a loop
+/// generic over the concrete [`Material`], so there is no dispatch per element.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum MaterialModel {
+    NeoHookean(NeoHookean),
+}
+
+impl MaterialModel {
+    /// The model's name as written in scene files.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::NeoHookean(_) => "neo-hookean",
+        }
+    }
+}

@@ -73,7 +73,9 @@ impl SurfaceMesh {
 /// Axis-aligned bounding box of a point set.
 pub fn bounding_box(points: &[Vector3<f64>]) -> Option<(Vector3<f64>, Vector3<f64>)> {
     let first = *points.first()?;
-    Some(points.iter().fold((first, first), |(lo, hi), p| {
-        (lo.inf(p), hi.sup(p))
-    }))
+    Some(
+        points
+            .iter()
+            .fold((first, first), |(lo, hi), p| (lo.inf(p), hi.sup(p))),
+    )
 }

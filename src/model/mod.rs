@@ -1,1 +1,634 @@
-//! placeholder
+//! The [`Model`]: a conservative system over the free DOFs of a mesh. It sums potentials —
+//! elastic (tet FEM), springs, gravity — and answers their value, gradient and sparse Hessian.
+//!
+//! The Hessian's sparsity pattern and the gather lists that assemble into it are built once;
+//! each evaluation computes element quantities into preallocated buffers (in parallel when
+//! asked) and gathers them in a fixed order, so results are bitwise identical run to run and
+//! across thread counts. Every evaluation is counted in [`EvalCounters`].
+
+mod dofs;
+mod elastic;
+mod error;
+mod mass;
+mod pattern;
+mod springs;
+
+pub use dofs::{AxisRule, DofMap, FIXED, FixedSelection, Side};
+pub use error::ModelError;
+pub use mass::{MassKind, MassMatrix};
+pub use pattern::BlockPattern;
+pub use springs::Spring;
+
+use crate::fem::{TetRest, consistent_mass_matrix, lumped_vertex_mass};
+use crate::material::MaterialModel;
+use crate::mesh::TetMesh;
+use crate::parallel::Parallelism;
+use crate::sparse::{SparsityPattern, SymmetricMatrix};
+use elastic::{ElasticBody, ElementFailure};
+use nalgebra::Vector3;
+use pattern::{ElementGather, gather_matrix, gather_vector};
+use std::sync::Arc;
+
+/// What to do with tets of negative rest volume.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum InvertedTets {
+    /// Refuse the mesh with the indices of the inverted tets.
+    #[default]
+    Refuse,
+    /// Swap two vertices of each inverted tet so that it is positively oriented.
+    Reorient,
+}
+
+/// Everything a [`Model`] is built from.
+#[derive(Clone, Debug)]
+pub struct ModelSpec {
+    /// Rest positions and tets. Tets are used when there is an elastic material or a density.
+    pub mesh: TetMesh,
+    /// The elastic material of the tets, or `None` for a body without tet elasticity.
+    pub material: Option<MaterialModel>,
+    /// Mass density (kg/m^3) of the tets, or `None` when mass comes only from point masses.
+    pub density: Option<f64>,
+    /// Consistent or lumped tet mass.
+    pub mass_kind: MassKind,
+    /// Extra lumped mass per vertex (kg), e.g. the particles of a mass-spring body.
+    pub point_masses: Option<Vec<f64>>,
+    /// Springs between vertices.
+    pub springs: Vec<Spring>,
+    /// Gravitational acceleration (m/s^2), or `None`.
+    pub gravity: Option<Vector3<f64>>,
+    /// Which vertices are fixed (eliminated from the unknowns).
+    pub fixed: FixedSelection,
+    /// What to do with inverted rest tets.
+    pub inverted_tets: InvertedTets,
+    /// How element loops run.
+    pub parallelism: Parallelism,
+}
+
+impl ModelSpec {
+    /// An elastic tet body with nothing fixed, no gravity, consistent mass.
+    pub fn elastic(mesh: TetMesh, material: MaterialModel, density: f64) -> Self {
+        Self {
+            mesh,
+            material: Some(material),
+            density: Some(density),
+            mass_kind: MassKind::Consistent,
+            point_masses: None,
+            springs: Vec::new(),
+            gravity: None,
+            fixed: FixedSelection::none(),
+            inverted_tets: InvertedTets::Refuse,
+            parallelism: Parallelism::Rayon,
+        }
+    }
+}
+
+/// How many times each kind of evaluation ran.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct EvalCounters {
+    pub potential: u64,
+    pub gradient: u64,
+    pub hessian: u64,
+}
+
+/// The potential split by source (J).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PotentialParts {
+    pub elastic: f64,
+    pub springs: f64,
+    pub gravity: f64,
+}
+
+impl PotentialParts {
+    /// Sum of all parts.
+    pub fn total(&self) -> f64 {
+        self.elastic + self.springs + self.gravity
+    }
+}
+
+/// Options of a Hessian evaluation.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct HessianOptions {
+    /// Project every element Hessian to positive semi-definite (eigenvalue clamp).
+    pub project_elements: bool,
+}
+
+/// Scratch space reused by every evaluation (element matrices allocated on first use, so
+/// methods that never ask for a Hessian never pay for it).
+#[derive(Debug, Default)]
+struct Buffers {
+    partial: Vec<f64>,
+    tet_vectors: Vec<f64>,
+    tet_matrices: Vec<f64>,
+    spring_vectors: Vec<f64>,
+    spring_matrices: Vec<f64>,
+}
+
+/// A conservative system over the free DOFs `q` (see the module docs).
+#[derive(Debug)]
+pub struct Model {
+    dofs: DofMap,
+    rest_positions: Vec<Vector3<f64>>,
+    positions: Vec<Vector3<f64>>,
+    elastic: Option<ElasticBody>,
+    springs: Vec<Spring>,
+    pattern: BlockPattern,
+    tet_gather: ElementGather,
+    spring_gather: ElementGather,
+    vertex_mass: Vec<f64>,
+    mass: MassMatrix,
+    gravity: Option<Vector3<f64>>,
+    parallelism: Parallelism,
+    counters: EvalCounters,
+    buffers: Buffers,
+}
+
+fn invalid(field: &str, value: impl std::fmt::Display, expected: &str) -> ModelError {
+    ModelError::InvalidParameter {
+        field: field.into(),
+        value: value.to_string(),
+        expected: expected.into(),
+    }
+}
+
+/// Check tet indices and orientation; reorient if asked. Returns the rest data per tet.
+fn prepare_tets(mesh: &mut TetMesh, policy: InvertedTets) -> Result<Vec<TetRest>, ModelError> {
+    let n = mesh.num_vertices();
+    for (t, tet) in mesh.tets.iter().enumerate() {
+        if let Some(&v) = tet.iter().find(|&&v| v >= n) {
+            return Err(ModelError::TetIndexOutOfRange {
+                tet: t,
+                vertex: v,
+                vertices: n,
+            });
+        }
+    }
+    let inverted: Vec<usize> = (0..mesh.num_tets())
+        .filter(|&t| mesh.signed_volume6(t) < 0.0)
+        .collect();
+    if !inverted.is_empty() {
+        match policy {
+            InvertedTets::Refuse => {
+                return Err(ModelError::InvertedTets {
+                    count: inverted.len(),
+                    first: inverted.iter().copied().take(10).collect(),
+                });
+            }
+            InvertedTets::Reorient => {
+                for &t in &inverted {
+                    mesh.tets[t].swap(2, 3);
+                }
+            }
+        }
+    }
+    let mut degenerate = Vec::new();
+    let rest: Vec<TetRest> = mesh
+        .tets
+        .iter()
+        .enumerate()
+        .filter_map(|(t, tet)| {
+            let x = tet.map(|v| mesh.positions[v]);
+            TetRest::new(&x).map_err(|_| degenerate.push(t)).ok()
+        })
+        .collect();
+    if !degenerate.is_empty() {
+        return Err(ModelError::DegenerateTets {
+            count: degenerate.len(),
+            first: degenerate.into_iter().take(10).collect(),
+        });
+    }
+    Ok(rest)
+}
+
+impl Model {
+    /// Build a model: validate the input, eliminate fixed vertices, build the Hessian pattern,
+    /// the gather lists and the mass matrix.
+    pub fn new(spec: ModelSpec) -> Result<Self, ModelError> {
+        let ModelSpec {
+            mut mesh,
+            material,
+            density,
+            mass_kind,
+            point_masses,
+            springs,
+            gravity,
+            fixed,
+            inverted_tets,
+            parallelism,
+        } = spec;
+        let n = mesh.num_vertices();
+        if let Some(rho) = density {
+            if !(rho.is_finite() && rho > 0.0) {
+                return Err(invalid(
+                    "material.density",
+                    rho,
+                    "a positive density in kg/m^3",
+                ));
+            }
+        }
+        if let Some(g) = gravity {
+            if !g.iter().all(|c| c.is_finite()) {
+                return Err(invalid(
+                    "forces.gravity",
+                    format!("{g:?}"),
+                    "three finite numbers (m/s^2)",
+                ));
+            }
+        }
+        for (s, sp) in springs.iter().enumerate() {
+            if sp.i >= n || sp.j >= n || sp.i == sp.j {
+                return Err(ModelError::InvalidSpring {
+                    spring: s,
+                    i: sp.i,
+                    j: sp.j,
+                    vertices: n,
+                });
+            }
+            if !(sp.stiffness.is_finite() && sp.stiffness >= 0.0)
+                || !(sp.rest_length.is_finite() && sp.rest_length >= 0.0)
+            {
+                return Err(invalid(
+                    &format!("springs[{s}]"),
+                    format!("stiffness {} rest length {}", sp.stiffness, sp.rest_length),
+                    "finite, non-negative stiffness and rest length",
+                ));
+            }
+        }
+        let uses_tets = material.is_some() || density.is_some();
+        let rest = if uses_tets {
+            prepare_tets(&mut mesh, inverted_tets)?
+        } else {
+            Vec::new()
+        };
+        let tets = if uses_tets {
+            std::mem::take(&mut mesh.tets)
+        } else {
+            Vec::new()
+        };
+
+        // Lumped vertex masses (also the row sums of the consistent matrix).
+        let mut vertex_mass = vec![0.0; n];
+        if let Some(rho) = density {
+            for (tet, r) in tets.iter().zip(&rest) {
+                let m = lumped_vertex_mass(rho, r.volume);
+                for &v in tet {
+                    vertex_mass[v] += m;
+                }
+            }
+        }
+        if let Some(pm) = &point_masses {
+            if pm.len() != n {
+                return Err(invalid(
+                    "point_masses",
+                    pm.len(),
+                    &format!("one mass per vertex ({n})"),
+                ));
+            }
+            for (v, &m) in pm.iter().enumerate() {
+                if !(m.is_finite() && m >= 0.0) {
+                    return Err(invalid(
+                        &format!("point_masses[{v}]"),
+                        m,
+                        "a finite, non-negative mass",
+                    ));
+                }
+                vertex_mass[v] += m;
+            }
+        }
+
+        let dofs = DofMap::new(&fixed.resolve(&mesh)?);
+        if let Some(v) = dofs
+            .free_vertices()
+            .iter()
+            .copied()
+            .find(|&v| vertex_mass[v] <= 0.0)
+        {
+            return Err(ModelError::MasslessVertex { vertex: v });
+        }
+        let free = |v: usize| dofs.free_index(v);
+        let tet_free: Vec<[u32; 4]> = tets.iter().map(|t| t.map(free)).collect();
+        let spring_free: Vec<[u32; 2]> = springs.iter().map(|s| [free(s.i), free(s.j)]).collect();
+        let all_elements = tet_free
+            .iter()
+            .map(|t| t.as_slice())
+            .chain(spring_free.iter().map(|s| s.as_slice()));
+        let pattern = BlockPattern::new(dofs.num_free(), all_elements);
+        let tet_gather = ElementGather::new(&pattern, 4, tet_free.iter().map(|t| t.as_slice()));
+        let spring_gather =
+            ElementGather::new(&pattern, 2, spring_free.iter().map(|s| s.as_slice()));
+
+        let mass = match mass_kind {
+            MassKind::Consistent => {
+                let mut buf = vec![0.0; 144 * tets.len()];
+                if let Some(rho) = density {
+                    for (r, out) in rest.iter().zip(buf.chunks_exact_mut(144)) {
+                        consistent_mass_matrix(rho, r.volume, out);
+                    }
+                }
+                let mut m = SymmetricMatrix::zeros(pattern.scalar().clone());
+                gather_matrix(
+                    parallelism,
+                    &pattern,
+                    &[(&tet_gather, &buf)],
+                    m.values_mut(),
+                );
+                // Point masses are lumped onto the diagonal.
+                if let Some(pm) = &point_masses {
+                    for (f, &v) in dofs.free_vertices().iter().enumerate() {
+                        for i in 0..3 {
+                            let slot = pattern
+                                .scalar()
+                                .find(3 * f + i, 3 * f + i)
+                                .expect("diagonal");
+                            m.values_mut()[slot] += pm[v];
+                        }
+                    }
+                }
+                MassMatrix::Consistent(m)
+            }
+            MassKind::Lumped => {
+                let diagonal = dofs
+                    .free_vertices()
+                    .iter()
+                    .flat_map(|&v| [vertex_mass[v]; 3])
+                    .collect();
+                let diagonal_slots = (0..dofs.num_dofs())
+                    .map(|i| pattern.scalar().find(i, i).expect("diagonal"))
+                    .collect();
+                MassMatrix::Lumped {
+                    diagonal,
+                    diagonal_slots,
+                }
+            }
+        };
+
+        // Tets used only for mass take no further part in assembly.
+        let tet_gather = if material.is_some() {
+            tet_gather
+        } else {
+            ElementGather::default()
+        };
+        let elastic = material.map(|material| ElasticBody {
+            material,
+            tets,
+            rest,
+        });
+        Ok(Self {
+            dofs,
+            rest_positions: mesh.positions.clone(),
+            positions: mesh.positions,
+            elastic,
+            springs,
+            pattern,
+            tet_gather,
+            spring_gather,
+            vertex_mass,
+            mass,
+            gravity,
+            parallelism,
+            counters: EvalCounters::default(),
+            buffers: Buffers::default(),
+        })
+    }
+
+    /// Number of free DOFs (the length of `q`).
+    pub fn num_dofs(&self) -> usize {
+        self.dofs.num_dofs()
+    }
+
+    /// The vertex ↔ DOF map.
+    pub fn dofs(&self) -> &DofMap {
+        &self.dofs
+    }
+
+    /// Rest positions of all vertices.
+    pub fn rest_positions(&self) -> &[Vector3<f64>] {
+        &self.rest_positions
+    }
+
+    /// `q` at the rest configuration.
+    pub fn rest_state(&self) -> Vec<f64> {
+        let mut q = vec![0.0; self.num_dofs()];
+        self.dofs.gather(&self.rest_positions, &mut q);
+        q
+    }
+
+    /// Positions of all vertices for state `q` (fixed vertices at their prescribed positions).
+    pub fn full_positions(&self, q: &[f64]) -> Vec<Vector3<f64>> {
+        let mut x = self.positions.clone();
+        self.dofs.scatter(q, &mut x);
+        x
+    }
+
+    /// Lumped mass of every vertex (kg), fixed ones included.
+    pub fn vertex_masses(&self) -> &[f64] {
+        &self.vertex_mass
+    }
+
+    /// The mass matrix over free DOFs.
+    pub fn mass(&self) -> &MassMatrix {
+        &self.mass
+    }
+
+    /// Gravitational acceleration, if any.
+    pub fn gravity(&self) -> Option<Vector3<f64>> {
+        self.gravity
+    }
+
+    /// The elastic material, if any.
+    pub fn material(&self) -> Option<&MaterialModel> {
+        self.elastic.as_ref().map(|e| &e.material)
+    }
+
+    /// The springs.
+    pub fn springs(&self) -> &[Spring] {
+        &self.springs
+    }
+
+    /// The Hessian's block pattern.
+    pub fn block_pattern(&self) -> &BlockPattern {
+        &self.pattern
+    }
+
+    /// The Hessian's scalar sparsity pattern (shared by all matrices this model fills).
+    pub fn hessian_pattern(&self) -> &Arc<SparsityPattern> {
+        self.pattern.scalar()
+    }
+
+    /// A zero matrix over the Hessian pattern, for [`Self::hessian`] to fill.
+    pub fn new_hessian(&self) -> SymmetricMatrix {
+        SymmetricMatrix::zeros(self.pattern.scalar().clone())
+    }
+
+    /// How element loops run.
+    pub fn parallelism(&self) -> Parallelism {
+        self.parallelism
+    }
+
+    /// Change how element loops run (results do not change).
+    pub fn set_parallelism(&mut self, par: Parallelism) {
+        self.parallelism = par;
+    }
+
+    /// Evaluation counts since construction or the last reset.
+    pub fn counters(&self) -> EvalCounters {
+        self.counters
+    }
+
+    /// Reset the evaluation counters.
+    pub fn reset_counters(&mut self) {
+        self.counters = EvalCounters::default();
+    }
+
+    fn load_state(&mut self, q: &[f64]) -> Result<(), ModelError> {
+        if q.len() != self.num_dofs() {
+            return Err(ModelError::StateLength {
+                got: q.len(),
+                expected: self.num_dofs(),
+            });
+        }
+        self.dofs.scatter(q, &mut self.positions);
+        Ok(())
+    }
+
+    fn element_error(&self, f: ElementFailure) -> ModelError {
+        let material = self.material().map_or("material", |m| m.name());
+        ModelError::InvertedElement {
+            tet: f.tet,
+            det_f: f.det_f,
+            material,
+        }
+    }
+
+    /// The potential at `q`, split by source.
+    pub fn potential_parts(&mut self, q: &[f64]) -> Result<PotentialParts, ModelError> {
+        self.load_state(q)?;
+        self.counters.potential += 1;
+        let x = &self.positions;
+        let elastic = match &self.elastic {
+            Some(body) => {
+                self.buffers.partial.resize(body.num_chunks(), 0.0);
+                body.energy(self.parallelism, x, &mut self.buffers.partial)
+                    .map_err(|f| self.element_error(f))?
+            }
+            None => 0.0,
+        };
+        let springs = self
+            .springs
+            .iter()
+            .map(|s| s.energy(&x[s.i], &x[s.j]))
+            .sum();
+        let gravity = self.gravity.map_or(0.0, |g| {
+            -x.iter()
+                .zip(&self.vertex_mass)
+                .map(|(p, m)| m * g.dot(p))
+                .sum::<f64>()
+        });
+        Ok(PotentialParts {
+            elastic,
+            springs,
+            gravity,
+        })
+    }
+
+    /// The total potential at `q` (J).
+    pub fn potential(&mut self, q: &[f64]) -> Result<f64, ModelError> {
+        Ok(self.potential_parts(q)?.total())
+    }
+
+    /// The gradient of the potential at `q`, written to `g` (length [`Self::num_dofs`]).
+    pub fn gradient(&mut self, q: &[f64], g: &mut [f64]) -> Result<(), ModelError> {
+        self.load_state(q)?;
+        assert_eq!(
+            g.len(),
+            self.num_dofs(),
+            "gradient output has the wrong length"
+        );
+        self.counters.gradient += 1;
+        let par = self.parallelism;
+        let b = &mut self.buffers;
+        if let Some(body) = &self.elastic {
+            b.tet_vectors.resize(12 * body.tets.len(), 0.0);
+            let res = body.gradients(par, &self.positions, &mut b.tet_vectors);
+            if let Err(f) = res {
+                return Err(self.element_error(f));
+            }
+        }
+        b.spring_vectors.resize(6 * self.springs.len(), 0.0);
+        for (s, out) in self
+            .springs
+            .iter()
+            .zip(b.spring_vectors.chunks_exact_mut(6))
+        {
+            s.gradient(&self.positions[s.i], &self.positions[s.j], out);
+        }
+        gather_vector(
+            par,
+            &[
+                (&self.tet_gather, &b.tet_vectors),
+                (&self.spring_gather, &b.spring_vectors),
+            ],
+            g,
+        );
+        if let Some(gr) = self.gravity {
+            for (f, &v) in self.dofs.free_vertices().iter().enumerate() {
+                for i in 0..3 {
+                    g[3 * f + i] -= self.vertex_mass[v] * gr[i];
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The Hessian of the potential at `q`, written into `h` (which must be over
+    /// [`Self::hessian_pattern`]; see [`Self::new_hessian`]).
+    pub fn hessian(
+        &mut self,
+        q: &[f64],
+        h: &mut SymmetricMatrix,
+        options: HessianOptions,
+    ) -> Result<(), ModelError> {
+        self.load_state(q)?;
+        assert!(
+            Arc::ptr_eq(h.pattern(), self.pattern.scalar()),
+            "the Hessian must be created by Model::new_hessian"
+        );
+        self.counters.hessian += 1;
+        let par = self.parallelism;
+        let b = &mut self.buffers;
+        if let Some(body) = &self.elastic {
+            b.tet_matrices.resize(144 * body.tets.len(), 0.0);
+            let res = body.hessians(
+                par,
+                &self.positions,
+                options.project_elements,
+                &mut b.tet_matrices,
+            );
+            if let Err(f) = res {
+                return Err(self.element_error(f));
+            }
+        }
+        b.spring_matrices.resize(36 * self.springs.len(), 0.0);
+        for (s, out) in self
+            .springs
+            .iter()
+            .zip(b.spring_matrices.chunks_exact_mut(36))
+        {
+            s.hessian(
+                &self.positions[s.i],
+                &self.positions[s.j],
+                options.project_elements,
+                out,
+            );
+        }
+        gather_matrix(
+            par,
+            &self.pattern,
+            &[
+                (&self.tet_gather, &b.tet_matrices),
+                (&self.spring_gather, &b.spring_matrices),
+            ],
+            h.values_mut(),
+        );
+        Ok(())
+    }
+}

@@ -1,0 +1,153 @@
+//! The elastic potential of a tet mesh: element loops over linear tets, generic over the
+//! material so the per-element code has no dynamic dispatch.
+
+use crate::fem::{Matrix12, ProjectToPsd, TetRest};
+use crate::material::{Material, MaterialModel};
+use crate::parallel::{Parallelism, for_each_chunk};
+use nalgebra::Vector3;
+
+/// Elements per parallel task (and per partial energy sum, so sums never depend on threads).
+pub(crate) const CHUNK: usize = 256;
+
+/// An element whose energy is undefined at the current positions.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct ElementFailure {
+    pub tet: usize,
+    pub det_f: f64,
+}
+
+/// Tets with their rest data and one material.
+#[derive(Clone, Debug)]
+pub(crate) struct ElasticBody {
+    pub material: MaterialModel,
+    pub tets: Vec<[usize; 4]>,
+    pub rest: Vec<TetRest>,
+}
+
+/// Run `$body` with `$m` bound to the concrete material inside `$model`.
+macro_rules! with_material {
+    ($model:expr, |$m:ident| $body:expr) => {
+        match $model {
+            MaterialModel::NeoHookean($m) => $body,
+        }
+    };
+}
+
+#[inline]
+fn element_positions(tet: &[usize; 4], x: &[Vector3<f64>]) -> [Vector3<f64>; 4] {
+    [x[tet[0]], x[tet[1]], x[tet[2]], x[tet[3]]]
+}
+
+impl ElasticBody {
+    /// Number of partial sums the energy needs.
+    pub fn num_chunks(&self) -> usize {
+        self.tets.len().div_ceil(CHUNK)
+    }
+
+    /// Elastic energy; `partial` holds [`Self::num_chunks`] scratch values.
+    pub fn energy(
+        &self,
+        par: Parallelism,
+        x: &[Vector3<f64>],
+        partial: &mut [f64],
+    ) -> Result<f64, ElementFailure> {
+        with_material!(&self.material, |m| energy(m, self, par, x, partial))
+    }
+
+    /// Element gradients into `buf` (12 per tet).
+    pub fn gradients(
+        &self,
+        par: Parallelism,
+        x: &[Vector3<f64>],
+        buf: &mut [f64],
+    ) -> Result<(), ElementFailure> {
+        with_material!(&self.material, |m| gradients(m, self, par, x, buf))
+    }
+
+    /// Element Hessians into `buf` (144 per tet, column-major), optionally projected to PSD.
+    pub fn hessians(
+        &self,
+        par: Parallelism,
+        x: &[Vector3<f64>],
+        project: bool,
+        buf: &mut [f64],
+    ) -> Result<(), ElementFailure> {
+        with_material!(&self.material, |m| hessians(m, self, par, x, project, buf))
+    }
+}
+
+fn energy<M: Material>(
+    m: &M,
+    body: &ElasticBody,
+    par: Parallelism,
+    x: &[Vector3<f64>],
+    partial: &mut [f64],
+) -> Result<f64, ElementFailure> {
+    let n = body.tets.len();
+    for_each_chunk(par, partial, 1, |ci, out| {
+        let mut sum = 0.0;
+        for e in ci * CHUNK..((ci + 1) * CHUNK).min(n) {
+            let rest = &body.rest[e];
+            let f = rest.deformation_gradient(&element_positions(&body.tets[e], x));
+            let psi = m.energy_density(&f).map_err(|err| ElementFailure {
+                tet: e,
+                det_f: err.det_f,
+            })?;
+            sum += rest.volume * psi;
+        }
+        out[0] = sum;
+        Ok(())
+    })?;
+    Ok(partial.iter().sum())
+}
+
+fn gradients<M: Material>(
+    m: &M,
+    body: &ElasticBody,
+    par: Parallelism,
+    x: &[Vector3<f64>],
+    buf: &mut [f64],
+) -> Result<(), ElementFailure> {
+    for_each_chunk(par, buf, 12 * CHUNK, |ci, out| {
+        for (k, g) in out.chunks_exact_mut(12).enumerate() {
+            let e = ci * CHUNK + k;
+            let rest = &body.rest[e];
+            let f = rest.deformation_gradient(&element_positions(&body.tets[e], x));
+            let p = m.first_piola(&f).map_err(|err| ElementFailure {
+                tet: e,
+                det_f: err.det_f,
+            })?;
+            rest.gradient_from_stress(&p, g);
+        }
+        Ok(())
+    })
+}
+
+fn hessians<M: Material>(
+    m: &M,
+    body: &ElasticBody,
+    par: Parallelism,
+    x: &[Vector3<f64>],
+    project: bool,
+    buf: &mut [f64],
+) -> Result<(), ElementFailure> {
+    for_each_chunk(par, buf, 144 * CHUNK, |ci, out| {
+        for (k, h) in out.chunks_exact_mut(144).enumerate() {
+            let e = ci * CHUNK + k;
+            let rest = &body.rest[e];
+            let f = rest.deformation_gradient(&element_positions(&body.tets[e], x));
+            let d = m.first_piola_derivative(&f).map_err(|err| ElementFailure {
+                tet: e,
+                det_f: err.det_f,
+            })?;
+            rest.hessian_from_stress_derivative(&d, h);
+            if project {
+                let mut mat = Matrix12::from_column_slice(h);
+                if mat.project_to_psd() {
+                    h.copy_from_slice(mat.as_slice());
+                }
+            }
+        }
+        Ok(())
+    })
+}

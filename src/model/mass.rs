@@ -1,0 +1,80 @@
+//! The mass matrix over free DOFs: consistent (sparse, same pattern as the Hessian) or lumped
+//! (diagonal).
+
+use crate::sparse::SymmetricMatrix;
+
+/// Which mass discretization a model uses.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum MassKind {
+    /// `rho vol / 20 (1 + delta_ab)` per tet: exact for linear shape functions.
+    #[default]
+    Consistent,
+    /// `rho vol / 4` per vertex of each tet: diagonal, cheap to invert.
+    Lumped,
+}
+
+/// The mass matrix over free DOFs.
+#[derive(Clone, Debug)]
+pub enum MassMatrix {
+    /// Sparse, over the Hessian's pattern.
+    Consistent(SymmetricMatrix),
+    /// Diagonal entries per DOF, plus where they sit in the Hessian pattern.
+    Lumped {
+        diagonal: Vec<f64>,
+        diagonal_slots: Vec<usize>,
+    },
+}
+
+impl MassMatrix {
+    /// Which discretization this is.
+    pub fn kind(&self) -> MassKind {
+        match self {
+            Self::Consistent(_) => MassKind::Consistent,
+            Self::Lumped { .. } => MassKind::Lumped,
+        }
+    }
+
+    /// `y = M x`.
+    pub fn mul_vec(&self, x: &[f64], y: &mut [f64]) {
+        match self {
+            Self::Consistent(m) => m.mul_vec(x, y),
+            Self::Lumped { diagonal, .. } => {
+                for ((yi, xi), mi) in y.iter_mut().zip(x).zip(diagonal) {
+                    *yi = mi * xi;
+                }
+            }
+        }
+    }
+
+    /// `a = s * a + M` for a matrix over the Hessian pattern (e.g. `dt^2 K + M`).
+    pub fn scale_and_add_to(&self, s: f64, a: &mut SymmetricMatrix) {
+        match self {
+            Self::Consistent(m) => a.axpby(s, 1.0, m),
+            Self::Lumped {
+                diagonal,
+                diagonal_slots,
+            } => {
+                let values = a.values_mut();
+                values.iter_mut().for_each(|v| *v *= s);
+                for (&slot, &m) in diagonal_slots.iter().zip(diagonal) {
+                    values[slot] += m;
+                }
+            }
+        }
+    }
+
+    /// Sum of `x^T M x` style row sums: the diagonal of the lumped matrix, or the row sums of
+    /// the consistent one (equal for linear tets).
+    pub fn row_sums(&self) -> Vec<f64> {
+        match self {
+            Self::Consistent(m) => {
+                let ones = vec![1.0; m.dim()];
+                let mut y = vec![0.0; m.dim()];
+                m.mul_vec(&ones, &mut y);
+                y
+            }
+            Self::Lumped { diagonal, .. } => diagonal.clone(),
+        }
+    }
+}

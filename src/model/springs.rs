@@ -1,0 +1,67 @@
+//! Springs between two vertices: energy `k/2 (|x_i - x_j| - L)^2` with gradient and Hessian.
+
+use nalgebra::{Matrix3, Vector3};
+
+/// A spring joining vertices `i` and `j` with rest length `rest_length` (>= 0) and stiffness
+/// `stiffness` (N/m).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Spring {
+    pub i: usize,
+    pub j: usize,
+    pub rest_length: f64,
+    pub stiffness: f64,
+}
+
+impl Spring {
+    /// Energy at endpoint positions `xi`, `xj`.
+    #[inline]
+    pub fn energy(&self, xi: &Vector3<f64>, xj: &Vector3<f64>) -> f64 {
+        let stretch = (xi - xj).norm() - self.rest_length;
+        0.5 * self.stiffness * stretch * stretch
+    }
+
+    /// Gradient with respect to `[xi, xj]`, written to `out[0..6]`.
+    #[inline]
+    pub fn gradient(&self, xi: &Vector3<f64>, xj: &Vector3<f64>, out: &mut [f64]) {
+        let d = xi - xj;
+        let l = d.norm();
+        // For L = 0 the force k d is exact and defined at l = 0; otherwise k (l - L) d / l,
+        // with no force when the direction is undefined (l = 0).
+        let f = if self.rest_length == 0.0 {
+            d * self.stiffness
+        } else if l > 0.0 {
+            d * (self.stiffness * (l - self.rest_length) / l)
+        } else {
+            Vector3::zeros()
+        };
+        out[0..3].copy_from_slice(f.as_slice());
+        out[3..6].copy_from_slice((-f).as_slice());
+    }
+
+    /// Hessian `[[K, -K], [-K, K]]` with `K = k (u u^T + (1 - L/l)(I - u u^T))`, written
+    /// column-major to `out[0..36]`. With `project`, the compressive term `1 - L/l < 0` is
+    /// clamped to 0, which makes the block positive semi-definite.
+    #[inline]
+    pub fn hessian(&self, xi: &Vector3<f64>, xj: &Vector3<f64>, project: bool, out: &mut [f64]) {
+        let d = xi - xj;
+        let l = d.norm();
+        let k = self.stiffness;
+        let block = if self.rest_length == 0.0 || l == 0.0 {
+            Matrix3::identity() * k
+        } else {
+            let u = d / l;
+            let uu = u * u.transpose();
+            let mut t = 1.0 - self.rest_length / l;
+            if project {
+                t = t.max(0.0);
+            }
+            (uu + (Matrix3::identity() - uu) * t) * k
+        };
+        for c in 0..6 {
+            for r in 0..6 {
+                let sign = if (r < 3) == (c < 3) { 1.0 } else { -1.0 };
+                out[c * 6 + r] = sign * block[(r % 3, c % 3)];
+            }
+        }
+    }
+}
