@@ -1,7 +1,7 @@
 //! Element masses of a linear tet with density rho.
 
 /// The consistent element mass matrix `rho * volume / 20 * (1 + delta_ab) ⊗ I3`, written
-/// column-major into `out[0..144]` (same layout as the element Hessian).
+/// block-major into `out[0..144]` (the layout of element Hessians).
 pub fn consistent_mass_matrix(density: f64, volume: f64, out: &mut [f64]) {
     let base = density * volume / 20.0;
     out[..144].fill(0.0);
@@ -9,7 +9,7 @@ pub fn consistent_mass_matrix(density: f64, volume: f64, out: &mut [f64]) {
         for b in 0..4 {
             let m = if a == b { 2.0 * base } else { base };
             for i in 0..3 {
-                out[(3 * b + i) * 12 + 3 * a + i] = m;
+                out[super::block_offset(4, a, b) + 4 * i] = m;
             }
         }
     }

@@ -73,7 +73,7 @@ impl TetRest {
         out[0..3].copy_from_slice(g0.as_slice());
     }
 
-    /// Element Hessian `volume * B^T (dP/dF) B`, written column-major to `out[0..144]`, where
+    /// Element Hessian `volume * B^T (dP/dF) B`, written block-major to `out[0..144]`, where
     /// `B = d vec(F) / dx` has entries `dF_ij / dx_{a,i} = grad N_a[j]`.
     #[inline]
     pub fn hessian_from_stress_derivative(&self, d: &Matrix9, out: &mut [f64]) {
@@ -92,8 +92,9 @@ impl TetRest {
             let tc = t.column(c);
             for (a, ga) in grads.iter().enumerate() {
                 let s = [ga[0] * v, ga[1] * v, ga[2] * v];
+                let o = super::block_offset(4, a, c / 3) + 3 * (c % 3);
                 for i in 0..3 {
-                    out[c * 12 + 3 * a + i] = s[0] * tc[i] + s[1] * tc[i + 3] + s[2] * tc[i + 6];
+                    out[o + i] = s[0] * tc[i] + s[1] * tc[i + 3] + s[2] * tc[i + 6];
                 }
             }
         }

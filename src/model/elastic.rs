@@ -1,7 +1,7 @@
 //! The elastic potential of a tet mesh: element loops over linear tets, generic over the
 //! material so the per-element code has no dynamic dispatch.
 
-use crate::fem::{Matrix12, ProjectToPsd, TetRest};
+use crate::fem::{ProjectToPsd, TetRest, pack_matrix12, unpack_matrix12};
 use crate::material::{Material, MaterialModel};
 use crate::parallel::{Parallelism, for_each_chunk};
 use nalgebra::Vector3;
@@ -64,7 +64,7 @@ impl ElasticBody {
         with_material!(&self.material, |m| gradients(m, self, par, x, buf))
     }
 
-    /// Element Hessians into `buf` (144 per tet, column-major), optionally projected to PSD.
+    /// Element Hessians into `buf` (144 per tet, block-major), optionally projected to PSD.
     pub fn hessians(
         &self,
         par: Parallelism,
@@ -142,9 +142,9 @@ fn hessians<M: Material>(
             })?;
             rest.hessian_from_stress_derivative(&d, h);
             if project {
-                let mut mat = Matrix12::from_column_slice(h);
+                let mut mat = unpack_matrix12(h);
                 if mat.project_to_psd() {
-                    h.copy_from_slice(mat.as_slice());
+                    pack_matrix12(&mat, h);
                 }
             }
         }

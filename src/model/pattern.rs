@@ -123,13 +123,12 @@ impl GatherList {
 
 /// One family of elements (tets, springs) as it enters assembly: each element has `nodes`
 /// vertices; its gradient occupies `3 * nodes` buffer entries and its Hessian `(3 nodes)²`
-/// entries, column-major.
+/// entries, block-major (see [`crate::fem`]).
 #[derive(Debug, Default)]
 pub struct ElementGather {
-    nodes: usize,
     /// Per free vertex: offsets of the element gradient triples.
     vector: GatherList,
-    /// Per block: offsets of entry (3a, 3b) of the element matrices.
+    /// Per block: offsets of element block (a, b), 9 contiguous values.
     matrix: GatherList,
 }
 
@@ -165,21 +164,12 @@ impl ElementGather {
                         let block = pattern
                             .block_index(fa as usize, fb as usize)
                             .expect("element coupling missing from the pattern");
-                        push(block, e * msize + 3 * b * vsize + 3 * a);
+                        push(block, e * msize + crate::fem::block_offset(nodes, a, b));
                     }
                 }
             }
         });
-        Self {
-            nodes,
-            vector,
-            matrix,
-        }
-    }
-
-    /// Column stride of this family's element matrices.
-    fn stride(&self) -> usize {
-        3 * self.nodes
+        Self { vector, matrix }
     }
 }
 
@@ -225,13 +215,10 @@ pub fn gather_matrix(
                     let block = bp[j] + r;
                     let mut acc = [0.0; 9];
                     for (fam, buf) in families {
-                        let stride = fam.stride();
                         for &s in fam.matrix.sources(block) {
-                            let s = s as usize;
-                            for k in 0..3 {
-                                for i in 0..3 {
-                                    acc[3 * k + i] += buf[s + k * stride + i];
-                                }
+                            let src = &buf[s as usize..s as usize + 9];
+                            for (a, v) in acc.iter_mut().zip(src) {
+                                *a += v;
                             }
                         }
                     }

@@ -39,7 +39,7 @@ impl Spring {
     }
 
     /// Hessian `[[K, -K], [-K, K]]` with `K = k (u u^T + (1 - L/l)(I - u u^T))`, written
-    /// column-major to `out[0..36]`. With `project`, the compressive term `1 - L/l < 0` is
+    /// block-major (see [`crate::fem`]) to `out[0..36]`. With `project`, the compressive term `1 - L/l < 0` is
     /// clamped to 0, which makes the block positive semi-definite.
     #[inline]
     pub fn hessian(&self, xi: &Vector3<f64>, xj: &Vector3<f64>, project: bool, out: &mut [f64]) {
@@ -57,10 +57,11 @@ impl Spring {
             }
             (uu + (Matrix3::identity() - uu) * t) * k
         };
-        for c in 0..6 {
-            for r in 0..6 {
-                let sign = if (r < 3) == (c < 3) { 1.0 } else { -1.0 };
-                out[c * 6 + r] = sign * block[(r % 3, c % 3)];
+        for (a, b) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+            let sign = if a == b { 1.0 } else { -1.0 };
+            let o = crate::fem::block_offset(2, a, b);
+            for (dst, src) in out[o..o + 9].iter_mut().zip(block.iter()) {
+                *dst = sign * src;
             }
         }
     }
