@@ -1,5 +1,11 @@
 //! The course Neo-Hookean model (CSC417 A3):
-//! psi(F) = C (J^(-2/3) tr(F^T F) - 3) + D (J - 1)^2, with C = mu/2 and D = lambda/2.
+//! psi(F) = C (J^(-2/3) tr(F^T F) - 3) + D (J - 1)^2.
+//!
+//! From Lamé parameters, C = mu/2 and D = K/2 = lambda/2 + mu/3 (K the bulk modulus), so the
+//! model linearizes to the given mu and lambda: the isochoric term contributes -2/3 mu to the
+//! linearized lambda, which D's mu/3 cancels. The course's own choice D = lambda/2 linearizes
+//! to lambda - 2/3 mu instead (an effective Poisson ratio of -0.5 at nu = 0); it remains
+//! available as `NeoHookean::from_c_d(mu / 2.0, lambda / 2.0)`.
 //!
 //! Its isochoric term J^(-2/3) has no real value for J <= 0, so inverted elements are an
 //! [`InvalidDeformation`] rather than a NaN.
@@ -12,16 +18,17 @@ use nalgebra::Matrix3;
 pub struct NeoHookean {
     /// Coefficient of the isochoric term, C = mu / 2.
     pub c: f64,
-    /// Coefficient of the volumetric term, D = lambda / 2.
+    /// Coefficient of the volumetric term, D = lambda / 2 + mu / 3.
     pub d: f64,
 }
 
 impl NeoHookean {
-    /// From Lamé parameters: C = mu/2, D = lambda/2 (the course's choice).
+    /// From Lamé parameters: C = mu/2, D = lambda/2 + mu/3, so that dP/dF at F = I is the
+    /// linear elasticity tensor of mu and lambda.
     pub fn new(lame: LameParameters) -> Self {
         Self {
             c: 0.5 * lame.mu,
-            d: 0.5 * lame.lambda,
+            d: 0.5 * lame.lambda + lame.mu / 3.0,
         }
     }
 
