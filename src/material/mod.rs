@@ -7,13 +7,21 @@
 //! Materials are small `Copy` structs behind the [`Material`] trait; element loops are generic
 //! over it, and [`MaterialModel`] dispatches once per loop, never per element.
 
+mod corotated;
 mod lame;
 mod neo_hookean;
+mod stable_neo_hookean;
+mod stvk;
+mod svd;
 
+pub use corotated::{Corotated, TWIST_DENOMINATOR_FLOOR};
 pub use lame::{LameParameters, MaterialError};
 pub use neo_hookean::NeoHookean;
+pub use stable_neo_hookean::StableNeoHookean;
+pub use stvk::StVenantKirchhoff;
+pub use svd::RotationVariantSvd;
 
-use nalgebra::{Matrix3, SMatrix};
+use nalgebra::{Matrix3, SMatrix, SVector};
 
 /// The 9×9 derivative of the first Piola–Kirchhoff stress with respect to `vec(F)`.
 pub type Matrix9 = SMatrix<f64, 9, 9>;
@@ -40,6 +48,12 @@ pub trait Material: Copy + Send + Sync + std::fmt::Debug {
 
     /// dP/dF as a 9×9 matrix over column-major `vec(F)` (symmetric).
     fn first_piola_derivative(&self, f: &Matrix3<f64>) -> Result<Matrix9, InvalidDeformation>;
+}
+
+/// `vec(M)`: the 9 entries of a 3×3 matrix in column-major order, `vec(M)[i + 3 j] = M[(i, j)]`.
+#[inline]
+pub fn vec9(m: &Matrix3<f64>) -> SVector<f64, 9> {
+    SVector::<f64, 9>::from_column_slice(m.as_slice())
 }
 
 /// The cofactor matrix cof(F) = det(F) F^{-T} = dJ/dF, defined for every F.
