@@ -1,11 +1,15 @@
 //! Lamé parameters from engineering constants, with validation.
 
-/// Invalid material constants.
+/// An invalid material description: bad constants or an unknown model name.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum MaterialError {
+    #[error("unknown material model {0:?}; valid names are: {names}", names = super::MaterialModel::NAMES.join(", "))]
+    UnknownModel(String),
     #[error("youngs_modulus must be positive and finite (got {0})")]
     YoungsModulus(f64),
-    #[error("poisson_ratio must lie in (-1, 0.5) (got {0}); 0.5 is incompressible and has no finite Lamé lambda")]
+    #[error(
+        "poisson_ratio must lie in (-1, 0.5) (got {0}); 0.5 is incompressible and has no finite Lamé lambda"
+    )]
     PoissonRatio(f64),
     #[error("{name} must be finite and non-negative (got {value})")]
     Parameter { name: &'static str, value: f64 },

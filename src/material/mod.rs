@@ -9,6 +9,7 @@
 
 mod corotated;
 mod lame;
+mod material_model;
 mod neo_hookean;
 mod stable_neo_hookean;
 mod stvk;
@@ -16,6 +17,7 @@ mod svd;
 
 pub use corotated::{Corotated, TWIST_DENOMINATOR_FLOOR};
 pub use lame::{LameParameters, MaterialError};
+pub use material_model::MaterialModel;
 pub use neo_hookean::NeoHookean;
 pub use stable_neo_hookean::StableNeoHookean;
 pub use stvk::StVenantKirchhoff;
