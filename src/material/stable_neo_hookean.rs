@@ -33,8 +33,8 @@ impl StableNeoHookean {
     ///
     /// Zero Lamé lambda (Poisson ratio 0) needs no special case: the reparameterized lambda is
     /// then 5/6 mu_lame > 0. The reparameterized lambda is zero only for the void material
-    /// mu_lame = lambda_lame = 0, whose energy is identically zero; alpha = 3 mu / (4 lambda)
-    /// + 1 would be 0/0 there, so alpha = 1 is used (any value gives the same zero energy).
+    /// mu_lame = lambda_lame = 0, whose energy is identically zero; there 3 mu / (4 lambda) is
+    /// 0/0, so alpha = 1 is used (any value gives the same zero energy).
     pub fn new(lame: LameParameters) -> Self {
         let mu = 4.0 / 3.0 * lame.mu;
         let lambda = lame.lambda + 5.0 / 6.0 * lame.mu;
