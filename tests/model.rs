@@ -67,8 +67,20 @@ fn neo_hookean() -> MaterialModel {
 
 /// A 2×2×3 box with the bottom fixed, gravity, and a few springs (rest length 0 and > 0).
 fn test_model(par: Parallelism) -> Model {
+    test_model_with(par, neo_hookean())
+}
+
+fn every_material() -> Vec<MaterialModel> {
+    let lame = LameParameters::from_youngs_poisson(1e5, 0.4).unwrap();
+    MaterialModel::NAMES
+        .iter()
+        .map(|name| MaterialModel::from_name(name, lame).unwrap())
+        .collect()
+}
+
+fn test_model_with(par: Parallelism, material: MaterialModel) -> Model {
     let mesh = box_mesh([2, 2, 3], [0.2, 0.2, 0.3]);
-    let mut spec = ModelSpec::elastic(mesh, neo_hookean(), 1000.0);
+    let mut spec = ModelSpec::elastic(mesh, material, 1000.0);
     spec.gravity = Some(Vector3::new(0.0, 0.0, -9.81));
     spec.fixed = FixedSelection {
         rules: vec![AxisRule {
@@ -118,7 +130,13 @@ fn relative_error(a: &[f64], b: &[f64]) -> f64 {
 
 #[test]
 fn assembled_gradient_matches_finite_differences() {
-    let mut model = test_model(Parallelism::Rayon);
+    for material in every_material() {
+        assembled_gradient_matches_finite_differences_for(material);
+    }
+}
+
+fn assembled_gradient_matches_finite_differences_for(material: MaterialModel) {
+    let mut model = test_model_with(Parallelism::Rayon, material);
     let q = perturbed_state(&model, 0.01, 1);
     let mut g = vec![0.0; model.num_dofs()];
     model.gradient(&q, &mut g).unwrap();
@@ -134,12 +152,22 @@ fn assembled_gradient_matches_finite_differences() {
         })
         .collect();
     let err = relative_error(&g, &fd);
-    assert!(err < 1e-6, "relative gradient error {err:.2e}");
+    assert!(
+        err < 1e-6,
+        "{}: relative gradient error {err:.2e}",
+        material.name()
+    );
 }
 
 #[test]
 fn assembled_hessian_matches_finite_differences_and_is_symmetric() {
-    let mut model = test_model(Parallelism::Rayon);
+    for material in every_material() {
+        assembled_hessian_matches_finite_differences_for(material);
+    }
+}
+
+fn assembled_hessian_matches_finite_differences_for(material: MaterialModel) {
+    let mut model = test_model_with(Parallelism::Rayon, material);
     let q = perturbed_state(&model, 0.01, 2);
     let mut hess = model.new_hessian();
     model
@@ -166,7 +194,11 @@ fn assembled_hessian_matches_finite_differences_and_is_symmetric() {
         }
     }
     let err = err2.sqrt() / dense.norm();
-    assert!(err < 1e-6, "relative Hessian error {err:.2e}");
+    assert!(
+        err < 1e-6,
+        "{}: relative Hessian error {err:.2e}",
+        material.name()
+    );
 }
 
 #[test]

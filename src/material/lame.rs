@@ -1,8 +1,10 @@
 //! Lamé parameters from engineering constants, with validation.
 
-/// Invalid material constants.
+/// An invalid material description: bad constants or an unknown model name.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum MaterialError {
+    #[error("unknown material model {0:?}; valid names are: {names}", names = super::MaterialModel::NAMES.join(", "))]
+    UnknownModel(String),
     #[error("youngs_modulus must be positive and finite (got {0})")]
     YoungsModulus(f64),
     #[error(

@@ -7,13 +7,23 @@
 //! Materials are small `Copy` structs behind the [`Material`] trait; element loops are generic
 //! over it, and [`MaterialModel`] dispatches once per loop, never per element.
 
+mod corotated;
 mod lame;
+mod material_model;
 mod neo_hookean;
+mod stable_neo_hookean;
+mod stvk;
+mod svd;
 
+pub use corotated::{Corotated, TWIST_DENOMINATOR_FLOOR};
 pub use lame::{LameParameters, MaterialError};
+pub use material_model::MaterialModel;
 pub use neo_hookean::NeoHookean;
+pub use stable_neo_hookean::StableNeoHookean;
+pub use stvk::StVenantKirchhoff;
+pub use svd::RotationVariantSvd;
 
-use nalgebra::{Matrix3, SMatrix};
+use nalgebra::{Matrix3, SMatrix, SVector};
 
 /// The 9×9 derivative of the first Piola–Kirchhoff stress with respect to `vec(F)`.
 pub type Matrix9 = SMatrix<f64, 9, 9>;
@@ -42,6 +52,12 @@ pub trait Material: Copy + Send + Sync + std::fmt::Debug {
     fn first_piola_derivative(&self, f: &Matrix3<f64>) -> Result<Matrix9, InvalidDeformation>;
 }
 
+/// `vec(M)`: the 9 entries of a 3×3 matrix in column-major order, `vec(M)[i + 3 j] = M[(i, j)]`.
+#[inline]
+pub fn vec9(m: &Matrix3<f64>) -> SVector<f64, 9> {
+    SVector::<f64, 9>::from_column_slice(m.as_slice())
+}
+
 /// The cofactor matrix cof(F) = det(F) F^{-T} = dJ/dF, defined for every F.
 #[inline]
 pub fn cofactor(f: &Matrix3<f64>) -> Matrix3<f64> {
@@ -67,20 +83,4 @@ pub fn det_hessian(f: &Matrix3<f64>) -> Matrix9 {
     h.fixed_view_mut::<3, 3>(6, 0).copy_from(&(-f1));
     h.fixed_view_mut::<3, 3>(6, 3).copy_from(&f0);
     h
-}
-
-/// A material chosen at run time. Element loops `match` on it once and then run a loop
-/// generic over the concrete [`Material`], so there is no dispatch per element.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum MaterialModel {
-    NeoHookean(NeoHookean),
-}
-
-impl MaterialModel {
-    /// The model's name as written in scene files.
-    pub fn name(&self) -> &'static str {
-        match self {
-            Self::NeoHookean(_) => "neo-hookean",
-        }
-    }
 }

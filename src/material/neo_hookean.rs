@@ -1,5 +1,13 @@
 //! The course Neo-Hookean model (CSC417 A3):
-//! psi(F) = C (J^(-2/3) tr(F^T F) - 3) + D (J - 1)^2, with C = mu/2 and D = lambda/2.
+//! psi(F) = C (J^(-2/3) tr(F^T F) - 3) + D (J - 1)^2.
+//!
+//! [`NeoHookean::new`] uses the course's constants C = mu/2 and D = lambda/2, so results can
+//! be compared with the course's. Note what that implies: the isochoric term contributes
+//! -2/3 mu to the linearized lambda, so at small strain this model behaves like linear
+//! elasticity with (mu, lambda - 2/3 mu) — softer in volume than the given Poisson ratio says
+//! (at nu = 0 the effective Poisson ratio is -0.5). [`NeoHookean::with_matched_linearization`]
+//! uses D = lambda/2 + mu/3 (half the bulk modulus) instead, which linearizes to exactly the
+//! given mu and lambda.
 //!
 //! Its isochoric term J^(-2/3) has no real value for J <= 0, so inverted elements are an
 //! [`InvalidDeformation`] rather than a NaN.
@@ -12,16 +20,26 @@ use nalgebra::Matrix3;
 pub struct NeoHookean {
     /// Coefficient of the isochoric term, C = mu / 2.
     pub c: f64,
-    /// Coefficient of the volumetric term, D = lambda / 2.
+    /// Coefficient of the volumetric term (D = lambda / 2 in the course).
     pub d: f64,
 }
 
 impl NeoHookean {
-    /// From Lamé parameters: C = mu/2, D = lambda/2 (the course's choice).
+    /// The course's constants from Lamé parameters: C = mu/2, D = lambda/2 (see the module
+    /// docs for how this linearizes).
     pub fn new(lame: LameParameters) -> Self {
         Self {
             c: 0.5 * lame.mu,
             d: 0.5 * lame.lambda,
+        }
+    }
+
+    /// C = mu/2, D = lambda/2 + mu/3, so that dP/dF at F = I is the linear elasticity tensor
+    /// of mu and lambda.
+    pub fn with_matched_linearization(lame: LameParameters) -> Self {
+        Self {
+            c: 0.5 * lame.mu,
+            d: 0.5 * lame.lambda + lame.mu / 3.0,
         }
     }
 

@@ -29,6 +29,9 @@ macro_rules! with_material {
     ($model:expr, |$m:ident| $body:expr) => {
         match $model {
             MaterialModel::NeoHookean($m) => $body,
+            MaterialModel::StableNeoHookean($m) => $body,
+            MaterialModel::StVenantKirchhoff($m) => $body,
+            MaterialModel::Corotated($m) => $body,
         }
     };
 }
