@@ -3,7 +3,8 @@
 //!
 //! `analyze` orders and symbolically factors the pattern once and allocates the factor's
 //! values, the scratch memory (sized from faer's `*_scratch` functions) and the residual
-//! buffers; `factor` and `solve` then allocate nothing.
+//! buffers; `factor` and `solve` then allocate nothing (the very first numeric factorization
+//! on a thread lets faer's dense kernels set up per-thread state once).
 
 use std::sync::Arc;
 use std::time::Instant;
