@@ -576,3 +576,35 @@ fn solver_built_by_kind_solves() {
         assert!(relative_residual(&a, &x, &b) <= 1e-8, "{kind}");
     }
 }
+
+#[test]
+fn settings_deserialize_with_documented_defaults() {
+    let s: SolverSettings = serde_json::from_str("{}").unwrap();
+    assert_eq!(s, SolverSettings::default());
+    assert_eq!(s.direct.parallelism, Parallelism::Sequential);
+    assert_eq!(s.cg.parallelism, Parallelism::Sequential);
+    assert_eq!(
+        (
+            s.cg.tolerance,
+            s.cg.max_iterations,
+            s.cg.preconditioner,
+            s.cg.warm_start
+        ),
+        (1e-8, 2000, Preconditioner::BlockJacobi3, false)
+    );
+    let s: SolverSettings = serde_json::from_str(
+        r#"{"direct": {"supernodal": "simplicial"},
+            "cg": {"preconditioner": "incomplete_cholesky", "tolerance": 1e-6}}"#,
+    )
+    .unwrap();
+    assert_eq!(s.direct.supernodal, Supernodal::Simplicial);
+    assert_eq!(s.cg.preconditioner, Preconditioner::IncompleteCholesky);
+    assert_eq!(s.cg.max_iterations, 2000);
+    let kind: LinearSolverKind = serde_json::from_str(r#""ldlt""#).unwrap();
+    assert_eq!(kind, LinearSolverKind::Ldlt);
+    let err = serde_json::from_str::<LinearSolverKind>(r#""qr""#)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("valid: cholesky, ldlt, cg, dense"), "{err}");
+    assert!(serde_json::from_str::<SolverSettings>(r#"{"cg": {"tol": 1e-6}}"#).is_err());
+}

@@ -106,7 +106,7 @@ pub(crate) fn check_rhs(b: &[f64], n: usize) -> Result<(), SolveError> {
 
 /// `y = A x` for a symmetric `A` stored with both triangles: row `c` equals column `c`, so
 /// each `y[c]` is a gather over column `c` (written once, no scatter, bitwise identical for
-/// every [`Parallelism`]).
+/// every [`Parallelism`]). Panics if the lengths of `x` or `y` differ from `A`'s dimension.
 pub fn symmetric_mul_vec(a: &SymmetricMatrix, x: &[f64], y: &mut [f64], parallelism: Parallelism) {
     let p = a.pattern();
     let (col_ptr, row_idx, vals) = (p.col_ptr(), p.row_idx(), a.values());

@@ -52,10 +52,11 @@ pub trait LinearSolver: Send {
     fn analyze(&mut self, pattern: &Arc<SparsityPattern>) -> Result<(), SolveError>;
 
     /// Numeric factorization (or preconditioner setup) of `a`, whose pattern must be the
-    /// analyzed one. Allocates nothing. Fails with `PatternMismatch`, `NonFiniteInput` or
-    /// `NotPositiveDefinite`; after a failure, `solve` refuses until the next successful
-    /// `factor`. The solver keeps a copy of `a`'s values (for the residual check, and for CG's
-    /// mat-vecs).
+    /// analyzed one. Allocates nothing. Fails with `PatternMismatch`, `NonFiniteInput`,
+    /// `NotPositiveDefinite` (Cholesky, dense, CG preconditioners), `SingularMatrix` (LDLᵀ) or
+    /// `OutOfOrder` (no analysis yet); after a failure, `solve` refuses until the next
+    /// successful `factor`. The solver keeps a copy of `a`'s values (for the residual check,
+    /// and for CG's mat-vecs).
     fn factor(&mut self, a: &SymmetricMatrix) -> Result<FactorReport, SolveError>;
 
     /// Solves `A x = b` in place for the last factored `A`: `rhs_and_solution` holds `b` on
