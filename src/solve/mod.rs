@@ -1,0 +1,193 @@
+//! Linear solvers for the symmetric systems `A x = b` of implicit integrators
+//! (`A = M + dt² K`, assembled into a fixed [`SparsityPattern`] every Newton iteration).
+//!
+//! Every backend follows the same three phases, so reuse is visible in the API:
+//! 1. [`LinearSolver::analyze`] once per pattern (ordering, symbolic factorization, scratch
+//!    sizing; a no-op when the pattern is the one analyzed last);
+//! 2. [`LinearSolver::factor`] once per matrix (numeric factorization or preconditioner setup,
+//!    into storage allocated by `analyze`);
+//! 3. [`LinearSolver::solve`] per right-hand side.
+//!
+//! Backends, one file each: [`cholesky`] (faer sparse LLᵀ), [`ldlt`] (faer sparse LDLᵀ, reports
+//! inertia), [`cg`] (preconditioned conjugate gradient; preconditioners in `precond.rs`),
+//! [`dense`] (dense LLᵀ for tiny systems and tests). [`LinearSolverKind`] picks one by name.
+//!
+//! Failures are values, never panics: a matrix that is not positive definite, a pattern that
+//! differs from the analyzed one, NaN input, or CG running out of iterations each come back as
+//! a [`SolveError`] the caller can act on.
+
+pub mod cg;
+pub mod cholesky;
+mod common;
+pub mod dense;
+mod faer_common;
+mod kind;
+pub mod ldlt;
+mod precond;
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use crate::sparse::{SparsityPattern, SymmetricMatrix};
+
+pub use cg::{CgSettings, CgSolver, Preconditioner};
+pub use cholesky::CholeskySolver;
+pub use common::symmetric_mul_vec;
+pub(crate) use common::{Analyzed, check_rhs, dot, norm, relative_residual};
+pub use dense::DenseCholeskySolver;
+pub use kind::{
+    DirectSettings, LinearSolverKind, Ordering, SolverSettings, Supernodal, UnknownSolverError,
+};
+pub use ldlt::LdltSolver;
+
+/// A solver for symmetric systems over a fixed sparsity pattern: analyze once, factor per
+/// matrix, solve per right-hand side.
+pub trait LinearSolver: Send {
+    /// Short name, as accepted by [`LinearSolverKind::from_str`].
+    fn name(&self) -> &'static str;
+
+    /// Symbolic analysis of `pattern` (ordering, fill, scratch sizes) and allocation of all
+    /// factor and work storage. A no-op when `pattern` is the same `Arc` as last time, or has
+    /// equal content (compared in O(nnz), far cheaper than an analysis).
+    fn analyze(&mut self, pattern: &Arc<SparsityPattern>) -> Result<(), SolveError>;
+
+    /// Numeric factorization (or preconditioner setup) of `a`, whose pattern must be the
+    /// analyzed one. Allocates nothing. Fails with `PatternMismatch`, `NonFiniteInput`,
+    /// `NotPositiveDefinite` (Cholesky, dense, CG preconditioners), `SingularMatrix` (LDLᵀ) or
+    /// `OutOfOrder` (no analysis yet); after a failure, `solve` refuses until the next
+    /// successful `factor`. The solver keeps a copy of `a`'s values (for the residual check,
+    /// and for CG's mat-vecs).
+    fn factor(&mut self, a: &SymmetricMatrix) -> Result<FactorReport, SolveError>;
+
+    /// Solves `A x = b` in place for the last factored `A`: `rhs_and_solution` holds `b` on
+    /// entry and `x` on success. The report carries the relative residual `‖b − A x‖ / ‖b‖`
+    /// (one extra mat-vec). On `NotConverged` the buffer holds CG's last iterate; after any
+    /// other error its content is unspecified.
+    fn solve(&mut self, rhs_and_solution: &mut [f64]) -> Result<SolveReport, SolveError>;
+
+    /// Solves `A x = rhs` with `x` as the initial guess (used by iterative solvers; direct
+    /// solvers ignore it). `x` holds the solution on success.
+    fn solve_with_guess(&mut self, rhs: &[f64], x: &mut [f64]) -> Result<SolveReport, SolveError> {
+        if rhs.len() != x.len() {
+            return Err(SolveError::DimensionMismatch {
+                expected: rhs.len(),
+                found: x.len(),
+            });
+        }
+        x.copy_from_slice(rhs);
+        self.solve(x)
+    }
+
+    /// Cumulative counters and timers since construction.
+    fn stats(&self) -> &SolverStats;
+}
+
+/// Why a linear solve could not be done. Indices are in the caller's (original) ordering.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum SolveError {
+    /// A pivot was not positive: `A` is not (numerically) positive definite. `column` is in
+    /// the original ordering (mapped back through the fill-reducing permutation): the first
+    /// column, in elimination order, whose Schur complement pivot was ≤ 0. CG reports the
+    /// column of a non-positive diagonal entry, if any.
+    #[error("matrix is not positive definite (non-positive pivot at column {column})")]
+    NotPositiveDefinite { column: usize },
+    /// CG met a direction with `pᵀ A p ≤ 0`: `A` is not positive definite.
+    #[error(
+        "matrix is not positive definite (CG found pᵀAp = {curvature:e} at iteration {iteration})"
+    )]
+    NegativeCurvature { iteration: usize, curvature: f64 },
+    /// LDLᵀ met an exactly zero pivot: `A` is singular. `column` in the original ordering.
+    #[error("matrix is singular (zero pivot at column {column})")]
+    SingularMatrix { column: usize },
+    /// The matrix's pattern is not the analyzed one: call `analyze` with the new pattern.
+    #[error(
+        "matrix pattern ({found_dim}×{found_dim}, {found_nnz} entries) differs from the analyzed \
+         pattern ({expected_dim}×{expected_dim}, {expected_nnz} entries); call analyze first"
+    )]
+    PatternMismatch {
+        expected_dim: usize,
+        expected_nnz: usize,
+        found_dim: usize,
+        found_nnz: usize,
+    },
+    /// A vector has the wrong length.
+    #[error("vector has length {found}, expected {expected}")]
+    DimensionMismatch { expected: usize, found: usize },
+    /// CG did not reach its tolerance within its iteration cap.
+    #[error(
+        "CG did not converge: relative residual {relative_residual:e} after {iterations} iterations"
+    )]
+    NotConverged {
+        iterations: usize,
+        relative_residual: f64,
+    },
+    /// NaN or infinity in the input. `index` is the column for a matrix, the entry for a vector.
+    #[error("non-finite value in the {input} at index {index}")]
+    NonFiniteInput { input: &'static str, index: usize },
+    /// A phase was called before the one it depends on (e.g. `solve` before a successful
+    /// `factor`).
+    #[error("{call} called before a successful {missing}")]
+    OutOfOrder {
+        call: &'static str,
+        missing: &'static str,
+    },
+    /// The symbolic analysis failed (out of memory or index overflow).
+    #[error("symbolic analysis failed: {0}")]
+    Analysis(String),
+}
+
+/// What one `factor` call did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FactorReport {
+    /// Wall time of the numeric factorization or preconditioner setup.
+    pub time: Duration,
+    /// LDLᵀ only: negative entries of D, which by Sylvester's law of inertia is the number of
+    /// negative eigenvalues of `A`. `Some(0)` means `A` is positive definite.
+    pub negative_pivots: Option<usize>,
+    /// CG with block-Jacobi: 3×3 diagonal blocks that were not SPD and fell back to their
+    /// diagonal.
+    pub fallback_blocks: usize,
+    /// CG with IC(0): the shift `α` such that the incomplete factor of `A + α·diag(A)` exists
+    /// (0 when the plain IC(0) exists).
+    pub diagonal_shift: f64,
+}
+
+/// What one `solve` call did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SolveReport {
+    /// Iterations (1 for direct solvers).
+    pub iterations: usize,
+    /// `‖b − A x‖₂ / ‖b‖₂` from one symmetric mat-vec after the solve (0 when `b = 0`).
+    pub relative_residual: f64,
+    /// Wall time of the solve, residual check included.
+    pub time: Duration,
+    /// Wall time of the residual check alone.
+    pub residual_time: Duration,
+}
+
+/// Cumulative counters and timers of one solver.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SolverStats {
+    /// Symbolic analyses actually performed.
+    pub analyses: usize,
+    /// `analyze` calls answered by the previous analysis (same pattern).
+    pub analyses_reused: usize,
+    /// Successful numeric factorizations (or preconditioner setups).
+    pub factorizations: usize,
+    /// `factor` calls that failed.
+    pub failed_factorizations: usize,
+    /// Successful solves.
+    pub solves: usize,
+    /// Linear iterations summed over all solves (1 per direct solve).
+    pub linear_iterations: usize,
+    /// Time in `analyze`, `factor` and `solve`.
+    pub analyze_time: Duration,
+    pub factor_time: Duration,
+    pub solve_time: Duration,
+    /// Entries of the current factor's lower triangle, diagonal included: nnz(L) for direct
+    /// solvers, the IC(0) factor for CG, 0 for other preconditioners.
+    pub factor_nnz: usize,
+    /// f64 values stored for the current factor (≥ `factor_nnz`: supernodes are stored as
+    /// dense blocks).
+    pub factor_storage: usize,
+}
