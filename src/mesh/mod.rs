@@ -17,11 +17,14 @@ mod error;
 pub mod medit;
 pub mod obj;
 pub mod plain;
+pub mod quality;
 mod read;
+pub mod surface;
 pub mod tetgen;
 mod text;
 
 pub use error::MeshError;
+pub use quality::{BoundingBox, MeshReport};
 pub use read::{AnyMesh, MeshFormat, read_mesh, read_surface_mesh, read_tet_mesh};
 
 use nalgebra::Vector3;
