@@ -14,6 +14,7 @@
 //! triangle is wound counter-clockwise seen from outside (normals out by the right-hand rule).
 
 mod error;
+pub mod generate;
 pub mod medit;
 pub mod obj;
 pub mod plain;
@@ -24,6 +25,7 @@ pub mod tetgen;
 mod text;
 
 pub use error::MeshError;
+pub use generate::{ball, beam, box_mesh};
 pub use quality::{BoundingBox, MeshReport};
 pub use read::{AnyMesh, MeshFormat, read_mesh, read_surface_mesh, read_tet_mesh};
 
