@@ -22,7 +22,9 @@ pub struct DataPaths {
 pub enum Place {
     /// The name was an absolute path.
     Absolute,
-    /// The folder of the config (or the current folder, for the CLI).
+    /// The current folder (the CLI's base for names on the command line).
+    CurrentDir,
+    /// The folder of the config that names the file.
     ConfigDir,
     /// The `SOFTBENCH_DATA` folder.
     DataDir,
@@ -32,6 +34,7 @@ impl fmt::Display for Place {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(match self {
             Place::Absolute => "absolute path",
+            Place::CurrentDir => "current folder",
             Place::ConfigDir => "config folder",
             Place::DataDir => DATA_ENV,
         })
@@ -56,7 +59,7 @@ fn describe(name: &Path, tried: &[(PathBuf, Place)], data_dir_set: bool) -> Stri
         s += &format!("\n  {} ({place})", path.display());
     }
     if tried.is_empty() {
-        s += " nowhere (no config folder and no data folder)";
+        s += " nowhere (no base folder and no data folder)";
     }
     if !name.is_absolute() {
         if data_dir_set {
@@ -92,13 +95,26 @@ impl DataPaths {
         name: impl AsRef<Path>,
         config_dir: Option<&Path>,
     ) -> Result<PathBuf, DataError> {
+        self.search(name.as_ref(), config_dir.map(|d| (d, Place::ConfigDir)))
+    }
+
+    /// Finds `name` as given on a command line: as is if absolute; else in the current
+    /// folder, then in the data folder.
+    pub fn resolve_from_cwd(&self, name: impl AsRef<Path>) -> Result<PathBuf, DataError> {
         let name = name.as_ref();
+        match std::env::current_dir() {
+            Ok(cwd) => self.search(name, Some((&cwd, Place::CurrentDir))),
+            Err(_) => self.search(name, Some((Path::new("."), Place::CurrentDir))),
+        }
+    }
+
+    fn search(&self, name: &Path, base: Option<(&Path, Place)>) -> Result<PathBuf, DataError> {
         let mut tried = Vec::new();
         if name.is_absolute() {
             tried.push((name.to_path_buf(), Place::Absolute));
         } else {
-            if let Some(dir) = config_dir {
-                tried.push((dir.join(name), Place::ConfigDir));
+            if let Some((dir, place)) = base {
+                tried.push((dir.join(name), place));
             }
             if let Some(dir) = &self.data_dir {
                 tried.push((dir.join(name), Place::DataDir));

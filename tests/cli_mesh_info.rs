@@ -169,11 +169,26 @@ fn malformed_file_exits_with_code_2_and_names_file_and_line() {
 }
 
 #[test]
+fn missing_ele_is_reported_once_with_exit_code_2() {
+    let dir = TempDir::new("cli-no-ele");
+    dir.write(
+        "lonely.node",
+        "4 3 0 0\n0 0 0 0\n1 1 0 0\n2 0 1 0\n3 0 0 1\n",
+    );
+    let output = softbench(&["mesh-info", "lonely.node"], dir.path(), None);
+    assert_eq!(output.status.code(), Some(2));
+    let stderr = String::from_utf8(output.stderr).unwrap();
+    assert!(stderr.contains("lonely.ele"), "{stderr}");
+    // The io error is part of the message; it must not be repeated as a cause.
+    assert_eq!(stderr.matches("os error").count(), 1, "{stderr}");
+}
+
+#[test]
 fn missing_file_exits_with_code_2_and_explains_softbench_data() {
     let dir = TempDir::new("cli-missing");
     let output = softbench(&["mesh-info", "nowhere.mesh"], dir.path(), None);
     assert_eq!(output.status.code(), Some(2));
     let stderr = String::from_utf8(output.stderr).unwrap();
-    assert!(stderr.contains("nowhere.mesh"), "{stderr}");
+    assert!(stderr.contains("nowhere.mesh (current folder)"), "{stderr}");
     assert!(stderr.contains("SOFTBENCH_DATA is not set"), "{stderr}");
 }

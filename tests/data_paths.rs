@@ -85,3 +85,16 @@ fn a_folder_with_the_name_is_not_a_file() {
             .is_err()
     );
 }
+
+#[test]
+fn command_line_names_are_looked_up_in_the_current_folder_first() {
+    // Cargo runs integration tests in the package root.
+    let data = TempDir::new("data-cwd");
+    data.write("Cargo.toml", "");
+    let paths = DataPaths::new(Some(data.path().to_path_buf()));
+    let found = paths.resolve_from_cwd("Cargo.toml").unwrap();
+    assert_eq!(found, std::env::current_dir().unwrap().join("Cargo.toml"));
+    let err = paths.resolve_from_cwd("no-such-file.mesh").unwrap_err();
+    assert_eq!(err.tried[0].1, Place::CurrentDir);
+    assert!(err.to_string().contains("(current folder)"));
+}

@@ -168,8 +168,8 @@ fn entry_token<'a>(
             path,
             tokens.line(),
             format!(
-                "file ends inside the `{name}` section (started at line {start_line}): \
-                 it announces {n} entries but only {i} are complete"
+                "file ends inside the `{name}` section: it holds {i} complete entries of the \
+                 {n} announced at line {start_line}"
             ),
         )
     })
