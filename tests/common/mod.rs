@@ -18,11 +18,12 @@ pub fn reference_mesh(name: &str) -> Option<PathBuf> {
             .unwrap_or("<unnamed test>")
             .to_string();
         // Writing to the stderr handle bypasses libtest's output capture, so the skip shows.
-        let _ = writeln!(
-            std::io::stderr(),
+        // One write call, so lines of tests running in parallel do not interleave.
+        let line = format!(
             "skipped: {test}: SOFTBENCH_DATA is not set (set it to the reference mesh folder, \
-             e.g. shared/meshes, to run this test)"
+             e.g. shared/meshes, to run this test)\n"
         );
+        let _ = std::io::stderr().write_all(line.as_bytes());
         return None;
     };
     let path = Path::new(&dir).join(name);
