@@ -75,7 +75,7 @@ pub fn read_tet_mesh(path: impl AsRef<Path>) -> Result<TetMesh, MeshError> {
     let path = path.as_ref();
     match read_mesh(path)? {
         (_, AnyMesh::Tet(mesh)) => Ok(mesh),
-        (format, AnyMesh::Surface(_)) => Err(MeshError::UnknownFormat {
+        (format, AnyMesh::Surface(_)) => Err(MeshError::Invalid {
             path: path.to_path_buf(),
             message: format!("this is a {format} triangle surface, not a tet mesh"),
         }),
@@ -88,7 +88,7 @@ pub fn read_surface_mesh(path: impl AsRef<Path>) -> Result<SurfaceMesh, MeshErro
     let path = path.as_ref();
     match read_mesh(path)? {
         (_, AnyMesh::Surface(mesh)) => Ok(mesh),
-        (format, AnyMesh::Tet(_)) => Err(MeshError::UnknownFormat {
+        (format, AnyMesh::Tet(_)) => Err(MeshError::Invalid {
             path: path.to_path_buf(),
             message: format!(
                 "this is a {format} tet mesh, not a surface; read it with read_tet_mesh and \
