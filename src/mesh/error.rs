@@ -24,6 +24,16 @@ pub enum MeshError {
     /// The content is malformed as a whole (no line to point at).
     #[error("{path}: {message}")]
     Invalid { path: PathBuf, message: String },
+    /// A file needs a companion that cannot be read (a TetGen `.node` without its `.ele`).
+    #[error("{path}: needs {companion} next to it, which cannot be read: {source}")]
+    MissingCompanion {
+        /// The file that was asked for.
+        path: PathBuf,
+        /// The file it needs.
+        companion: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
     /// The format could not be told from the extension or content.
     #[error("{path}: unknown mesh format: {message}")]
     UnknownFormat { path: PathBuf, message: String },

@@ -1,12 +1,33 @@
 //! Tetrahedral meshes: one [`TetMesh`] type that every reader and generator produces, the
 //! triangle [`SurfaceMesh`] used for display meshes, surface extraction and a quality report.
 //!
+//! - Readers, one module per format: [`medit`] (MEDIT `.mesh`, 1-based), [`plain`] (Brown
+//!   `v`/`t` `.mesh`, 0-based), [`tetgen`] (`.node` + `.ele`, base from the first id), [`obj`]
+//!   (OBJ surfaces, 1-based); [`read_tet_mesh`], [`read_surface_mesh`] and [`read_mesh`] pick
+//!   one by extension and content. In memory every index is 0-based.
+//! - [`surface`]: boundary faces, edge topology, closed-manifold check.
+//! - [`generate`]: box, beam and ball meshes.
+//! - [`quality`]: the [`MeshReport`].
+//!
 //! Orientation convention: a tet `[a, b, c, d]` is positively oriented when
-//! `(b - a) · ((c - a) × (d - a)) > 0` (the convention of every reference mesh).
+//! `(b - a) · ((c - a) × (d - a)) > 0` (the convention of every reference mesh). A surface
+//! triangle is wound counter-clockwise seen from outside (normals out by the right-hand rule).
 
 mod error;
+pub mod generate;
+pub mod medit;
+pub mod obj;
+pub mod plain;
+pub mod quality;
+mod read;
+pub mod surface;
+pub mod tetgen;
+mod text;
 
 pub use error::MeshError;
+pub use generate::{ball, beam, box_mesh};
+pub use quality::{BoundingBox, MeshReport};
+pub use read::{AnyMesh, MeshFormat, read_mesh, read_surface_mesh, read_tet_mesh};
 
 use nalgebra::Vector3;
 

@@ -1,0 +1,81 @@
+//! Helpers shared by the integration tests: finding reference meshes and writing small files
+//! into a private temporary folder.
+#![allow(dead_code)] // each test binary uses a different subset
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// The reference mesh `name` in the folder named by `SOFTBENCH_DATA`.
+///
+/// Returns `None`, after saying so on stderr, when `SOFTBENCH_DATA` is not set, so the suite
+/// passes on a machine without the data. Panics when it is set but the file is missing, since
+/// that is a broken setup rather than an absent one.
+pub fn reference_mesh(name: &str) -> Option<PathBuf> {
+    let Some(dir) = std::env::var_os("SOFTBENCH_DATA").filter(|v| !v.is_empty()) else {
+        let test = std::thread::current()
+            .name()
+            .unwrap_or("<unnamed test>")
+            .to_string();
+        // Writing to the stderr handle bypasses libtest's output capture, so the skip shows.
+        // One write call, so lines of tests running in parallel do not interleave.
+        let line = format!(
+            "skipped: {test}: SOFTBENCH_DATA is not set (set it to the reference mesh folder, \
+             e.g. shared/meshes, to run this test)\n"
+        );
+        let _ = std::io::stderr().write_all(line.as_bytes());
+        return None;
+    };
+    let path = Path::new(&dir).join(name);
+    assert!(
+        path.is_file(),
+        "reference mesh {} is missing: SOFTBENCH_DATA={} does not hold `{name}`",
+        path.display(),
+        Path::new(&dir).display()
+    );
+    Some(path)
+}
+
+/// A fresh, empty folder under the system temp folder, removed when dropped.
+pub struct TempDir(PathBuf);
+
+impl TempDir {
+    /// A new folder whose name contains `label`, the process id and a counter (unique across
+    /// the tests of one run and across concurrent runs).
+    pub fn new(label: &str) -> Self {
+        static COUNTER: AtomicUsize = AtomicUsize::new(0);
+        let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+        let dir =
+            std::env::temp_dir().join(format!("softbench-test-{label}-{}-{n}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("cannot create a temporary folder");
+        TempDir(dir)
+    }
+
+    /// Writes `content` to `name` in this folder and returns its path.
+    pub fn write(&self, name: &str, content: &str) -> PathBuf {
+        let path = self.0.join(name);
+        std::fs::write(&path, content).expect("cannot write a temporary file");
+        path
+    }
+
+    /// The folder.
+    pub fn path(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// Asserts that `a` is within `rel` relative error of `b`.
+#[track_caller]
+pub fn assert_close(a: f64, b: f64, rel: f64) {
+    assert!(
+        (a - b).abs() <= rel * b.abs(),
+        "{a} is not within {rel} (relative) of {b}"
+    );
+}
