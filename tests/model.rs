@@ -3,7 +3,7 @@
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 use softbench::material::{LameParameters, MaterialModel, NeoHookean};
-use softbench::mesh::TetMesh;
+use softbench::mesh::generate::box_mesh;
 use softbench::model::{
     AxisRule, FixedSelection, HessianOptions, InvertedTets, MassKind, Model, ModelError, ModelSpec,
     Side, Spring,
@@ -11,53 +11,7 @@ use softbench::model::{
 use softbench::parallel::Parallelism;
 use softbench::rng::Rng;
 
-/// A box of `n` cells per axis, 6 tets per cell (Freudenthal split, positively oriented).
-fn box_mesh(n: [usize; 3], size: [f64; 3]) -> TetMesh {
-    let id = |i: usize, j: usize, k: usize| i + (n[0] + 1) * (j + (n[1] + 1) * k);
-    let mut positions = Vec::new();
-    for k in 0..=n[2] {
-        for j in 0..=n[1] {
-            for i in 0..=n[0] {
-                positions.push(Vector3::new(
-                    size[0] * i as f64 / n[0] as f64,
-                    size[1] * j as f64 / n[1] as f64,
-                    size[2] * k as f64 / n[2] as f64,
-                ));
-            }
-        }
-    }
-    let mut mesh = TetMesh {
-        positions,
-        tets: Vec::new(),
-    };
-    for k in 0..n[2] {
-        for j in 0..n[1] {
-            for i in 0..n[0] {
-                for perm in [
-                    [0, 1, 2],
-                    [0, 2, 1],
-                    [1, 0, 2],
-                    [1, 2, 0],
-                    [2, 0, 1],
-                    [2, 1, 0],
-                ] {
-                    let mut c = [i, j, k];
-                    let mut tet = [id(c[0], c[1], c[2]), 0, 0, 0];
-                    for (s, &axis) in perm.iter().enumerate() {
-                        c[axis] += 1;
-                        tet[s + 1] = id(c[0], c[1], c[2]);
-                    }
-                    mesh.tets.push(tet);
-                    let t = mesh.tets.len() - 1;
-                    if mesh.signed_volume6(t) < 0.0 {
-                        mesh.tets[t].swap(2, 3);
-                    }
-                }
-            }
-        }
-    }
-    mesh
-}
+mod common;
 
 fn neo_hookean() -> MaterialModel {
     MaterialModel::NeoHookean(NeoHookean::new(
@@ -138,6 +92,11 @@ fn assembled_gradient_matches_finite_differences() {
 fn assembled_gradient_matches_finite_differences_for(material: MaterialModel) {
     let mut model = test_model_with(Parallelism::Rayon, material);
     let q = perturbed_state(&model, 0.01, 1);
+    check_gradient(&mut model, &q, material.name());
+}
+
+fn check_gradient(model: &mut Model, q: &[f64], label: &str) {
+    let q = q.to_vec();
     let mut g = vec![0.0; model.num_dofs()];
     model.gradient(&q, &mut g).unwrap();
     let h = 1e-7;
@@ -152,11 +111,7 @@ fn assembled_gradient_matches_finite_differences_for(material: MaterialModel) {
         })
         .collect();
     let err = relative_error(&g, &fd);
-    assert!(
-        err < 1e-6,
-        "{}: relative gradient error {err:.2e}",
-        material.name()
-    );
+    assert!(err < 1e-6, "{label}: relative gradient error {err:.2e}");
 }
 
 #[test]
@@ -169,6 +124,11 @@ fn assembled_hessian_matches_finite_differences_and_is_symmetric() {
 fn assembled_hessian_matches_finite_differences_for(material: MaterialModel) {
     let mut model = test_model_with(Parallelism::Rayon, material);
     let q = perturbed_state(&model, 0.01, 2);
+    check_hessian(&mut model, &q, material.name());
+}
+
+fn check_hessian(model: &mut Model, q: &[f64], label: &str) {
+    let q = q.to_vec();
     let mut hess = model.new_hessian();
     model
         .hessian(&q, &mut hess, HessianOptions::default())
@@ -194,11 +154,7 @@ fn assembled_hessian_matches_finite_differences_for(material: MaterialModel) {
         }
     }
     let err = err2.sqrt() / dense.norm();
-    assert!(
-        err < 1e-6,
-        "{}: relative Hessian error {err:.2e}",
-        material.name()
-    );
+    assert!(err < 1e-6, "{label}: relative Hessian error {err:.2e}");
 }
 
 #[test]
@@ -484,4 +440,41 @@ fn evaluations_are_counted_by_kind() {
     model.gradient(&q, &mut g).unwrap();
     let c = model.counters();
     assert_eq!((c.potential, c.gradient, c.hessian), (1, 2, 0));
+}
+
+/// The course armadillo with its parameters (E = 6e5, nu = 0.4, density 0.1, vertices within
+/// 0.1 of the lowest y fixed) and gravity.
+fn armadillo_model(material: MaterialModel) -> Option<Model> {
+    let path = common::reference_mesh("arma_6.node")?;
+    let mesh = softbench::mesh::read_tet_mesh(path).unwrap();
+    let mut spec = ModelSpec::elastic(mesh, material, 0.1);
+    spec.gravity = Some(Vector3::new(0.0, -9.81, 0.0));
+    spec.fixed = FixedSelection {
+        rules: vec![AxisRule {
+            axis: 1,
+            side: Side::Min,
+            tolerance: 0.1,
+        }],
+        ..Default::default()
+    };
+    Some(Model::new(spec).unwrap())
+}
+
+#[test]
+fn armadillo_gradient_and_hessian_match_finite_differences() {
+    let lame = LameParameters::from_youngs_poisson(6e5, 0.4).unwrap();
+    for name in MaterialModel::NAMES {
+        let material = MaterialModel::from_name(name, lame).unwrap();
+        let Some(mut model) = armadillo_model(material) else {
+            return;
+        };
+        assert!(
+            model.num_dofs() < 3 * 259,
+            "the course rule fixes some vertices"
+        );
+        // Perturb by 0.1% of the armadillo's size so every element is strained.
+        let q = perturbed_state(&model, 1e-3, 11);
+        check_gradient(&mut model, &q, &format!("arma_6 {name}"));
+        check_hessian(&mut model, &q, &format!("arma_6 {name}"));
+    }
 }

@@ -44,7 +44,7 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(err) => {
-            eprintln!("error: {}", message(&err));
+            eprintln!("error: {err:#}");
             if is_bad_input(&err) {
                 ExitCode::from(2)
             } else {
@@ -52,19 +52,6 @@ fn main() -> ExitCode {
             }
         }
     }
-}
-
-/// The error and its causes joined by ": ", leaving out a cause whose text the message above
-/// it already includes (`MeshError::Io` shows its `io::Error` and also reports it as source).
-fn message(err: &anyhow::Error) -> String {
-    let mut parts: Vec<String> = Vec::new();
-    for cause in err.chain() {
-        let text = cause.to_string();
-        if !parts.last().is_some_and(|above| above.contains(&text)) {
-            parts.push(text);
-        }
-    }
-    parts.join(": ")
 }
 
 /// Whether an error comes from the user's input files rather than from softbench or the system.

@@ -31,7 +31,7 @@ impl TetRest {
         // Reject zero and near-zero volumes relative to the edge lengths (a sliver of
         // numerically zero volume has no usable inverse).
         let scale = dm.norm().powi(3);
-        if !(volume > 1e-14 * scale) {
+        if volume.is_nan() || volume <= 1e-14 * scale {
             return Err(DegenerateTet { volume });
         }
         let dm_inv = dm.try_inverse().ok_or(DegenerateTet { volume })?;

@@ -7,11 +7,12 @@ use std::path::PathBuf;
 #[derive(Debug, thiserror::Error)]
 pub enum MeshError {
     /// The file could not be opened or read.
-    #[error("{path}: cannot read: {source}")]
+    #[error("{path}: cannot read: {error}")]
     Io {
         path: PathBuf,
-        #[source]
-        source: std::io::Error,
+        /// The I/O error, shown in the message (and so not also reported as `source()`,
+        /// which would print it twice in an error chain).
+        error: std::io::Error,
     },
     /// The content is malformed at a given line.
     #[error("{path}:{line}: {message}")]
@@ -25,14 +26,15 @@ pub enum MeshError {
     #[error("{path}: {message}")]
     Invalid { path: PathBuf, message: String },
     /// A file needs a companion that cannot be read (a TetGen `.node` without its `.ele`).
-    #[error("{path}: needs {companion} next to it, which cannot be read: {source}")]
+    #[error("{path}: needs {companion} next to it, which cannot be read: {error}")]
     MissingCompanion {
         /// The file that was asked for.
         path: PathBuf,
         /// The file it needs.
         companion: PathBuf,
-        #[source]
-        source: std::io::Error,
+        /// The I/O error, shown in the message (and so not also reported as `source()`,
+        /// which would print it twice in an error chain).
+        error: std::io::Error,
     },
     /// The format could not be told from the extension or content.
     #[error("{path}: unknown mesh format: {message}")]

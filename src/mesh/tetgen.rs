@@ -27,10 +27,10 @@ pub fn read(path: impl AsRef<Path>) -> Result<TetMesh, MeshError> {
     };
     let read_both = |p: &Path| {
         text::read_text(p).map_err(|e| match e {
-            MeshError::Io { source, .. } if p == companion => MeshError::MissingCompanion {
+            MeshError::Io { error, .. } if p == companion => MeshError::MissingCompanion {
                 path: path.to_path_buf(),
                 companion: companion.clone(),
-                source,
+                error,
             },
             other => other,
         })

@@ -11,9 +11,9 @@ use super::MeshError;
 /// Reads a whole file as UTF-8. Invalid UTF-8 is a parse error at the line holding the
 /// first bad byte.
 pub(crate) fn read_text(path: &Path) -> Result<String, MeshError> {
-    let bytes = std::fs::read(path).map_err(|source| MeshError::Io {
+    let bytes = std::fs::read(path).map_err(|error| MeshError::Io {
         path: path.to_path_buf(),
-        source,
+        error,
     })?;
     String::from_utf8(bytes).map_err(|e| {
         let valid = e.utf8_error().valid_up_to();

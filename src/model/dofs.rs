@@ -121,7 +121,7 @@ impl FixedSelection {
             })? = true;
         }
         for rule in &self.rules {
-            if rule.axis > 2 || !(rule.tolerance >= 0.0) {
+            if rule.axis > 2 || rule.tolerance.is_nan() || rule.tolerance < 0.0 {
                 return Err(ModelError::InvalidParameter {
                     field: "fixed.rule".into(),
                     value: format!("axis {} tolerance {}", rule.axis, rule.tolerance),

@@ -216,23 +216,23 @@ impl Model {
             parallelism,
         } = spec;
         let n = mesh.num_vertices();
-        if let Some(rho) = density {
-            if !(rho.is_finite() && rho > 0.0) {
-                return Err(invalid(
-                    "material.density",
-                    rho,
-                    "a positive density in kg/m^3",
-                ));
-            }
+        if let Some(rho) = density
+            && !(rho.is_finite() && rho > 0.0)
+        {
+            return Err(invalid(
+                "material.density",
+                rho,
+                "a positive density in kg/m^3",
+            ));
         }
-        if let Some(g) = gravity {
-            if !g.iter().all(|c| c.is_finite()) {
-                return Err(invalid(
-                    "forces.gravity",
-                    format!("{g:?}"),
-                    "three finite numbers (m/s^2)",
-                ));
-            }
+        if let Some(g) = gravity
+            && !g.iter().all(|c| c.is_finite())
+        {
+            return Err(invalid(
+                "forces.gravity",
+                format!("{g:?}"),
+                "three finite numbers (m/s^2)",
+            ));
         }
         for (s, sp) in springs.iter().enumerate() {
             if sp.i >= n || sp.j >= n || sp.i == sp.j {
@@ -243,9 +243,8 @@ impl Model {
                     vertices: n,
                 });
             }
-            if !(sp.stiffness.is_finite() && sp.stiffness >= 0.0)
-                || !(sp.rest_length.is_finite() && sp.rest_length >= 0.0)
-            {
+            let non_negative = |x: f64| x.is_finite() && x >= 0.0;
+            if !non_negative(sp.stiffness) || !non_negative(sp.rest_length) {
                 return Err(invalid(
                     &format!("springs[{s}]"),
                     format!("stiffness {} rest length {}", sp.stiffness, sp.rest_length),
