@@ -1,25 +1,39 @@
 //! softbench: a harness for research on time integrators and solvers for deformable bodies.
 //!
+//! The three seams a reader looks for first:
+//! - [`model::Model`]: a conservative system over the free DOFs (potential, gradient, sparse
+//!   Hessian into a pattern built once, mass matrix, evaluation counters);
+//! - [`integrate::Integrator`]: one time step of any method, with a [`integrate::StepReport`];
+//! - [`solve::LinearSolver`]: analyze a pattern once, factor per matrix, solve.
+//!
 //! The pieces, in pipeline order:
+//! - [`scene`]: scene files (TOML, `--set` overrides) built into a model and initial state;
 //! - [`mesh`]: tetrahedral meshes (readers, generators, surface extraction, quality report);
+//! - [`data`]: where data files are found (the scene's folder, then `SOFTBENCH_DATA`);
 //! - [`material`]: strain energy densities with closed-form stress and stress derivative;
 //! - [`fem`]: the linear tetrahedron (shape gradients, element energy, gradient, Hessian, mass);
-//! - [`model`]: the [`model::Model`], a conservative system over the free degrees of freedom
-//!   whose potential, gradient and sparse Hessian the integrators ask for;
+//! - [`model`]: elastic, spring and gravity potentials assembled over free DOFs;
 //! - [`sparse`]: the symmetric sparse matrix and its pattern, built once and refilled in place;
-//! - [`solve`]: the [`solve::LinearSolver`] trait (analyze once, factor per matrix, solve) and
-//!   its backends: sparse Cholesky and LDLᵀ (faer), preconditioned CG, dense Cholesky.
+//! - [`solve`]: sparse Cholesky and LDLᵀ (faer), preconditioned CG, dense Cholesky;
+//! - [`integrate`]: explicit, adaptive and implicit integrators, and Newton's method;
+//! - [`experiment`]: running a scene and measuring it (energies, momenta, blow-up detection);
+//! - [`report`]: writing results atomically.
 //!
-//! Conventions: f64 everywhere; stacked coordinates `q = [x0 y0 z0 x1 y1 z1 ...]`;
+//! Conventions: SI units; f64 everywhere; stacked coordinates `q = [x0 y0 z0 x1 y1 z1 ...]`;
 //! `vec(F)` is column-major (`F[(0,0)], F[(1,0)], F[(2,0)], F[(0,1)], ...`), which is nalgebra's
 //! storage order.
 
 pub mod data;
+pub mod experiment;
 pub mod fem;
+pub mod integrate;
 pub mod material;
 pub mod mesh;
 pub mod model;
+pub mod names;
 pub mod parallel;
+pub mod report;
 pub mod rng;
+pub mod scene;
 pub mod solve;
 pub mod sparse;

@@ -560,9 +560,14 @@ fn solver_kinds_parse_from_their_names_and_build() {
     }
     let err = "lu".parse::<LinearSolverKind>().unwrap_err().to_string();
     assert!(
-        err.contains("\"lu\"") && err.contains("cholesky, ldlt, cg, dense"),
+        err.contains("`lu`") && err.contains("cholesky, ldlt, cg, dense"),
         "{err}"
     );
+    let err = "cholesk"
+        .parse::<LinearSolverKind>()
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("did you mean `cholesky`?"), "{err}");
 }
 
 #[test]

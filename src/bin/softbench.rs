@@ -1,6 +1,7 @@
 //! The `softbench` command line. Each subcommand is one variant of [`Command`] and one
-//! function; exit code 0 on success, 2 for bad input (a file that is missing or malformed),
-//! 1 for anything else (such as a closed output pipe).
+//! function. Exit codes: 0 on success; 1 when a simulation failed (blew up) or on any other
+//! error (such as an unwritable output); 2 for bad input (a scene, mesh or option that is
+//! missing or malformed), in which case nothing is written.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -10,7 +11,14 @@ use anyhow::Context;
 use clap::{Args, Parser, Subcommand};
 use serde::Serialize;
 use softbench::data::{DataError, DataPaths};
+use softbench::experiment::{self, Outcome};
+use softbench::integrate::Method;
+use softbench::material::MaterialModel;
 use softbench::mesh::{AnyMesh, MeshError, MeshFormat, MeshReport, read_mesh};
+use softbench::parallel::Parallelism;
+use softbench::report::{AtomicFile, write_atomic};
+use softbench::scene::{self, SceneError};
+use softbench::solve::LinearSolverKind;
 
 /// A harness for research on time integrators and solvers for deformable bodies.
 #[derive(Parser)]
@@ -24,6 +32,26 @@ struct Cli {
 enum Command {
     /// Report counts, extent, volumes, quality and surface topology of a mesh file.
     MeshInfo(MeshInfoArgs),
+    /// Run one scene with one integrator; write trajectory.csv, final_positions.csv and
+    /// summary.json to the output folder.
+    Simulate(SimulateArgs),
+    /// List the integrators, linear solvers and materials, one line each.
+    List,
+}
+
+#[derive(Args)]
+struct SimulateArgs {
+    /// Scene file (TOML).
+    scene: PathBuf,
+    /// Output folder (created if needed; files of a previous run are replaced).
+    #[arg(long)]
+    out: PathBuf,
+    /// Override a scene key by its dotted path, e.g. --set integrator.method=rk4 (repeatable).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    set: Vec<String>,
+    /// Threads for element loops (default: one per core).
+    #[arg(long)]
+    threads: Option<usize>,
 }
 
 #[derive(Args)]
@@ -40,9 +68,11 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::MeshInfo(args) => mesh_info(&args),
+        Command::Simulate(args) => simulate(&args),
+        Command::List => list(),
     };
     match result {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(code) => code,
         Err(err) => {
             eprintln!("error: {err:#}");
             if is_bad_input(&err) {
@@ -56,9 +86,15 @@ fn main() -> ExitCode {
 
 /// Whether an error comes from the user's input files rather than from softbench or the system.
 fn is_bad_input(err: &anyhow::Error) -> bool {
-    err.chain()
-        .any(|e| e.is::<MeshError>() || e.is::<DataError>())
+    err.chain().any(|e| {
+        e.is::<MeshError>() || e.is::<DataError>() || e.is::<SceneError>() || e.is::<BadInput>()
+    })
 }
+
+/// A bad command-line value (exit code 2).
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+struct BadInput(String);
 
 /// The JSON form of `mesh-info`: the report plus where it came from.
 #[derive(Serialize)]
@@ -69,7 +105,7 @@ struct MeshInfo<'a> {
     report: &'a MeshReport,
 }
 
-fn mesh_info(args: &MeshInfoArgs) -> anyhow::Result<()> {
+fn mesh_info(args: &MeshInfoArgs) -> anyhow::Result<ExitCode> {
     let path = DataPaths::from_env()
         .resolve_from_cwd(&args.file)
         .context("cannot find the mesh")?;
@@ -93,5 +129,122 @@ fn mesh_info(args: &MeshInfoArgs) -> anyhow::Result<()> {
         write!(out, "{report}")?;
     }
     out.flush().context("cannot write the report")?;
-    Ok(())
+    Ok(ExitCode::SUCCESS)
+}
+
+fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
+    if let Some(n) = args.threads {
+        if n == 0 {
+            return Err(BadInput("--threads must be at least 1".into()).into());
+        }
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global()
+            .context("cannot start the thread pool")?;
+    }
+    // Everything that can be wrong with the input is found before anything is written.
+    let loaded = scene::load(&args.scene, &args.set)?;
+    let mut built = scene::build(&loaded, &DataPaths::from_env(), Parallelism::Rayon)?;
+    let config = &built.config;
+    let mut integrator = config.integrator.build();
+    let linear_solver = (!config.integrator.method.is_explicit())
+        .then(|| config.integrator.linear_solver.to_string());
+
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create {}", args.out.display()))?;
+    let trajectory_path = args.out.join("trajectory.csv");
+    let mut trajectory = AtomicFile::create(&trajectory_path)
+        .with_context(|| format!("cannot write {}", trajectory_path.display()))?;
+    let mut csv = csv::Writer::from_writer(trajectory.writer());
+    let mut state = built.initial.clone();
+    let mut rows = 0usize;
+    let summary = experiment::run(
+        &mut built.model,
+        integrator.as_mut(),
+        &mut state,
+        &config.run,
+        &mut |row| {
+            rows += 1;
+            csv.serialize(row).map_err(std::io::Error::other)
+        },
+    )
+    .with_context(|| format!("cannot write {}", trajectory_path.display()))?;
+    csv.flush()?;
+    drop(csv);
+    trajectory
+        .commit()
+        .with_context(|| format!("cannot write {}", trajectory_path.display()))?;
+
+    let positions_path = args.out.join("final_positions.csv");
+    let positions = built.model.full_positions(&state.q);
+    write_atomic(&positions_path, |w| {
+        writeln!(w, "vertex,x,y,z")?;
+        for (v, p) in positions.iter().enumerate() {
+            writeln!(w, "{v},{:e},{:e},{:e}", p.x, p.y, p.z)?;
+        }
+        Ok(())
+    })
+    .with_context(|| format!("cannot write {}", positions_path.display()))?;
+
+    let summary_path = args.out.join("summary.json");
+    let document = serde_json::json!({
+        "softbench_version": env!("CARGO_PKG_VERSION"),
+        "scene": built.name,
+        "scene_file": loaded.path,
+        "linear_solver": linear_solver,
+        "summary": summary,
+        "config": config,
+    });
+    write_atomic(&summary_path, |w| {
+        serde_json::to_writer_pretty(&mut *w, &document)?;
+        writeln!(w)
+    })
+    .with_context(|| format!("cannot write {}", summary_path.display()))?;
+
+    match &summary.outcome {
+        Outcome::Completed => {
+            println!(
+                "{}: {} steps of {} with dt = {:e} s in {:.3} s; wrote {}",
+                built.name,
+                summary.steps_completed,
+                summary.method,
+                summary.dt,
+                summary.totals.times.total,
+                args.out.display()
+            );
+            Ok(ExitCode::SUCCESS)
+        }
+        Outcome::Failed {
+            step,
+            t,
+            cause,
+            message,
+        } => {
+            eprintln!(
+                "error: {} with {} failed at step {step} (t = {t:e} s): {cause}: {message}; \
+                 the {rows} rows written before it are in {}",
+                built.name,
+                summary.method,
+                trajectory_path.display()
+            );
+            Ok(ExitCode::FAILURE)
+        }
+    }
+}
+
+fn list() -> anyhow::Result<ExitCode> {
+    let mut out = std::io::stdout().lock();
+    writeln!(out, "integrators (integrator.method):")?;
+    for m in Method::ALL {
+        writeln!(out, "  {:26} {}", m.name(), m.description())?;
+    }
+    writeln!(out, "linear solvers (integrator.linear_solver):")?;
+    for k in LinearSolverKind::ALL {
+        writeln!(out, "  {:26} {}", k.name(), k.description())?;
+    }
+    writeln!(out, "materials (material.model):")?;
+    for name in MaterialModel::NAMES {
+        writeln!(out, "  {:26} {}", name, MaterialModel::description_of(name))?;
+    }
+    Ok(ExitCode::SUCCESS)
 }

@@ -58,6 +58,23 @@ impl MaterialModel {
         })
     }
 
+    /// One line on the model named `name` (for `softbench list`); empty for an unknown name.
+    pub fn description_of(name: &str) -> &'static str {
+        match name {
+            "neo-hookean" => {
+                "the course Neo-Hookean, C (J^-2/3 I1 - 3) + D (J - 1)^2; undefined for J <= 0"
+            }
+            "stable-neo-hookean" => {
+                "Stable Neo-Hookean (Smith et al. 2018); defined through inversion"
+            }
+            "stvk" => "St. Venant-Kirchhoff; weak against compression and inversion",
+            "corotated" => {
+                "corotated linear elasticity (polar decomposition); defined through inversion"
+            }
+            _ => "",
+        }
+    }
+
     /// The model's name, as accepted by [`Self::from_name`].
     pub fn name(&self) -> &'static str {
         match self {

@@ -93,6 +93,18 @@ impl LinearSolverKind {
         }
     }
 
+    /// One line on the solver (for `softbench list`).
+    pub fn description(self) -> &'static str {
+        match self {
+            Self::Cholesky => {
+                "sparse LL^T (faer, supernodal), symbolic analysis reused; SPD systems"
+            }
+            Self::Ldlt => "sparse LDL^T (faer); symmetric systems, reports the inertia",
+            Self::Cg => "preconditioned conjugate gradient (block-Jacobi by default); SPD systems",
+            Self::Dense => "dense LL^T, for tiny systems and tests",
+        }
+    }
+
     /// A new solver of this kind, configured by its part of `settings`.
     pub fn build(self, settings: &SolverSettings) -> Box<dyn LinearSolver> {
         match self {
@@ -112,7 +124,7 @@ impl fmt::Display for LinearSolverKind {
 
 /// An unknown linear solver name.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
-#[error("unknown linear solver \"{0}\" (valid: cholesky, ldlt, cg, dense)")]
+#[error("{}", crate::names::unknown_name_message("linear solver", .0, &["cholesky", "ldlt", "cg", "dense"]))]
 pub struct UnknownSolverError(pub String);
 
 impl FromStr for LinearSolverKind {

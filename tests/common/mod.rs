@@ -79,3 +79,4 @@ pub fn assert_close(a: f64, b: f64, rel: f64) {
         "{a} is not within {rel} (relative) of {b}"
     );
 }
+pub mod bodies;

@@ -1,0 +1,67 @@
+//! Linearly-implicit Euler: backward Euler with the forces linearized at the start of the
+//! step, i.e. one Newton step: `(M + dt^2 K(q)) v' = M v + dt f(q)`, then `q' = q + dt v'`.
+//! First order; cheap, but it trusts the linearization — the course handout warns that it
+//! explodes on the armadillo once it is dragged.
+
+use super::system::ImplicitSystem;
+use super::{Integrator, State, StepError, StepReport};
+use crate::model::Model;
+use crate::solve::LinearSolver;
+
+/// A linearly-implicit Euler integrator.
+pub struct LinearlyImplicitEuler {
+    system: ImplicitSystem,
+    rhs: Vec<f64>,
+    mv: Vec<f64>,
+}
+
+impl LinearlyImplicitEuler {
+    /// Linearly-implicit Euler solving its system with `solver`; `project_hessian` projects
+    /// element Hessians always (otherwise only when the system is indefinite).
+    pub fn new(solver: Box<dyn LinearSolver>, project_hessian: bool) -> Self {
+        Self {
+            system: ImplicitSystem::new(solver, project_hessian),
+            rhs: Vec::new(),
+            mv: Vec::new(),
+        }
+    }
+}
+
+impl Integrator for LinearlyImplicitEuler {
+    fn name(&self) -> &'static str {
+        "linearly-implicit-euler"
+    }
+
+    fn order(&self) -> u32 {
+        1
+    }
+
+    fn is_explicit(&self) -> bool {
+        false
+    }
+
+    fn advance(
+        &mut self,
+        model: &mut Model,
+        state: &mut State,
+        dt: f64,
+        report: &mut StepReport,
+    ) -> Result<(), StepError> {
+        let n = state.q.len();
+        self.rhs.resize(n, 0.0);
+        self.mv.resize(n, 0.0);
+        model.gradient(&state.q, &mut self.rhs)?;
+        model.mass().mul_vec(&state.v, &mut self.mv);
+        for (r, mv) in self.rhs.iter_mut().zip(&self.mv) {
+            *r = mv - dt * *r;
+        }
+        self.system.factor(model, &state.q, dt * dt, report)?;
+        self.system.solve(model, &state.q, &mut self.rhs, report)?;
+        for ((q, v), v_new) in state.q.iter_mut().zip(state.v.iter_mut()).zip(&self.rhs) {
+            *v = *v_new;
+            *q += dt * v_new;
+        }
+        report.substeps = 1;
+        Ok(())
+    }
+}

@@ -1,0 +1,105 @@
+//! Time integrators behind one trait, [`Integrator`].
+//!
+//! The state is `(q, v)` over the model's free DOFs. Each step returns a [`StepReport`] (what
+//! the step cost) or a typed [`StepError`] (why it could not be taken). Methods, one file each:
+//! - explicit: [`explicit_euler`], [`symplectic_euler`], [`midpoint`] (the seeds' RK2), [`rk4`],
+//!   all but symplectic Euler as Butcher tableaus run by [`runge_kutta`];
+//! - adaptive: [`adaptive`] step control (step doubling around any explicit method, or the
+//!   embedded error of [`dopri5`]);
+//! - implicit: [`linearly_implicit_euler`] (one linear solve), and [`backward_euler`],
+//!   [`implicit_midpoint`] and [`bdf2`], which all minimize an incremental potential with the
+//!   one Newton solver in [`newton`].
+
+pub mod adaptive;
+pub mod backward_euler;
+pub mod bdf2;
+pub mod dopri5;
+pub mod explicit_euler;
+pub mod implicit_midpoint;
+mod kind;
+pub mod linearly_implicit_euler;
+mod mass_inverse;
+pub mod midpoint;
+pub mod newton;
+mod report;
+pub mod rk4;
+pub mod runge_kutta;
+pub mod symplectic_euler;
+mod system;
+
+pub use adaptive::{Adaptive, AdaptiveSettings};
+pub use kind::{IntegratorSettings, Method, UnknownMethodError};
+pub use newton::NewtonSettings;
+pub use report::{PhaseTimes, StepError, StepReport};
+
+use crate::model::Model;
+use std::time::Instant;
+
+/// The dynamic state over free DOFs: positions `q`, velocities `v`, time `t`.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct State {
+    pub q: Vec<f64>,
+    pub v: Vec<f64>,
+    pub t: f64,
+}
+
+impl State {
+    /// The model's rest configuration with zero velocity at t = 0.
+    pub fn at_rest(model: &Model) -> Self {
+        let q = model.rest_state();
+        let v = vec![0.0; q.len()];
+        Self { q, v, t: 0.0 }
+    }
+}
+
+/// A time integrator. One instance serves one model (it may cache the model's mass
+/// factorization and sparsity analysis).
+pub trait Integrator: Send {
+    /// Name as written in scene files.
+    fn name(&self) -> &'static str;
+
+    /// Formal order of accuracy.
+    fn order(&self) -> u32;
+
+    /// Whether the method never asks for a Hessian.
+    fn is_explicit(&self) -> bool;
+
+    /// Advance `state.q` and `state.v` by `dt` (not `state.t`), recording work in `report`.
+    /// On error the state must be left as it was.
+    fn advance(
+        &mut self,
+        model: &mut Model,
+        state: &mut State,
+        dt: f64,
+        report: &mut StepReport,
+    ) -> Result<(), StepError>;
+
+    /// Forget history (multistep methods, adaptive step size), e.g. after the state was
+    /// changed from outside.
+    fn reset(&mut self) {}
+
+    /// One step of `dt`: [`Integrator::advance`] plus the shared bookkeeping — evaluation
+    /// counts, wall time, the check that the new state is finite, and the clock.
+    fn step(
+        &mut self,
+        model: &mut Model,
+        state: &mut State,
+        dt: f64,
+    ) -> Result<StepReport, StepError> {
+        let start = Instant::now();
+        let before = model.counters();
+        let mut report = StepReport {
+            dt,
+            ..StepReport::default()
+        };
+        self.advance(model, state, dt, &mut report)?;
+        let after = model.counters();
+        report.evaluations.potential = after.potential - before.potential;
+        report.evaluations.gradient = after.gradient - before.gradient;
+        report.evaluations.hessian = after.hessian - before.hessian;
+        report.times.total = start.elapsed().as_secs_f64();
+        report::check_finite(state)?;
+        state.t += dt;
+        Ok(report)
+    }
+}

@@ -1,0 +1,140 @@
+//! What a step cost ([`StepReport`]) and why a step failed ([`StepError`]).
+
+use super::State;
+use crate::model::{EvalCounters, ModelError};
+use crate::solve::SolveError;
+
+/// Wall time per phase of a step, in seconds.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct PhaseTimes {
+    /// Hessian (and system matrix) assembly.
+    pub assemble: f64,
+    /// Numeric factorization or preconditioner setup.
+    pub factor: f64,
+    /// Linear solves.
+    pub solve: f64,
+    /// The whole step.
+    pub total: f64,
+}
+
+/// What one step did and cost.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct StepReport {
+    /// The step taken (s).
+    pub dt: f64,
+    /// Accepted internal steps (adaptive methods and halving retries; 1 otherwise).
+    pub substeps: u32,
+    /// Rejected internal steps of adaptive methods.
+    pub rejected_substeps: u32,
+    /// Newton iterations, summed over Newton solves.
+    pub newton_iterations: u32,
+    /// Newton solves that stopped at the iteration cap without meeting the tolerance.
+    pub newton_unconverged: u32,
+    /// Line-search step reductions.
+    pub line_search_backtracks: u32,
+    /// Linear solves.
+    pub linear_solves: u32,
+    /// Linear-solver iterations (1 per direct solve, CG iterations otherwise).
+    pub linear_iterations: u64,
+    /// Numeric factorizations (or preconditioner setups).
+    pub factorizations: u32,
+    /// Largest relative residual `‖b − A x‖/‖b‖` of any linear solve.
+    pub max_relative_residual: f64,
+    /// Times an indefinite system matrix was replaced by its projected (PSD) form.
+    pub indefinite_fallbacks: u32,
+    /// Times a failed step was retried as two steps of half the size.
+    pub dt_halvings: u32,
+    /// Model evaluations during the step.
+    pub evaluations: EvalCounters,
+    /// Wall time per phase.
+    pub times: PhaseTimes,
+}
+
+impl StepReport {
+    /// Add the work of a sub-step (halving retries, adaptive sub-steps).
+    pub fn absorb(&mut self, other: &StepReport) {
+        self.substeps += other.substeps;
+        self.rejected_substeps += other.rejected_substeps;
+        self.newton_iterations += other.newton_iterations;
+        self.newton_unconverged += other.newton_unconverged;
+        self.line_search_backtracks += other.line_search_backtracks;
+        self.linear_solves += other.linear_solves;
+        self.linear_iterations += other.linear_iterations;
+        self.factorizations += other.factorizations;
+        self.max_relative_residual = self.max_relative_residual.max(other.max_relative_residual);
+        self.indefinite_fallbacks += other.indefinite_fallbacks;
+        self.dt_halvings += other.dt_halvings;
+        self.times.assemble += other.times.assemble;
+        self.times.factor += other.times.factor;
+        self.times.solve += other.times.solve;
+    }
+}
+
+/// Why a step could not be taken. The state is left as it was before the step.
+#[derive(Debug, thiserror::Error)]
+pub enum StepError {
+    /// The new state has a NaN or infinite entry.
+    #[error("non-finite {what} at DOF {index}")]
+    NonFinite { what: &'static str, index: usize },
+    /// An element inverted where the material is undefined.
+    #[error("tet {tet} inverted (det F = {det_f:.3e}); {material} is undefined there")]
+    InvertedElement {
+        tet: usize,
+        det_f: f64,
+        material: &'static str,
+    },
+    /// Newton's method could not make progress or did not converge when required to.
+    #[error("Newton failed after {iterations} iteration(s): {reason}")]
+    NewtonFailed { iterations: u32, reason: String },
+    /// The linear solver failed (and no fallback applied).
+    #[error("linear solver failed: {0}")]
+    Solver(#[from] SolveError),
+    /// Adaptive step control needed a step below its minimum.
+    #[error("adaptive step size {dt:.3e} fell below the minimum {min_dt:.3e}")]
+    StepTooSmall { dt: f64, min_dt: f64 },
+    /// Any other model error.
+    #[error(transparent)]
+    Model(ModelError),
+}
+
+impl StepError {
+    /// A short cause for tables: "non-finite state", "inverted element", "newton failure",
+    /// "solver failure", "step too small" or "model error".
+    pub fn cause(&self) -> &'static str {
+        match self {
+            Self::NonFinite { .. } => "non-finite state",
+            Self::InvertedElement { .. } => "inverted element",
+            Self::NewtonFailed { .. } => "newton failure",
+            Self::Solver(_) => "solver failure",
+            Self::StepTooSmall { .. } => "step too small",
+            Self::Model(_) => "model error",
+        }
+    }
+}
+
+impl From<ModelError> for StepError {
+    fn from(e: ModelError) -> Self {
+        match e {
+            ModelError::InvertedElement {
+                tet,
+                det_f,
+                material,
+            } => Self::InvertedElement {
+                tet,
+                det_f,
+                material,
+            },
+            other => Self::Model(other),
+        }
+    }
+}
+
+/// Fail with [`StepError::NonFinite`] if `q` or `v` has a NaN or infinite entry.
+pub(crate) fn check_finite(state: &State) -> Result<(), StepError> {
+    for (what, x) in [("position", &state.q), ("velocity", &state.v)] {
+        if let Some(index) = x.iter().position(|c| !c.is_finite()) {
+            return Err(StepError::NonFinite { what, index });
+        }
+    }
+    Ok(())
+}

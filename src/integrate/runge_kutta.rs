@@ -1,0 +1,174 @@
+//! Explicit Runge–Kutta methods on the first-order system `q' = v, v' = a(q)`, given by their
+//! Butcher tableau. Explicit Euler, midpoint, RK4 and Dormand–Prince are tableaus run here.
+
+use super::mass_inverse::{MassInverse, acceleration};
+use super::{Integrator, State, StepError, StepReport};
+use crate::model::Model;
+
+/// A Butcher tableau, optionally with embedded weights for an error estimate.
+#[derive(Clone, Copy, Debug)]
+pub struct Tableau {
+    /// Method name as written in scene files.
+    pub name: &'static str,
+    /// Order of the main weights.
+    pub order: u32,
+    /// Strictly lower-triangular stage coefficients, row `s` has `s` entries.
+    pub a: &'static [&'static [f64]],
+    /// Weights of the solution.
+    pub b: &'static [f64],
+    /// Weights of the embedded lower-order solution, if any.
+    pub b_embedded: Option<&'static [f64]>,
+}
+
+/// Where [`ExplicitRungeKutta::stages`] writes the new state and, optionally, the difference
+/// between the main and embedded solutions (stacked `[dq, dv]`, length `2n`).
+pub(crate) struct StageOutput<'a> {
+    pub q: &'a mut [f64],
+    pub v: &'a mut [f64],
+    pub error: Option<&'a mut [f64]>,
+}
+
+/// An explicit Runge–Kutta integrator with preallocated stage storage.
+pub struct ExplicitRungeKutta {
+    tableau: Tableau,
+    mass: Option<MassInverse>,
+    /// Stage derivatives: `kq[s]` (velocities) and `kv[s]` (accelerations).
+    kq: Vec<Vec<f64>>,
+    kv: Vec<Vec<f64>>,
+    q_stage: Vec<f64>,
+    v_stage: Vec<f64>,
+    /// The next state, swapped with the current one after a successful step.
+    q_next: Vec<f64>,
+    v_next: Vec<f64>,
+}
+
+impl ExplicitRungeKutta {
+    /// An integrator for `tableau`.
+    pub fn new(tableau: Tableau) -> Self {
+        Self {
+            tableau,
+            mass: None,
+            kq: Vec::new(),
+            kv: Vec::new(),
+            q_stage: Vec::new(),
+            v_stage: Vec::new(),
+            q_next: Vec::new(),
+            v_next: Vec::new(),
+        }
+    }
+
+    /// The tableau.
+    pub fn tableau(&self) -> &Tableau {
+        &self.tableau
+    }
+
+    fn ensure_buffers(&mut self, n: usize) {
+        let stages = self.tableau.b.len();
+        if self.kq.len() != stages || self.q_stage.len() != n {
+            self.kq = vec![vec![0.0; n]; stages];
+            self.kv = vec![vec![0.0; n]; stages];
+            self.q_stage = vec![0.0; n];
+            self.v_stage = vec![0.0; n];
+        }
+    }
+
+    /// Compute all stages from `(q, v)` and write the new state (and the embedded error, if
+    /// asked and the tableau has one) into `out`.
+    pub(crate) fn stages(
+        &mut self,
+        model: &mut Model,
+        q: &[f64],
+        v: &[f64],
+        dt: f64,
+        out: StageOutput<'_>,
+    ) -> Result<(), StepError> {
+        let StageOutput {
+            q: q_out,
+            v: v_out,
+            error,
+        } = out;
+        let n = q.len();
+        self.ensure_buffers(n);
+        let t = self.tableau;
+        for (s, row) in t.a.iter().enumerate() {
+            self.q_stage.copy_from_slice(q);
+            self.v_stage.copy_from_slice(v);
+            for (j, &a) in row.iter().enumerate() {
+                if a != 0.0 {
+                    axpy(dt * a, &self.kq[j], &mut self.q_stage);
+                    axpy(dt * a, &self.kv[j], &mut self.v_stage);
+                }
+            }
+            self.kq[s].copy_from_slice(&self.v_stage);
+            acceleration(model, &mut self.mass, &self.q_stage, &mut self.kv[s])?;
+        }
+        q_out.copy_from_slice(q);
+        v_out.copy_from_slice(v);
+        for (s, &b) in t.b.iter().enumerate() {
+            if b != 0.0 {
+                axpy(dt * b, &self.kq[s], q_out);
+                axpy(dt * b, &self.kv[s], v_out);
+            }
+        }
+        if let (Some(err), Some(be)) = (error, t.b_embedded) {
+            err.fill(0.0);
+            let (eq, ev) = err.split_at_mut(n);
+            for (((b, b_hat), kq), kv) in t.b.iter().zip(be).zip(&self.kq).zip(&self.kv) {
+                let w = dt * (b - b_hat);
+                if w != 0.0 {
+                    axpy(w, kq, eq);
+                    axpy(w, kv, ev);
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// `y += a x`.
+#[inline]
+pub(crate) fn axpy(a: f64, x: &[f64], y: &mut [f64]) {
+    y.iter_mut().zip(x).for_each(|(yi, xi)| *yi += a * xi);
+}
+
+impl Integrator for ExplicitRungeKutta {
+    fn name(&self) -> &'static str {
+        self.tableau.name
+    }
+
+    fn order(&self) -> u32 {
+        self.tableau.order
+    }
+
+    fn is_explicit(&self) -> bool {
+        true
+    }
+
+    fn advance(
+        &mut self,
+        model: &mut Model,
+        state: &mut State,
+        dt: f64,
+        report: &mut StepReport,
+    ) -> Result<(), StepError> {
+        let n = state.q.len();
+        let mut q_next = std::mem::take(&mut self.q_next);
+        let mut v_next = std::mem::take(&mut self.v_next);
+        q_next.resize(n, 0.0);
+        v_next.resize(n, 0.0);
+        let out = StageOutput {
+            q: &mut q_next,
+            v: &mut v_next,
+            error: None,
+        };
+        let result = self.stages(model, &state.q, &state.v, dt, out);
+        if result.is_ok() {
+            std::mem::swap(&mut state.q, &mut q_next);
+            std::mem::swap(&mut state.v, &mut v_next);
+            report.substeps = 1;
+        }
+        self.q_next = q_next;
+        self.v_next = v_next;
+        result
+    }
+}

@@ -1,0 +1,136 @@
+//! The linear system of implicit methods, `H = M + beta K(x)`: assembled into the model's
+//! fixed pattern, factored by any [`LinearSolver`] (symbolic analysis once), solved per
+//! right-hand side. If `H` turns out indefinite (a failed Cholesky pivot, or CG meeting
+//! negative curvature), it is reassembled with element Hessians projected to PSD — which makes
+//! `H` positive definite — and the fallback is counted in the step report.
+
+use super::{StepError, StepReport};
+use crate::model::{HessianOptions, Model};
+use crate::solve::{LinearSolver, SolveError};
+use crate::sparse::SymmetricMatrix;
+use std::time::Instant;
+
+/// `M + beta K(x)` with its solver.
+pub(crate) struct ImplicitSystem {
+    solver: Box<dyn LinearSolver>,
+    matrix: Option<SymmetricMatrix>,
+    /// Project element Hessians always (not only as a fallback).
+    always_project: bool,
+    /// Whether the current factorization is of the projected matrix.
+    projected: bool,
+    /// Last (x, beta) assembled, so the fallback can reassemble the same matrix.
+    beta: f64,
+    rhs_copy: Vec<f64>,
+}
+
+fn is_indefinite(e: &SolveError) -> bool {
+    matches!(
+        e,
+        SolveError::NotPositiveDefinite { .. } | SolveError::NegativeCurvature { .. }
+    )
+}
+
+impl ImplicitSystem {
+    pub fn new(solver: Box<dyn LinearSolver>, always_project: bool) -> Self {
+        Self {
+            solver,
+            matrix: None,
+            always_project,
+            projected: false,
+            beta: 0.0,
+            rhs_copy: Vec::new(),
+        }
+    }
+
+    fn assemble(
+        &mut self,
+        model: &mut Model,
+        x: &[f64],
+        project: bool,
+        report: &mut StepReport,
+    ) -> Result<(), StepError> {
+        let start = Instant::now();
+        if self.matrix.is_none() {
+            let m = model.new_hessian();
+            self.solver.analyze(m.pattern())?;
+            self.matrix = Some(m);
+        }
+        let h = self.matrix.as_mut().expect("created above");
+        model.hessian(
+            x,
+            h,
+            HessianOptions {
+                project_elements: project,
+            },
+        )?;
+        model.mass().scale_and_add_to(self.beta, h);
+        self.projected = project;
+        report.times.assemble += start.elapsed().as_secs_f64();
+        Ok(())
+    }
+
+    fn factor_current(&mut self, report: &mut StepReport) -> Result<(), SolveError> {
+        let start = Instant::now();
+        let result = self.solver.factor(self.matrix.as_ref().expect("assembled"));
+        report.times.factor += start.elapsed().as_secs_f64();
+        if result.is_ok() {
+            report.factorizations += 1;
+        }
+        result.map(|_| ())
+    }
+
+    /// Assemble and factor `M + beta K(x)`, falling back to the projected matrix if it is
+    /// indefinite.
+    pub fn factor(
+        &mut self,
+        model: &mut Model,
+        x: &[f64],
+        beta: f64,
+        report: &mut StepReport,
+    ) -> Result<(), StepError> {
+        self.beta = beta;
+        self.assemble(model, x, self.always_project, report)?;
+        match self.factor_current(report) {
+            Err(e) if is_indefinite(&e) && !self.projected => {
+                report.indefinite_fallbacks += 1;
+                self.assemble(model, x, true, report)?;
+                self.factor_current(report)?;
+            }
+            other => other?,
+        }
+        Ok(())
+    }
+
+    /// Solve `H x = b` in place for the last factored `H`. If CG finds the matrix indefinite,
+    /// refactor the projected matrix at `x_assembled` and solve again.
+    pub fn solve(
+        &mut self,
+        model: &mut Model,
+        x_assembled: &[f64],
+        rhs: &mut [f64],
+        report: &mut StepReport,
+    ) -> Result<(), StepError> {
+        self.rhs_copy.clear();
+        self.rhs_copy.extend_from_slice(rhs);
+        let start = Instant::now();
+        let mut result = self.solver.solve(rhs);
+        report.times.solve += start.elapsed().as_secs_f64();
+        if let Err(e) = &result
+            && is_indefinite(e)
+            && !self.projected
+        {
+            report.indefinite_fallbacks += 1;
+            self.assemble(model, x_assembled, true, report)?;
+            self.factor_current(report)?;
+            rhs.copy_from_slice(&self.rhs_copy);
+            let start = Instant::now();
+            result = self.solver.solve(rhs);
+            report.times.solve += start.elapsed().as_secs_f64();
+        }
+        let solved = result?;
+        report.linear_solves += 1;
+        report.linear_iterations += solved.iterations as u64;
+        report.max_relative_residual = report.max_relative_residual.max(solved.relative_residual);
+        Ok(())
+    }
+}

@@ -1,0 +1,6 @@
+//! Writing results: every file is written to a temporary name and renamed into place, so an
+//! interrupted run never leaves a half-written file under its final name.
+
+mod atomic;
+
+pub use atomic::{AtomicFile, write_atomic};

@@ -1,0 +1,193 @@
+//! The scene file schema (TOML): what body, which material, what is fixed, which forces,
+//! which integrator, how long. Unknown keys are errors that list the valid ones.
+
+use crate::integrate::IntegratorSettings;
+use crate::model::{MassKind, Side};
+
+/// A scene: everything `softbench simulate` needs.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneConfig {
+    /// A name for reports (default: the file name).
+    #[serde(default)]
+    pub name: Option<String>,
+    /// The tet mesh.
+    pub mesh: MeshConfig,
+    /// The elastic material of the tets.
+    #[serde(default)]
+    pub material: Option<MaterialConfig>,
+    /// Fixed vertices.
+    #[serde(default)]
+    pub fixed: FixedConfig,
+    /// External forces.
+    #[serde(default)]
+    pub forces: ForcesConfig,
+    /// The time integrator and its solvers.
+    #[serde(default)]
+    pub integrator: IntegratorSettings,
+    /// Time step, length and output sampling.
+    pub run: RunConfig,
+}
+
+/// `[mesh]`: a file (found next to the scene file, then in `SOFTBENCH_DATA`) or a generator.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeshConfig {
+    /// Mesh file: MEDIT or plain `.mesh`, TetGen `.node`/`.ele`.
+    #[serde(default)]
+    pub file: Option<String>,
+    /// A generated mesh instead of a file.
+    #[serde(default)]
+    pub generate: Option<GenerateConfig>,
+    /// Swap two vertices of inverted tets instead of refusing the mesh.
+    #[serde(default)]
+    pub reorient: bool,
+}
+
+/// `mesh.generate`: `{ box = [nx, ny, nz], size = [sx, sy, sz] }` (6 tets per cell, min
+/// corner at `origin`, default 0) or `{ ball = n, radius = r }` (48 n^3 tets, centred at
+/// `origin`).
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GenerateConfig {
+    /// Cells per axis of a box.
+    #[serde(default, rename = "box")]
+    pub box_cells: Option<[usize; 3]>,
+    /// Box size (m).
+    #[serde(default)]
+    pub size: Option<[f64; 3]>,
+    /// Resolution of a ball.
+    #[serde(default)]
+    pub ball: Option<usize>,
+    /// Ball radius (m).
+    #[serde(default)]
+    pub radius: Option<f64>,
+    /// Translation of the generated mesh (m).
+    #[serde(default)]
+    pub origin: Option<[f64; 3]>,
+}
+
+/// `[material]`: model, elastic constants (E and nu, or mu and lambda, or for the course
+/// Neo-Hookean C and D), density and mass discretization.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialConfig {
+    /// `neo-hookean`, `stable-neo-hookean`, `stvk` or `corotated`.
+    #[serde(default = "default_model")]
+    pub model: String,
+    /// Young's modulus (Pa).
+    #[serde(default)]
+    pub youngs_modulus: Option<f64>,
+    /// Poisson ratio, in (-1, 0.5).
+    #[serde(default)]
+    pub poisson_ratio: Option<f64>,
+    /// Lamé mu (Pa), instead of E and nu.
+    #[serde(default)]
+    pub mu: Option<f64>,
+    /// Lamé lambda (Pa), instead of E and nu.
+    #[serde(default)]
+    pub lambda: Option<f64>,
+    /// Course Neo-Hookean C (Pa), with `d`, instead of E and nu.
+    #[serde(default)]
+    pub c: Option<f64>,
+    /// Course Neo-Hookean D (Pa), with `c`.
+    #[serde(default)]
+    pub d: Option<f64>,
+    /// Density (kg/m^3).
+    pub density: f64,
+    /// `consistent` or `lumped`.
+    #[serde(default)]
+    pub mass: MassKind,
+}
+
+fn default_model() -> String {
+    "neo-hookean".into()
+}
+
+/// `[fixed]`: the union of explicit vertex indices, an axis rule and a box.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FixedConfig {
+    /// 0-based vertex indices.
+    #[serde(default)]
+    pub indices: Vec<usize>,
+    /// The course rule: vertices within `tolerance` of the extreme coordinate along `axis`.
+    #[serde(default)]
+    pub rule: Option<RuleConfig>,
+    /// Vertices inside an axis-aligned box.
+    #[serde(default, rename = "box")]
+    pub fixed_box: Option<BoxConfig>,
+}
+
+/// An axis rule, e.g. `{ axis = "y", side = "min", tolerance = 0.1 }`.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RuleConfig {
+    pub axis: Axis,
+    #[serde(default = "default_side")]
+    pub side: Side,
+    pub tolerance: f64,
+}
+
+fn default_side() -> Side {
+    Side::Min
+}
+
+/// A coordinate axis.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Axis {
+    X,
+    Y,
+    Z,
+}
+
+impl Axis {
+    /// 0, 1 or 2.
+    pub fn index(self) -> usize {
+        self as usize
+    }
+}
+
+/// An axis-aligned box `{ min = [..], max = [..] }`.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoxConfig {
+    pub min: [f64; 3],
+    pub max: [f64; 3],
+}
+
+/// `[forces]`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ForcesConfig {
+    /// Gravitational acceleration (m/s^2). Default: none.
+    #[serde(default)]
+    pub gravity: [f64; 3],
+}
+
+/// `[run]`.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunConfig {
+    /// Time step (s), > 0.
+    pub dt: f64,
+    /// Number of steps, >= 1.
+    pub steps: usize,
+    /// Write a row every this many steps (the first and last are always written). Default 1.
+    #[serde(default = "one")]
+    pub sample_every: usize,
+    /// A run is stopped as blown up when kinetic + elastic energy exceeds this factor times
+    /// its initial value plus the work done by gravity since the start. 0 turns the check off.
+    /// Default 10.
+    #[serde(default = "default_energy_limit")]
+    pub energy_limit: f64,
+}
+
+fn one() -> usize {
+    1
+}
+
+fn default_energy_limit() -> f64 {
+    10.0
+}

@@ -1,0 +1,363 @@
+//! Scenes: a TOML file plus `--set` overrides becomes a validated [`SceneConfig`], which
+//! [`build`] turns into a [`Scene`]: the model, its initial state and the run settings.
+//!
+//! Errors name the file and, where the TOML parser knows it, the line; semantic errors name
+//! the key (`run.dt`, `material.poisson_ratio`) and what would be valid.
+
+mod config;
+mod overrides;
+
+pub use config::{
+    Axis, BoxConfig, FixedConfig, ForcesConfig, GenerateConfig, MaterialConfig, MeshConfig,
+    RuleConfig, RunConfig, SceneConfig,
+};
+pub use overrides::{OverrideError, apply as apply_override};
+
+use crate::data::{DataError, DataPaths};
+use crate::integrate::State;
+use crate::material::{LameParameters, MaterialError, MaterialModel, NeoHookean};
+use crate::mesh::{MeshError, TetMesh, generate};
+use crate::model::{AxisRule, FixedSelection, InvertedTets, Model, ModelError, ModelSpec};
+use crate::parallel::Parallelism;
+use nalgebra::Vector3;
+use std::path::{Path, PathBuf};
+
+/// Why a scene could not be loaded or built.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    #[error("{path}: cannot read: {error}")]
+    Io {
+        path: PathBuf,
+        error: std::io::Error,
+    },
+    /// Malformed TOML, an unknown key or a wrong type (the message has line and column).
+    #[error("{path}: {message}")]
+    Parse { path: PathBuf, message: String },
+    /// A value out of its valid range.
+    #[error("{path}: {key}: {message}")]
+    Invalid {
+        path: PathBuf,
+        key: String,
+        message: String,
+    },
+    #[error(transparent)]
+    Override(#[from] OverrideError),
+    #[error("{path}: mesh.file: {error}")]
+    Data { path: PathBuf, error: DataError },
+    #[error("{path}: {error}")]
+    Mesh { path: PathBuf, error: MeshError },
+    #[error("{path}: material: {error}")]
+    Material { path: PathBuf, error: MaterialError },
+    #[error("{path}: {error}")]
+    Model { path: PathBuf, error: ModelError },
+}
+
+/// A scene file read and validated, with where it came from.
+#[derive(Clone, Debug)]
+pub struct LoadedScene {
+    /// The scene file.
+    pub path: PathBuf,
+    /// The resolved configuration (file plus overrides).
+    pub config: SceneConfig,
+}
+
+impl LoadedScene {
+    /// The scene's name: `name` from the file, else the file stem.
+    pub fn name(&self) -> String {
+        self.config.name.clone().unwrap_or_else(|| {
+            self.path
+                .file_stem()
+                .map_or("scene".into(), |s| s.to_string_lossy().into_owned())
+        })
+    }
+
+    /// The folder relative paths in the scene are resolved against.
+    pub fn base_dir(&self) -> &Path {
+        self.path.parent().unwrap_or(Path::new("."))
+    }
+}
+
+/// Read `path`, apply `overrides` (`key=value`), and validate.
+pub fn load(path: &Path, overrides: &[String]) -> Result<LoadedScene, SceneError> {
+    let text = std::fs::read_to_string(path).map_err(|error| SceneError::Io {
+        path: path.to_owned(),
+        error,
+    })?;
+    let config = parse(&text, path, overrides)?;
+    Ok(LoadedScene {
+        path: path.to_owned(),
+        config,
+    })
+}
+
+/// Parse scene text (`path` only names it in messages), apply overrides, validate.
+pub fn parse(text: &str, path: &Path, overrides: &[String]) -> Result<SceneConfig, SceneError> {
+    let parse_error = |e: toml::de::Error| SceneError::Parse {
+        path: path.to_owned(),
+        message: e.to_string().trim_end().to_owned(),
+    };
+    let mut table: toml::Table = toml::from_str(text).map_err(parse_error)?;
+    for o in overrides {
+        apply_override(&mut table, o)?;
+    }
+    let config: SceneConfig = match table.try_into() {
+        Ok(c) => c,
+        Err(e) => {
+            // Deserializing the file text directly gives the error its line and column; if the
+            // file alone is fine, the overrides are at fault.
+            if let Err(located) = toml::from_str::<SceneConfig>(text) {
+                return Err(parse_error(located));
+            }
+            return Err(SceneError::Parse {
+                path: path.to_owned(),
+                message: format!("after --set overrides: {}", e.to_string().trim_end()),
+            });
+        }
+    };
+    validate(&config, path)?;
+    Ok(config)
+}
+
+fn validate(c: &SceneConfig, path: &Path) -> Result<(), SceneError> {
+    let invalid = |key: &str, message: String| SceneError::Invalid {
+        path: path.to_owned(),
+        key: key.into(),
+        message,
+    };
+    let r = &c.run;
+    if !(r.dt.is_finite() && r.dt > 0.0) {
+        return Err(invalid(
+            "run.dt",
+            format!("must be a positive time step in seconds (got {})", r.dt),
+        ));
+    }
+    if r.steps == 0 {
+        return Err(invalid("run.steps", "must be at least 1".into()));
+    }
+    if r.sample_every == 0 {
+        return Err(invalid("run.sample_every", "must be at least 1".into()));
+    }
+    if !(r.energy_limit.is_finite() && r.energy_limit >= 0.0) {
+        return Err(invalid(
+            "run.energy_limit",
+            format!(
+                "must be >= 0 (0 turns the check off; got {})",
+                r.energy_limit
+            ),
+        ));
+    }
+    match (&c.mesh.file, &c.mesh.generate) {
+        (Some(_), None) | (None, Some(_)) => {}
+        _ => {
+            return Err(invalid(
+                "mesh",
+                "give exactly one of `file` or `generate`".into(),
+            ));
+        }
+    }
+    if let Some(g) = &c.mesh.generate {
+        let shape = (
+            g.box_cells.is_some() || g.size.is_some(),
+            g.ball.is_some() || g.radius.is_some(),
+        );
+        match shape {
+            (true, false) => {
+                let (Some(cells), Some(size)) = (g.box_cells, g.size) else {
+                    return Err(invalid(
+                        "mesh.generate",
+                        "a box needs both `box = [nx, ny, nz]` and `size = [sx, sy, sz]`".into(),
+                    ));
+                };
+                if cells.contains(&0) || !size.iter().all(|s| s.is_finite() && *s > 0.0) {
+                    return Err(invalid(
+                        "mesh.generate",
+                        "box cell counts must be >= 1 and sizes > 0".into(),
+                    ));
+                }
+            }
+            (false, true) => {
+                let (Some(n), Some(radius)) = (g.ball, g.radius) else {
+                    return Err(invalid(
+                        "mesh.generate",
+                        "a ball needs both `ball = n` and `radius = r`".into(),
+                    ));
+                };
+                if n == 0 || !(radius.is_finite() && radius > 0.0) {
+                    return Err(invalid(
+                        "mesh.generate",
+                        "ball resolution must be >= 1 and radius > 0".into(),
+                    ));
+                }
+            }
+            _ => {
+                return Err(invalid(
+                    "mesh.generate",
+                    "give either a box (`box`, `size`) or a ball (`ball`, `radius`)".into(),
+                ));
+            }
+        }
+    }
+    if let Some(rule) = &c.fixed.rule
+        && !(rule.tolerance.is_finite() && rule.tolerance >= 0.0)
+    {
+        return Err(invalid(
+            "fixed.rule.tolerance",
+            format!("must be >= 0 (got {})", rule.tolerance),
+        ));
+    }
+    if !c.forces.gravity.iter().all(|g| g.is_finite()) {
+        return Err(invalid(
+            "forces.gravity",
+            "must be three finite numbers (m/s^2)".into(),
+        ));
+    }
+    c.integrator
+        .newton
+        .validate()
+        .map_err(|m| invalid("integrator", m))?;
+    Ok(())
+}
+
+/// A built scene: the model and its initial state.
+pub struct Scene {
+    pub name: String,
+    pub config: SceneConfig,
+    pub model: Model,
+    pub initial: State,
+}
+
+/// The tet mesh a scene names: read through the data search path, or generated.
+pub fn scene_mesh(loaded: &LoadedScene, data: &DataPaths) -> Result<TetMesh, SceneError> {
+    let path = &loaded.path;
+    let mesh_config = &loaded.config.mesh;
+    if let Some(file) = &mesh_config.file {
+        let resolved = data
+            .resolve(file, Some(loaded.base_dir()))
+            .map_err(|error| SceneError::Data {
+                path: path.clone(),
+                error,
+            })?;
+        return crate::mesh::read_tet_mesh(&resolved).map_err(|error| SceneError::Mesh {
+            path: path.clone(),
+            error,
+        });
+    }
+    let g = mesh_config
+        .generate
+        .as_ref()
+        .expect("validated: file or generate");
+    let mut mesh = match (g.box_cells, g.size, g.ball, g.radius) {
+        (Some(cells), Some(size), _, _) => generate::box_mesh(cells, size),
+        (_, _, Some(n), Some(r)) => generate::ball(r, n),
+        _ => unreachable!("validated"),
+    };
+    if let Some(o) = g.origin {
+        let o = Vector3::from(o);
+        mesh.positions.iter_mut().for_each(|p| *p += o);
+    }
+    Ok(mesh)
+}
+
+/// The material a scene names.
+fn scene_material(m: &MaterialConfig, path: &Path) -> Result<MaterialModel, SceneError> {
+    let err = |error| SceneError::Material {
+        path: path.to_owned(),
+        error,
+    };
+    let invalid = |message: &str| SceneError::Invalid {
+        path: path.to_owned(),
+        key: "material".into(),
+        message: message.into(),
+    };
+    if let (Some(c), Some(d)) = (m.c, m.d) {
+        if m.model != "neo-hookean" {
+            return Err(invalid(
+                "`c` and `d` are the course Neo-Hookean's constants; use them with model = \"neo-hookean\"",
+            ));
+        }
+        if m.youngs_modulus.is_some() || m.mu.is_some() {
+            return Err(invalid(
+                "give one set of constants: youngs_modulus + poisson_ratio, mu + lambda, or c + d",
+            ));
+        }
+        LameParameters::new(2.0 * c, 2.0 * d).map_err(err)?;
+        return Ok(MaterialModel::NeoHookean(NeoHookean::from_c_d(c, d)));
+    }
+    let lame = match (m.youngs_modulus, m.poisson_ratio, m.mu, m.lambda) {
+        (Some(e), Some(nu), None, None) => {
+            LameParameters::from_youngs_poisson(e, nu).map_err(err)?
+        }
+        (None, None, Some(mu), Some(lambda)) => LameParameters::new(mu, lambda).map_err(err)?,
+        _ => {
+            return Err(invalid(
+                "give one set of constants: youngs_modulus + poisson_ratio, mu + lambda, or c + d",
+            ));
+        }
+    };
+    MaterialModel::from_name(&m.model, lame).map_err(err)
+}
+
+/// Build the scene: mesh, material, fixed vertices, forces; the body starts at rest.
+pub fn build(
+    loaded: &LoadedScene,
+    data: &DataPaths,
+    parallelism: Parallelism,
+) -> Result<Scene, SceneError> {
+    let c = &loaded.config;
+    let path = &loaded.path;
+    let mesh = scene_mesh(loaded, data)?;
+    let material = c
+        .material
+        .as_ref()
+        .map(|m| scene_material(m, path))
+        .transpose()?;
+    let density = c.material.as_ref().map(|m| m.density);
+    let mass_kind = c.material.as_ref().map(|m| m.mass).unwrap_or_default();
+    let fixed = FixedSelection {
+        indices: c.fixed.indices.clone(),
+        rules: c
+            .fixed
+            .rule
+            .iter()
+            .map(|r| AxisRule {
+                axis: r.axis.index(),
+                side: r.side,
+                tolerance: r.tolerance,
+            })
+            .collect(),
+        boxes: c
+            .fixed
+            .fixed_box
+            .iter()
+            .map(|b| (Vector3::from(b.min), Vector3::from(b.max)))
+            .collect(),
+    };
+    let gravity = Vector3::from(c.forces.gravity);
+    let spec = ModelSpec {
+        mesh,
+        material,
+        density,
+        mass_kind,
+        point_masses: None,
+        springs: Vec::new(),
+        gravity: (gravity != Vector3::zeros()).then_some(gravity),
+        fixed,
+        inverted_tets: if c.mesh.reorient {
+            InvertedTets::Reorient
+        } else {
+            InvertedTets::Refuse
+        },
+        parallelism,
+    };
+    let model = Model::new(spec).map_err(|error| SceneError::Model {
+        path: path.clone(),
+        error,
+    })?;
+    let initial = State::at_rest(&model);
+    Ok(Scene {
+        name: loaded.name(),
+        config: c.clone(),
+        model,
+        initial,
+    })
+}

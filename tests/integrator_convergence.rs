@@ -1,0 +1,89 @@
+//! Every integrator reaches its formal order of accuracy: the error at a fixed time against a
+//! tiny-step RK4 reference, with dt halved three times, falls at the rate the method promises.
+
+mod common;
+
+use common::bodies::{block, distance, integrate, kicked};
+use softbench::integrate::Method;
+
+const T_END: f64 = 0.05;
+
+/// Least-squares slope of log(error) against log(dt).
+fn slope(dts: &[f64], errors: &[f64]) -> f64 {
+    let xs: Vec<f64> = dts.iter().map(|d| d.ln()).collect();
+    let ys: Vec<f64> = errors.iter().map(|e| e.ln()).collect();
+    let n = xs.len() as f64;
+    let (mx, my) = (xs.iter().sum::<f64>() / n, ys.iter().sum::<f64>() / n);
+    let sxy: f64 = xs.iter().zip(&ys).map(|(x, y)| (x - mx) * (y - my)).sum();
+    let sxx: f64 = xs.iter().map(|x| (x - mx).powi(2)).sum();
+    sxy / sxx
+}
+
+/// The observed order of `method` with `steps`, `2 steps`, `4 steps`, `8 steps` over T_END.
+fn observed_order(method: Method, coarsest_steps: usize) -> (f64, Vec<f64>) {
+    let mut model = block(true, true);
+    let start = kicked(&model);
+    let reference = integrate(&mut model, Method::Rk4, &start, T_END, 6400);
+    let mut dts = Vec::new();
+    let mut errors = Vec::new();
+    for k in 0..4 {
+        let steps = coarsest_steps << k;
+        let end = integrate(&mut model, method, &start, T_END, steps);
+        dts.push(T_END / steps as f64);
+        errors.push(distance(&end.q, &reference.q) + distance(&end.v, &reference.v) * T_END);
+    }
+    (slope(&dts, &errors), errors)
+}
+
+fn assert_order(method: Method, expected: f64, coarsest_steps: usize) {
+    let (order, errors) = observed_order(method, coarsest_steps);
+    let ratios: Vec<String> = errors
+        .windows(2)
+        .map(|w| format!("{:.2}", (w[0] / w[1]).log2()))
+        .collect();
+    eprintln!("{method}: observed order {order:.3}, pairwise {ratios:?}, errors {errors:?}");
+    assert!(
+        (order - expected).abs() <= 0.15,
+        "{method}: observed order {order:.3} (expected {expected}); errors {errors:?}, pairwise {ratios:?}"
+    );
+}
+
+#[test]
+fn explicit_euler_is_first_order() {
+    assert_order(Method::ExplicitEuler, 1.0, 200);
+}
+
+#[test]
+fn symplectic_euler_is_first_order() {
+    assert_order(Method::SymplecticEuler, 1.0, 200);
+}
+
+#[test]
+fn explicit_midpoint_is_second_order() {
+    assert_order(Method::Midpoint, 2.0, 50);
+}
+
+#[test]
+fn rk4_is_fourth_order() {
+    assert_order(Method::Rk4, 4.0, 25);
+}
+
+#[test]
+fn linearly_implicit_euler_is_first_order() {
+    assert_order(Method::LinearlyImplicitEuler, 1.0, 200);
+}
+
+#[test]
+fn backward_euler_is_first_order() {
+    assert_order(Method::BackwardEuler, 1.0, 200);
+}
+
+#[test]
+fn implicit_midpoint_is_second_order() {
+    assert_order(Method::ImplicitMidpoint, 2.0, 50);
+}
+
+#[test]
+fn bdf2_is_second_order() {
+    assert_order(Method::Bdf2, 2.0, 50);
+}

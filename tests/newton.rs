@@ -1,0 +1,231 @@
+//! Newton's method on the incremental potential: quadratic convergence, the round-off-aware
+//! line search, fallback on indefinite systems, dt/2 retries, and agreement of the linear
+//! solvers on the Newton step.
+
+mod common;
+
+use common::bodies::{block, kicked};
+use softbench::integrate::newton::{Newton, NewtonSettings};
+use softbench::integrate::{IntegratorSettings, Method, State, StepError, StepReport};
+use softbench::model::Model;
+use softbench::solve::{CgSettings, LinearSolverKind, SolverSettings};
+
+/// Backward Euler's incremental potential for `state`: (x_hat, beta).
+fn backward_euler_problem(state: &State, dt: f64) -> (Vec<f64>, f64) {
+    (
+        state
+            .q
+            .iter()
+            .zip(&state.v)
+            .map(|(q, v)| q + dt * v)
+            .collect(),
+        dt * dt,
+    )
+}
+
+fn newton(settings: NewtonSettings) -> Newton {
+    Newton::new(
+        LinearSolverKind::Cholesky.build(&SolverSettings::default()),
+        settings,
+    )
+}
+
+#[test]
+fn newton_converges_quadratically_near_the_solution() {
+    let mut model = block(true, true);
+    let state = kicked(&model);
+    // A large step makes the problem nonlinear enough to need several iterations.
+    let (x_hat, beta) = backward_euler_problem(&state, 0.05);
+    let mut solver = newton(NewtonSettings {
+        tolerance: 1e-13,
+        max_iterations: 30,
+        ..Default::default()
+    });
+    let mut x = x_hat.clone();
+    let mut report = StepReport::default();
+    solver
+        .minimize(&mut model, &x_hat, &state.q, beta, &mut x, &mut report)
+        .unwrap();
+    let g = &solver.trace().gradient_norms;
+    // Quadratic convergence: ‖g_k+1‖ / ‖g_k‖² stays bounded while ‖g_k+1‖ / ‖g_k‖ -> 0.
+    // Look at the iterations above round-off (1e-9 of the starting gradient).
+    let useful: Vec<f64> = g.iter().copied().take_while(|&n| n > 1e-9 * g[0]).collect();
+    let linear: Vec<f64> = useful.windows(2).map(|w| w[1] / w[0]).collect();
+    let quadratic: Vec<f64> = useful.windows(2).map(|w| w[1] / (w[0] * w[0])).collect();
+    let sci = |v: &[f64]| {
+        v.iter()
+            .map(|x| format!("{x:.2e}"))
+            .collect::<Vec<_>>()
+            .join(" ")
+    };
+    eprintln!(
+        "gradient norms {}\nlinear ratios {}\nquadratic ratios {}",
+        sci(g),
+        sci(&linear),
+        sci(&quadratic)
+    );
+    assert!(useful.len() >= 4, "too few iterations to judge: {g:?}");
+    let tail = &linear[linear.len() - 3..];
+    assert!(
+        tail.windows(2).all(|w| w[1] < 0.5 * w[0]),
+        "not superlinear: {linear:?}"
+    );
+    let q_tail = &quadratic[quadratic.len() - 3..];
+    let (lo, hi) = q_tail
+        .iter()
+        .fold((f64::INFINITY, 0.0f64), |(l, h), &r| (l.min(r), h.max(r)));
+    assert!(
+        hi / lo < 30.0,
+        "quadratic ratios not bounded: {quadratic:?}"
+    );
+}
+
+#[test]
+fn line_search_accepts_full_steps_once_the_decrease_is_below_round_off() {
+    // Far from the origin under gravity, the potential is huge (m g y with y ~ 1e6) while the
+    // step's energy change is tiny: an Armijo test on raw energies would reject the last steps.
+    let mut shifted = {
+        let mut mesh = softbench::mesh::generate::box_mesh([2, 1, 1], [0.2, 0.1, 0.1]);
+        mesh.positions.iter_mut().for_each(|p| p.y += 1e6);
+        let lame = softbench::material::LameParameters::from_youngs_poisson(1e4, 0.3).unwrap();
+        let material =
+            softbench::material::MaterialModel::from_name("stable-neo-hookean", lame).unwrap();
+        let mut spec = softbench::model::ModelSpec::elastic(mesh, material, 1000.0);
+        spec.gravity = Some(nalgebra::Vector3::new(0.0, -9.81, 0.0));
+        spec.fixed = softbench::model::FixedSelection {
+            rules: vec![softbench::model::AxisRule {
+                axis: 0,
+                side: softbench::model::Side::Min,
+                tolerance: 1e-9,
+            }],
+            ..Default::default()
+        };
+        Model::new(spec).unwrap()
+    };
+    // The same motion as the unshifted block (kicked() would read velocities off positions).
+    let mut state = State::at_rest(&shifted);
+    state.v = kicked(&block(true, true)).v;
+    let (x_hat, beta) = backward_euler_problem(&state, 0.01);
+    // Tolerance 0 can never be met by the gradient test: Newton must stop on round-off.
+    let settings = NewtonSettings {
+        tolerance: 0.0,
+        max_iterations: 30,
+        require_convergence: true,
+        ..Default::default()
+    };
+    let mut solver = newton(settings);
+    let mut x = x_hat.clone();
+    let mut report = StepReport::default();
+    let result = solver.minimize(&mut shifted, &x_hat, &state.q, beta, &mut x, &mut report);
+    eprintln!(
+        "trace {:?} backtracks {}",
+        solver.trace(),
+        report.line_search_backtracks
+    );
+    result.unwrap();
+    assert!(
+        solver.trace().roundoff_accepted,
+        "the round-off rule should have ended the iteration"
+    );
+    assert_eq!(
+        report.line_search_backtracks, 0,
+        "full Newton steps should never be cut near the solution"
+    );
+    assert!(solver.trace().converged);
+}
+
+#[test]
+fn every_linear_solver_gives_the_same_newton_step() {
+    let mut results = Vec::new();
+    for kind in LinearSolverKind::ALL {
+        let mut model = block(true, true);
+        let mut state = kicked(&model);
+        let mut settings = IntegratorSettings {
+            method: Method::BackwardEuler,
+            linear_solver: kind,
+            ..Default::default()
+        };
+        settings.newton.tolerance = 1e-12;
+        settings.newton.max_iterations = 30;
+        settings.solver = SolverSettings {
+            cg: CgSettings {
+                tolerance: 1e-13,
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        let mut integ = settings.build();
+        for _ in 0..5 {
+            integ
+                .step(&mut model, &mut state, 0.01)
+                .unwrap_or_else(|e| panic!("{kind}: {e}"));
+        }
+        results.push((kind, state.q));
+    }
+    let (_, reference) = &results[0];
+    let scale = reference.iter().map(|x| x * x).sum::<f64>().sqrt();
+    for (kind, q) in &results[1..] {
+        let diff = reference
+            .iter()
+            .zip(q)
+            .map(|(a, b)| (a - b).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        assert!(
+            diff <= 1e-10 * scale,
+            "{kind} differs from cholesky by {diff:.3e}"
+        );
+    }
+}
+
+#[test]
+fn an_indefinite_system_falls_back_to_projected_hessians() {
+    // St. Venant–Kirchhoff squashed to a third of its length has strongly negative
+    // stiffness; with a large step M + dt^2 K is indefinite and Cholesky fails.
+    let lame = softbench::material::LameParameters::from_youngs_poisson(1e4, 0.3).unwrap();
+    let material = softbench::material::MaterialModel::from_name("stvk", lame).unwrap();
+    let mesh = softbench::mesh::generate::box_mesh([2, 1, 1], [0.2, 0.1, 0.1]);
+    let mut model =
+        Model::new(softbench::model::ModelSpec::elastic(mesh, material, 1000.0)).unwrap();
+    let mut state = State::at_rest(&model);
+    state.q.iter_mut().step_by(3).for_each(|x| *x *= 0.35);
+    let mut integ = IntegratorSettings {
+        method: Method::BackwardEuler,
+        ..Default::default()
+    }
+    .build();
+    let report = integ.step(&mut model, &mut state, 0.1).unwrap();
+    assert!(
+        report.indefinite_fallbacks > 0,
+        "expected an indefinite system: {report:?}"
+    );
+}
+
+#[test]
+fn a_failed_step_is_retried_as_two_half_steps_when_asked() {
+    let run = |halvings: u32| {
+        let mut model = block(true, true);
+        let mut state = kicked(&model);
+        let mut settings = IntegratorSettings {
+            method: Method::BackwardEuler,
+            ..Default::default()
+        };
+        settings.newton.max_iterations = 1;
+        settings.newton.tolerance = 1e-6;
+        settings.newton.require_convergence = true;
+        settings.newton.retry_halvings = halvings;
+        let result = settings.build().step(&mut model, &mut state, 0.02);
+        (result, state)
+    };
+    let (failed, untouched) = run(0);
+    assert!(
+        matches!(failed, Err(StepError::NewtonFailed { .. })),
+        "{failed:?}"
+    );
+    assert_eq!(untouched.t, 0.0, "a failed step leaves the state as it was");
+    let (retried, state) = run(6);
+    let report = retried.expect("halving should rescue the step");
+    assert!(report.dt_halvings >= 1);
+    assert!(report.substeps >= 2);
+    assert!((state.t - 0.02).abs() < 1e-15, "the step still covers dt");
+}
