@@ -32,6 +32,11 @@ pub struct AdaptiveSettings {
     pub max_growth: f64,
     /// Largest step reduction per step. Default 0.2.
     pub min_shrink: f64,
+    /// Internal steps (accepted + rejected) allowed per call before the step fails with
+    /// `TooManySubsteps`, so a method that cannot meet the tolerance does not grind forever
+    /// (adaptive explicit Euler on the armadillo needs about a million per 0.01 s). Default
+    /// 100,000.
+    pub max_substeps: u64,
 }
 
 impl Default for AdaptiveSettings {
@@ -44,6 +49,7 @@ impl Default for AdaptiveSettings {
             max_dt: None,
             max_growth: 5.0,
             min_shrink: 0.2,
+            max_substeps: 100_000,
         }
     }
 }
@@ -202,7 +208,15 @@ impl Integrator for Adaptive {
         let mut current = std::mem::take(&mut self.current);
         current.clone_from(state);
         let mut remaining = dt;
+        let mut attempts = 0u64;
         while remaining > 0.0 {
+            attempts += 1;
+            if attempts > s.max_substeps {
+                return Err(StepError::TooManySubsteps {
+                    substeps: s.max_substeps,
+                    dt: proposed,
+                });
+            }
             // Finish the interval exactly; a last step within 1e-12 of the rest takes the rest.
             let last = proposed >= remaining * (1.0 - 1e-12);
             let h = if last { remaining } else { proposed };

@@ -92,6 +92,11 @@ pub enum StepError {
     /// Adaptive step control needed a step below its minimum.
     #[error("adaptive step size {dt:.3e} fell below the minimum {min_dt:.3e}")]
     StepTooSmall { dt: f64, min_dt: f64 },
+    /// Adaptive step control used up its budget of internal steps for one call.
+    #[error(
+        "adaptive step control needed more than {substeps} internal steps (last step {dt:.3e} s)"
+    )]
+    TooManySubsteps { substeps: u64, dt: f64 },
     /// Any other model error.
     #[error(transparent)]
     Model(ModelError),
@@ -99,7 +104,7 @@ pub enum StepError {
 
 impl StepError {
     /// A short cause for tables: "non-finite state", "inverted element", "newton failure",
-    /// "solver failure", "step too small" or "model error".
+    /// "solver failure", "step too small", "too many substeps" or "model error".
     pub fn cause(&self) -> &'static str {
         match self {
             Self::NonFinite { .. } => "non-finite state",
@@ -107,6 +112,7 @@ impl StepError {
             Self::NewtonFailed { .. } => "newton failure",
             Self::Solver(_) => "solver failure",
             Self::StepTooSmall { .. } => "step too small",
+            Self::TooManySubsteps { .. } => "too many substeps",
             Self::Model(_) => "model error",
         }
     }

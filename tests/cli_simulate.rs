@@ -1,0 +1,285 @@
+//! `softbench simulate`: every shipped scene runs with every method; a method that blows up
+//! ends with the step, time and cause and exit code 1, never a panic or a truncated CSV; bad
+//! input is exit code 2 with nothing written.
+
+mod common;
+
+use common::TempDir;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+const TRAJECTORY_HEADER: &str = "step,t,dt,kinetic,elastic,gravity,total,momentum_x,momentum_y,momentum_z,newton_iterations,linear_iterations,wall_seconds";
+
+fn softbench(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_softbench"))
+        .args(args)
+        .output()
+        .expect("cannot run softbench")
+}
+
+fn scene(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("experiments/scenes")
+        .join(name)
+}
+
+fn methods() -> Vec<String> {
+    softbench::integrate::Method::ALL
+        .iter()
+        .map(|m| m.name().to_owned())
+        .collect()
+}
+
+/// Run `scene` with `method` for `steps` steps and check the outputs are complete and honest.
+/// Adaptive methods cover a short interval: on the stiff course meshes they need thousands
+/// of internal steps per 0.01 s (which is what they are for, but not what this test checks).
+fn check_run(scene_file: &Path, method: &str, steps: usize, dir: &TempDir) {
+    let out = dir.path().join(method);
+    let out_str = out.to_str().unwrap();
+    let steps_set = format!("run.steps={steps}");
+    let method_set = format!("integrator.method={method}");
+    let mut args = vec![
+        "simulate",
+        scene_file.to_str().unwrap(),
+        "--out",
+        out_str,
+        "--set",
+        &method_set,
+        "--set",
+        &steps_set,
+    ];
+    if method.starts_with("adaptive") || method == "dopri5" {
+        args.extend(["--set", "run.dt=1e-4"]);
+    }
+    let result = softbench(&args);
+    let code = result.status.code();
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    assert!(
+        matches!(code, Some(0) | Some(1)),
+        "{method}: exit {code:?} (a panic is 101): {stderr}"
+    );
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let outcome = &summary["summary"]["outcome"];
+    let completed = summary["summary"]["steps_completed"].as_u64().unwrap() as usize;
+    let csv = std::fs::read_to_string(out.join("trajectory.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert!(
+        lines.next().unwrap().starts_with(TRAJECTORY_HEADER),
+        "{method}: header"
+    );
+    let rows: Vec<&str> = lines.collect();
+    assert!(!out.join("trajectory.csv.partial").exists());
+    match code {
+        Some(0) => {
+            assert_eq!(outcome["status"], "completed", "{method}");
+            assert_eq!(
+                rows.len(),
+                steps + 1,
+                "{method}: one row per step plus step 0"
+            );
+            let positions = std::fs::read_to_string(out.join("final_positions.csv")).unwrap();
+            assert!(positions.starts_with("vertex,x,y,z\n"));
+        }
+        _ => {
+            assert_eq!(outcome["status"], "failed", "{method}");
+            let cause = outcome["cause"].as_str().unwrap();
+            let allowed = [
+                "non-finite state",
+                "inverted element",
+                "energy growth",
+                "newton failure",
+                "solver failure",
+                "step too small",
+                "too many substeps",
+            ];
+            assert!(allowed.contains(&cause), "{method}: cause {cause}");
+            assert!(
+                stderr.contains("failed at step") && stderr.contains(cause),
+                "{method}: {stderr}"
+            );
+            // Every row is a valid state: step 0 through the last completed (and sampled) step.
+            let last: usize = rows
+                .last()
+                .unwrap()
+                .split(',')
+                .next()
+                .unwrap()
+                .parse()
+                .unwrap();
+            assert!(
+                last <= completed && !rows.is_empty(),
+                "{method}: rows end at {last}, completed {completed}"
+            );
+            assert!(rows.iter().all(|r| {
+                r.split(',')
+                    .all(|f| f.parse::<f64>().map_or(true, f64::is_finite))
+            }));
+        }
+    }
+}
+
+#[test]
+fn the_cantilever_runs_with_every_method() {
+    let dir = TempDir::new("simulate-cantilever");
+    for method in methods() {
+        check_run(&scene("cantilever.toml"), &method, 4, &dir);
+    }
+}
+
+#[test]
+fn the_course_armadillo_and_bunny_run_with_every_method() {
+    for (name, mesh) in [
+        ("armadillo.toml", "arma_6.node"),
+        ("bunny.toml", "coarser_bunny.mesh"),
+    ] {
+        if common::reference_mesh(mesh).is_none() {
+            return;
+        }
+        let dir = TempDir::new("simulate-course");
+        for method in methods() {
+            check_run(&scene(name), &method, 3, &dir);
+        }
+    }
+}
+
+#[test]
+fn explicit_methods_blow_up_on_the_armadillo_at_the_course_step_and_say_why() {
+    if common::reference_mesh("arma_6.node").is_none() {
+        return;
+    }
+    let dir = TempDir::new("simulate-blowup");
+    let out = dir.path().join("out");
+    let result = softbench(&[
+        "simulate",
+        scene("armadillo.toml").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--set",
+        "integrator.method=symplectic-euler",
+        "--set",
+        "run.steps=50",
+    ]);
+    assert_eq!(result.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    assert!(stderr.contains("failed at step"), "{stderr}");
+}
+
+#[test]
+fn unknown_method_is_bad_input_with_a_suggestion_and_nothing_is_written() {
+    let dir = TempDir::new("simulate-bad-method");
+    let out = dir.path().join("out");
+    let result = softbench(&[
+        "simulate",
+        scene("cantilever.toml").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--set",
+        "integrator.method=rk5",
+    ]);
+    assert_eq!(result.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    assert!(
+        stderr.contains("did you mean `rk4`?") && stderr.contains("backward-euler"),
+        "{stderr}"
+    );
+    assert!(!out.exists(), "nothing may be written for bad input");
+}
+
+#[test]
+fn unknown_key_names_the_file_and_line_and_the_valid_keys() {
+    let dir = TempDir::new("simulate-bad-key");
+    let file = dir.write(
+        "scene.toml",
+        "[mesh]\ngenerate = { box = [1, 1, 1], size = [1.0, 1.0, 1.0] }\n\n[run]\ndt = 0.01\nstep = 10\n",
+    );
+    let out = dir.path().join("out");
+    let result = softbench(&[
+        "simulate",
+        file.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(result.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    assert!(
+        stderr.contains("scene.toml") && stderr.contains("line 6") && stderr.contains("`steps`"),
+        "{stderr}"
+    );
+    assert!(!out.exists());
+}
+
+#[test]
+fn invalid_values_and_missing_meshes_are_bad_input() {
+    let dir = TempDir::new("simulate-bad-values");
+    let cases = [
+        (
+            "[mesh]\ngenerate = { box = [1, 1, 1], size = [1.0, 1.0, 1.0] }\n[run]\ndt = -0.01\nsteps = 10\n",
+            "run.dt",
+        ),
+        (
+            "[mesh]\nfile = \"no-such-mesh.mesh\"\n[run]\ndt = 0.01\nsteps = 10\n",
+            "no-such-mesh.mesh",
+        ),
+        (
+            "[mesh]\ngenerate = { box = [1, 1, 1], size = [1.0, 1.0, 1.0] }\n[material]\nyoungs_modulus = 1e5\npoisson_ratio = 0.5\ndensity = 1.0\n[run]\ndt = 0.01\nsteps = 10\n",
+            "poisson_ratio",
+        ),
+        (
+            "[mesh]\ngenerate = { box = [1, 1, 1], size = [1.0, 1.0, 1.0] }\n[material]\nyoungs_modulus = 1e5\npoisson_ratio = 0.3\ndensity = -1.0\n[run]\ndt = 0.01\nsteps = 10\n",
+            "density",
+        ),
+    ];
+    for (i, (text, needle)) in cases.iter().enumerate() {
+        let file = dir.write(&format!("scene{i}.toml"), text);
+        let out = dir.path().join(format!("out{i}"));
+        let result = softbench(&[
+            "simulate",
+            file.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        let stderr = String::from_utf8_lossy(&result.stderr);
+        assert_eq!(result.status.code(), Some(2), "case {i}: {stderr}");
+        assert!(
+            stderr.contains(needle),
+            "case {i}: expected `{needle}` in: {stderr}"
+        );
+        assert!(!out.exists(), "case {i}: nothing may be written");
+    }
+}
+
+#[test]
+fn set_overrides_reach_the_run() {
+    let dir = TempDir::new("simulate-set");
+    let out = dir.path().join("out");
+    let result = softbench(&[
+        "simulate",
+        scene("cantilever.toml").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--set",
+        "integrator.method=implicit-midpoint",
+        "--set",
+        "run.dt=5e-3",
+        "--set",
+        "run.steps=4",
+        "--set",
+        "run.sample_every=2",
+    ]);
+    assert_eq!(
+        result.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&result.stderr)
+    );
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["summary"]["method"], "implicit-midpoint");
+    assert_eq!(summary["summary"]["dt"], 5e-3);
+    let rows = std::fs::read_to_string(out.join("trajectory.csv"))
+        .unwrap()
+        .lines()
+        .count();
+    assert_eq!(rows, 1 + 3, "header plus steps 0, 2, 4");
+}
