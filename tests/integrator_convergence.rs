@@ -3,8 +3,9 @@
 
 mod common;
 
-use common::bodies::{block, distance, integrate, kicked};
+use common::bodies::{block, block_with_moving_anchor, distance, integrate, kicked};
 use softbench::integrate::Method;
+use softbench::model::Model;
 
 const T_END: f64 = 0.05;
 
@@ -21,7 +22,10 @@ fn slope(dts: &[f64], errors: &[f64]) -> f64 {
 
 /// The observed order of `method` with `steps`, `2 steps`, `4 steps`, `8 steps` over T_END.
 fn observed_order(method: Method, coarsest_steps: usize) -> (f64, Vec<f64>) {
-    let mut model = block(true, true);
+    observed_order_on(block(true, true), method, coarsest_steps)
+}
+
+fn observed_order_on(mut model: Model, method: Method, coarsest_steps: usize) -> (f64, Vec<f64>) {
     let start = kicked(&model);
     let reference = integrate(&mut model, Method::Rk4, &start, T_END, 6400);
     let mut dts = Vec::new();
@@ -86,4 +90,25 @@ fn implicit_midpoint_is_second_order() {
 #[test]
 fn bdf2_is_second_order() {
     assert_order(Method::Bdf2, 2.0, 50);
+}
+
+/// With a time-dependent potential, a method keeps its order only if it evaluates forces at
+/// the right stage times (t + c_s dt, the midpoint, the end of the step).
+#[test]
+fn methods_keep_their_order_with_a_moving_anchor() {
+    for (method, expected, steps) in [
+        (Method::Rk4, 4.0, 25),
+        (Method::Midpoint, 2.0, 50),
+        (Method::ImplicitMidpoint, 2.0, 50),
+        (Method::Bdf2, 2.0, 50),
+        (Method::BackwardEuler, 1.0, 200),
+        (Method::SymplecticEuler, 1.0, 200),
+    ] {
+        let (order, errors) = observed_order_on(block_with_moving_anchor(), method, steps);
+        eprintln!("{method} with a moving anchor: observed order {order:.3}");
+        assert!(
+            (order - expected).abs() <= 0.15,
+            "{method}: order {order:.3} with a moving anchor; errors {errors:?}"
+        );
+    }
 }

@@ -478,3 +478,21 @@ fn armadillo_gradient_and_hessian_match_finite_differences() {
         check_hessian(&mut model, &q, &format!("arma_6 {name}"));
     }
 }
+
+#[test]
+fn vertex_potentials_enter_the_gradient_and_hessian() {
+    let mut model = test_model(Parallelism::Rayon);
+    let center = model.rest_positions()[30];
+    model.add_vertex_potential(Box::new(common::bodies::MovingAnchor {
+        vertex: 30,
+        stiffness: 3e3,
+        center,
+        radius: 0.05,
+        angular_speed: 2.0,
+    }));
+    model.set_time(0.3);
+    let q = perturbed_state(&model, 0.01, 21);
+    check_gradient(&mut model, &q, "with anchor");
+    check_hessian(&mut model, &q, "with anchor");
+    assert!(model.potential_parts(&q).unwrap().vertex > 0.0);
+}

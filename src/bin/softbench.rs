@@ -163,7 +163,7 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
         integrator.as_mut(),
         &mut state,
         &config.run,
-        &mut |row| {
+        &mut |row: &experiment::Sample| {
             rows += 1;
             csv.serialize(row).map_err(std::io::Error::other)
         },

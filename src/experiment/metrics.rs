@@ -10,12 +10,14 @@ pub struct Energies {
     pub elastic: f64,
     pub springs: f64,
     pub gravity: f64,
+    /// Per-vertex potentials: contact penalties and drag springs.
+    pub external: f64,
 }
 
 impl Energies {
     /// Kinetic plus potential.
     pub fn total(&self) -> f64 {
-        self.kinetic + self.elastic + self.springs + self.gravity
+        self.kinetic + self.elastic + self.springs + self.gravity + self.external
     }
 
     /// Kinetic plus stored (elastic and spring) energy: what blows up when a method is
@@ -34,10 +36,12 @@ pub struct Metrics {
 impl Metrics {
     /// Energies of `state` (one potential evaluation).
     pub fn energies(&mut self, model: &mut Model, state: &State) -> Result<Energies, ModelError> {
+        model.set_time(state.t);
         let PotentialParts {
             elastic,
             springs,
             gravity,
+            vertex,
         } = model.potential_parts(&state.q)?;
         self.mv.resize(state.v.len(), 0.0);
         model.mass().mul_vec(&state.v, &mut self.mv);
@@ -53,6 +57,7 @@ impl Metrics {
             elastic,
             springs,
             gravity,
+            external: vertex,
         })
     }
 

@@ -5,4 +5,4 @@ mod metrics;
 mod run;
 
 pub use metrics::{Energies, Metrics};
-pub use run::{Outcome, RunSummary, Sample, run};
+pub use run::{Observer, Outcome, RunSummary, Sample, run};

@@ -35,6 +35,8 @@ pub struct Sample {
     /// Wall time of the steps since the previous row (s).
     pub wall_seconds: f64,
     pub springs: f64,
+    /// Per-vertex potentials: contact penalties and drag springs (J).
+    pub external: f64,
     /// Angular momentum about the origin (kg m^2/s).
     pub angular_momentum_x: f64,
     pub angular_momentum_y: f64,
@@ -58,6 +60,24 @@ pub struct Sample {
     pub solve_seconds: f64,
     /// Wall time since the start of the run (s).
     pub elapsed_seconds: f64,
+}
+
+/// What watches a run: every sampled row, and (optionally) the state after every step —
+/// for writing frames. A closure `FnMut(&Sample) -> io::Result<()>` is an observer of rows.
+pub trait Observer {
+    /// A sampled row.
+    fn sample(&mut self, sample: &Sample) -> std::io::Result<()>;
+
+    /// The state after `step` steps (step 0 is the initial state). Default: nothing.
+    fn after_step(&mut self, _step: usize, _model: &Model, _state: &State) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+impl<F: FnMut(&Sample) -> std::io::Result<()>> Observer for F {
+    fn sample(&mut self, sample: &Sample) -> std::io::Result<()> {
+        self(sample)
+    }
 }
 
 /// How a run ended.
@@ -137,6 +157,7 @@ fn sample(
         linear_iterations: work.linear_iterations,
         wall_seconds: work.times.total,
         springs: energies.springs,
+        external: energies.external,
         angular_momentum_x: l[0],
         angular_momentum_y: l[1],
         angular_momentum_z: l[2],
@@ -168,15 +189,16 @@ fn add_work(acc: &mut StepReport, r: &StepReport) {
     acc.times.total += r.times.total;
 }
 
-/// Run `config.steps` steps of `integrator` from `state`, calling `on_sample` for step 0 and
-/// every `config.sample_every` steps (and the last). Returns how the run ended; an error only
-/// when `on_sample` fails (e.g. the output file cannot be written).
+/// Run `config.steps` steps of `integrator` from `state`, giving the observer step 0 and
+/// every `config.sample_every` steps (and the last), and every state with `after_step`.
+/// Returns how the run ended; an error only when the observer fails (e.g. the output file
+/// cannot be written).
 pub fn run(
     model: &mut Model,
     integrator: &mut dyn Integrator,
     state: &mut State,
     config: &RunConfig,
-    on_sample: &mut dyn FnMut(&Sample) -> std::io::Result<()>,
+    observer: &mut dyn Observer,
 ) -> std::io::Result<RunSummary> {
     let mut metrics = Metrics::default();
     let start = std::time::Instant::now();
@@ -219,7 +241,8 @@ pub fn run(
         dt,
         elapsed: 0.0,
     };
-    on_sample(&sample(0, state, &initial, momenta, no_work))?;
+    observer.sample(&sample(0, state, &initial, momenta, no_work))?;
+    observer.after_step(0, model, state)?;
 
     let drift_scale = |e: &Energies| {
         let work = (initial.gravity - e.gravity).abs();
@@ -235,6 +258,7 @@ pub fn run(
                 steps_since_row += 1;
                 summary.steps_completed = step;
                 summary.final_time = state.t;
+                observer.after_step(step, model, state)?;
             }
             Err(e) => {
                 summary.outcome = Outcome::Failed {
@@ -269,7 +293,7 @@ pub fn run(
             dt,
             elapsed: start.elapsed().as_secs_f64(),
         };
-        on_sample(&sample(step, state, &energies, momenta, work))?;
+        observer.sample(&sample(step, state, &energies, momenta, work))?;
         since_row = StepReport::default();
         steps_since_row = 0;
         let drift = (energies.total() - initial.total()).abs() / drift_scale(&energies);

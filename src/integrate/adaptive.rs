@@ -142,7 +142,9 @@ impl Adaptive {
                 let mut sub = StepReport::default();
                 inner.advance(model, &mut self.full, h, &mut sub)?;
                 inner.advance(model, &mut self.half, 0.5 * h, &mut sub)?;
+                self.half.t += 0.5 * h;
                 inner.advance(model, &mut self.half, 0.5 * h, &mut sub)?;
+                self.half.t = state.t;
                 report.absorb(&StepReport { substeps: 0, ..sub });
                 self.error.resize(2 * n, 0.0);
                 let (eq, ev) = self.error.split_at_mut(n);
@@ -158,7 +160,7 @@ impl Adaptive {
                     v: &mut self.half.v,
                     error: Some(&mut self.error),
                 };
-                rk.stages(model, &state.q, &state.v, h, out)?;
+                rk.stages(model, state, h, out)?;
             }
         }
         let s = &self.settings;
@@ -238,6 +240,7 @@ impl Integrator for Adaptive {
             };
             if matches!(err, Some(e) if e <= 1.0) {
                 std::mem::swap(&mut current, &mut self.half);
+                current.t += h;
                 remaining = if last { 0.0 } else { remaining - h };
                 report.substeps += 1;
                 // Keep the proposal of a full step: a truncated last step says nothing new.

@@ -37,6 +37,7 @@ impl BackwardEuler {
         self.x_hat
             .extend(state.q.iter().zip(&state.v).map(|(q, v)| q + dt * v));
         self.x.clone_from(&self.x_hat);
+        model.set_time(state.t + dt);
         self.newton
             .minimize(model, &self.x_hat, &state.q, dt * dt, &mut self.x, report)?;
         for ((q, v), x) in state.q.iter_mut().zip(state.v.iter_mut()).zip(&self.x) {

@@ -56,6 +56,7 @@ impl Bdf2 {
             dt * dt
         };
         self.x.clone_from(&self.x_hat);
+        model.set_time(state.t + dt);
         self.newton
             .minimize(model, &self.x_hat, &state.q, beta, &mut self.x, report)?;
         // The new state; the old one becomes the history.

@@ -38,6 +38,7 @@ impl ImplicitMidpoint {
         self.y_hat
             .extend(state.q.iter().zip(&state.v).map(|(q, v)| q + 0.5 * dt * v));
         self.y.clone_from(&self.y_hat);
+        model.set_time(state.t + 0.5 * dt);
         self.newton.minimize(
             model,
             &self.y_hat,

@@ -50,6 +50,8 @@ impl Integrator for LinearlyImplicitEuler {
         let n = state.q.len();
         self.rhs.resize(n, 0.0);
         self.mv.resize(n, 0.0);
+        // Forces linearized at q_t, with time-dependent potentials at the end of the step.
+        model.set_time(state.t + dt);
         model.gradient(&state.q, &mut self.rhs)?;
         model.mass().mul_vec(&state.v, &mut self.mv);
         for (r, mv) in self.rhs.iter_mut().zip(&self.mv) {

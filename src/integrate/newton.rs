@@ -354,10 +354,15 @@ where
         Err(_) => {
             report.dt_halvings += 1;
             let backup = state.clone();
-            let result = with_halving(halvings - 1, state, 0.5 * dt, report, step)
-                .and_then(|()| with_halving(halvings - 1, state, 0.5 * dt, report, step));
+            let result = with_halving(halvings - 1, state, 0.5 * dt, report, step).and_then(|()| {
+                // The second half starts half a step later (the caller advances t by dt).
+                state.t = backup.t + 0.5 * dt;
+                with_halving(halvings - 1, state, 0.5 * dt, report, step)
+            });
             if result.is_err() {
                 *state = backup;
+            } else {
+                state.t = backup.t;
             }
             result
         }

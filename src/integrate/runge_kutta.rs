@@ -77,11 +77,11 @@ impl ExplicitRungeKutta {
     pub(crate) fn stages(
         &mut self,
         model: &mut Model,
-        q: &[f64],
-        v: &[f64],
+        start: &State,
         dt: f64,
         out: StageOutput<'_>,
     ) -> Result<(), StepError> {
+        let (q, v) = (&start.q, &start.v);
         let StageOutput {
             q: q_out,
             v: v_out,
@@ -91,6 +91,8 @@ impl ExplicitRungeKutta {
         self.ensure_buffers(n);
         let t = self.tableau;
         for (s, row) in t.a.iter().enumerate() {
+            // Stage time t + c_s dt with c_s = sum_j a_sj (time-dependent potentials).
+            model.set_time(start.t + dt * row.iter().sum::<f64>());
             self.q_stage.copy_from_slice(q);
             self.v_stage.copy_from_slice(v);
             for (j, &a) in row.iter().enumerate() {
@@ -161,7 +163,7 @@ impl Integrator for ExplicitRungeKutta {
             v: &mut v_next,
             error: None,
         };
-        let result = self.stages(model, &state.q, &state.v, dt, out);
+        let result = self.stages(model, state, dt, out);
         if result.is_ok() {
             std::mem::swap(&mut state.q, &mut q_next);
             std::mem::swap(&mut state.v, &mut v_next);

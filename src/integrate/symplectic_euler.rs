@@ -40,6 +40,7 @@ impl Integrator for SymplecticEuler {
         report: &mut StepReport,
     ) -> Result<(), StepError> {
         self.a.resize(state.q.len(), 0.0);
+        model.set_time(state.t);
         acceleration(model, &mut self.mass, &state.q, &mut self.a)?;
         for ((q, v), a) in state.q.iter_mut().zip(state.v.iter_mut()).zip(&self.a) {
             *v += dt * a;

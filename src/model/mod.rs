@@ -12,12 +12,14 @@ mod error;
 mod mass;
 mod pattern;
 mod springs;
+mod vertex_potential;
 
 pub use dofs::{AxisRule, DofMap, FIXED, FixedSelection, Side};
 pub use error::ModelError;
 pub use mass::{MassKind, MassMatrix};
 pub use pattern::BlockPattern;
 pub use springs::Spring;
+pub use vertex_potential::VertexPotential;
 
 use crate::fem::{TetRest, consistent_mass_matrix, lumped_vertex_mass};
 use crate::material::MaterialModel;
@@ -96,12 +98,14 @@ pub struct PotentialParts {
     pub elastic: f64,
     pub springs: f64,
     pub gravity: f64,
+    /// Vertex potentials (contact penalties, drag springs).
+    pub vertex: f64,
 }
 
 impl PotentialParts {
     /// Sum of all parts.
     pub fn total(&self) -> f64 {
-        self.elastic + self.springs + self.gravity
+        self.elastic + self.springs + self.gravity + self.vertex
     }
 }
 
@@ -131,6 +135,11 @@ pub struct Model {
     positions: Vec<Vector3<f64>>,
     elastic: Option<ElasticBody>,
     springs: Vec<Spring>,
+    vertex_potentials: Vec<Box<dyn VertexPotential>>,
+    /// Where each free vertex's 3×3 diagonal block sits in the Hessian values (column-major).
+    diagonal_slots: Vec<[usize; 9]>,
+    /// The time time-dependent potentials are evaluated at (s).
+    time: f64,
     pattern: BlockPattern,
     tet_gather: ElementGather,
     spring_gather: ElementGather,
@@ -366,6 +375,17 @@ impl Model {
         } else {
             ElementGather::default()
         };
+        let diagonal_slots = (0..dofs.num_free())
+            .map(|f| {
+                std::array::from_fn(|k| {
+                    let (i, j) = (k % 3, k / 3);
+                    pattern
+                        .scalar()
+                        .find(3 * f + i, 3 * f + j)
+                        .expect("diagonal blocks are in the pattern")
+                })
+            })
+            .collect();
         let elastic = material.map(|material| ElasticBody {
             material,
             tets,
@@ -377,6 +397,9 @@ impl Model {
             positions: mesh.positions,
             elastic,
             springs,
+            vertex_potentials: Vec::new(),
+            diagonal_slots,
+            time: 0.0,
             pattern,
             tet_gather,
             spring_gather,
@@ -441,6 +464,28 @@ impl Model {
     /// The springs.
     pub fn springs(&self) -> &[Spring] {
         &self.springs
+    }
+
+    /// Add a per-vertex potential (contact penalty, drag). Its Hessian blocks are diagonal,
+    /// so the pattern does not change.
+    pub fn add_vertex_potential(&mut self, potential: Box<dyn VertexPotential>) {
+        self.vertex_potentials.push(potential);
+    }
+
+    /// The per-vertex potentials.
+    pub fn vertex_potentials(&self) -> &[Box<dyn VertexPotential>] {
+        &self.vertex_potentials
+    }
+
+    /// Set the time at which time-dependent potentials are evaluated (integrators call this
+    /// before each evaluation at a new stage time).
+    pub fn set_time(&mut self, t: f64) {
+        self.time = t;
+    }
+
+    /// The current evaluation time (s).
+    pub fn time(&self) -> f64 {
+        self.time
     }
 
     /// The Hessian's block pattern.
@@ -522,10 +567,16 @@ impl Model {
                 .map(|(p, m)| m * g.dot(p))
                 .sum::<f64>()
         });
+        let vertex = self
+            .vertex_potentials
+            .iter()
+            .map(|p| p.energy(self.time, x))
+            .sum();
         Ok(PotentialParts {
             elastic,
             springs,
             gravity,
+            vertex,
         })
     }
 
@@ -574,6 +625,18 @@ impl Model {
                     g[3 * f + i] -= self.vertex_mass[v] * gr[i];
                 }
             }
+        }
+        let dofs = &self.dofs;
+        for p in &self.vertex_potentials {
+            p.gradient(self.time, &self.positions, &mut |v, gv| {
+                let f = dofs.free_index(v);
+                if f != FIXED {
+                    let f = f as usize;
+                    for i in 0..3 {
+                        g[3 * f + i] += gv[i];
+                    }
+                }
+            });
         }
         Ok(())
     }
@@ -628,6 +691,23 @@ impl Model {
             ],
             h.values_mut(),
         );
+        let values = h.values_mut();
+        let (dofs, slots) = (&self.dofs, &self.diagonal_slots);
+        for p in &self.vertex_potentials {
+            p.hessian(
+                self.time,
+                &self.positions,
+                options.project_elements,
+                &mut |v, block| {
+                    let f = dofs.free_index(v);
+                    if f != FIXED {
+                        for (slot, value) in slots[f as usize].iter().zip(block.iter()) {
+                            values[*slot] += value;
+                        }
+                    }
+                },
+            );
+        }
         Ok(())
     }
 }

@@ -97,3 +97,62 @@ pub fn distance(a: &[f64], b: &[f64]) -> f64 {
         .sum::<f64>()
         .sqrt()
 }
+
+/// A zero-rest-length spring pulling vertex `vertex` towards a point moving on a circle —
+/// a smooth, time-dependent per-vertex potential.
+#[derive(Debug)]
+pub struct MovingAnchor {
+    pub vertex: usize,
+    pub stiffness: f64,
+    pub center: Vector3<f64>,
+    pub radius: f64,
+    pub angular_speed: f64,
+}
+
+impl MovingAnchor {
+    fn target(&self, t: f64) -> Vector3<f64> {
+        let a = self.angular_speed * t;
+        self.center + Vector3::new(0.0, a.cos() - 1.0, a.sin()) * self.radius
+    }
+}
+
+impl softbench::model::VertexPotential for MovingAnchor {
+    fn name(&self) -> &str {
+        "anchor"
+    }
+
+    fn energy(&self, t: f64, x: &[Vector3<f64>]) -> f64 {
+        0.5 * self.stiffness * (x[self.vertex] - self.target(t)).norm_squared()
+    }
+
+    fn gradient(&self, t: f64, x: &[Vector3<f64>], add: &mut dyn FnMut(usize, Vector3<f64>)) {
+        add(
+            self.vertex,
+            (x[self.vertex] - self.target(t)) * self.stiffness,
+        );
+    }
+
+    fn hessian(
+        &self,
+        _t: f64,
+        _x: &[Vector3<f64>],
+        _project: bool,
+        add: &mut dyn FnMut(usize, nalgebra::Matrix3<f64>),
+    ) {
+        add(self.vertex, nalgebra::Matrix3::identity() * self.stiffness);
+    }
+}
+
+/// The clamped block with its far corner (vertex 5, at x = 0.2) pulled around a circle.
+pub fn block_with_moving_anchor() -> Model {
+    let mut model = block(true, false);
+    let center = model.rest_positions()[5];
+    model.add_vertex_potential(Box::new(MovingAnchor {
+        vertex: 5,
+        stiffness: 50.0,
+        center,
+        radius: 0.02,
+        angular_speed: 40.0,
+    }));
+    model
+}
