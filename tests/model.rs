@@ -50,12 +50,14 @@ fn test_model_with(par: Parallelism, material: MaterialModel) -> Model {
             j: 35,
             rest_length: 0.1,
             stiffness: 5e3,
+            damping: 0.0,
         },
         Spring {
             i: 20,
             j: 33,
             rest_length: 0.0,
             stiffness: 2e3,
+            damping: 0.0,
         },
     ];
     spec.parallelism = par;
@@ -423,6 +425,7 @@ fn bad_parameters_are_errors_naming_the_field() {
         j: 0,
         rest_length: 1.0,
         stiffness: 1.0,
+        damping: 0.0,
     }];
     assert!(matches!(
         Model::new(spec).unwrap_err(),

@@ -2,14 +2,16 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-/// A spring joining vertices `i` and `j` with rest length `rest_length` (>= 0) and stiffness
-/// `stiffness` (N/m).
+/// A spring joining vertices `i` and `j` with rest length `rest_length` (>= 0), stiffness
+/// `stiffness` (N/m) and damping `damping` (N s/m) along its direction.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Spring {
     pub i: usize,
     pub j: usize,
     pub rest_length: f64,
     pub stiffness: f64,
+    /// Damping coefficient c: force `-c ((v_i - v_j) . u) u` on `i` (0 for none).
+    pub damping: f64,
 }
 
 impl Spring {
