@@ -283,3 +283,50 @@ fn set_overrides_reach_the_run() {
         .count();
     assert_eq!(rows, 1 + 3, "header plus steps 0, 2, 4");
 }
+
+#[test]
+fn damping_from_the_scene_file_removes_energy() {
+    let dir = TempDir::new("simulate-damping");
+    let run = |name: &str, extra: &[&str]| {
+        let out = dir.path().join(name);
+        let mut args = vec![
+            "simulate",
+            scene_path_str(),
+            "--out",
+            out.to_str().unwrap(),
+            "--set",
+            "integrator.method=implicit-midpoint",
+            "--set",
+            "run.steps=60",
+        ];
+        args.extend_from_slice(extra);
+        let result = softbench(&args);
+        assert_eq!(
+            result.status.code(),
+            Some(0),
+            "{}",
+            String::from_utf8_lossy(&result.stderr)
+        );
+        let csv = std::fs::read_to_string(out.join("trajectory.csv")).unwrap();
+        let total = |line: &str| line.split(',').nth(6).unwrap().parse::<f64>().unwrap();
+        let lines: Vec<&str> = csv.lines().skip(1).collect();
+        total(lines[0]) - total(lines[lines.len() - 1])
+    };
+    let undamped_loss = run("undamped", &[]);
+    let damped_loss = run(
+        "damped",
+        &[
+            "--set",
+            "damping.strain_rate={ phi = 2000.0, psi = 2000.0 }",
+        ],
+    );
+    assert!(
+        damped_loss > 10.0 * undamped_loss.abs(),
+        "damped loss {damped_loss:.3e} vs undamped {undamped_loss:.3e}"
+    );
+}
+
+fn scene_path_str() -> &'static str {
+    static PATH: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    PATH.get_or_init(|| scene("cantilever.toml").to_str().unwrap().to_owned())
+}

@@ -5,7 +5,7 @@
 mod common;
 
 use common::bodies::{block, kicked};
-use softbench::integrate::newton::{Newton, NewtonSettings};
+use softbench::integrate::newton::{Newton, NewtonSettings, Problem};
 use softbench::integrate::{IntegratorSettings, Method, State, StepError, StepReport};
 use softbench::model::Model;
 use softbench::solve::{CgSettings, LinearSolverKind, SolverSettings};
@@ -44,7 +44,17 @@ fn newton_converges_quadratically_near_the_solution() {
     let mut x = x_hat.clone();
     let mut report = StepReport::default();
     solver
-        .minimize(&mut model, &x_hat, &state.q, beta, &mut x, &mut report)
+        .minimize(
+            &mut model,
+            &Problem {
+                x_hat: &x_hat,
+                x_ref: &state.q,
+                beta,
+                damping_anchor: &state.q,
+            },
+            &mut x,
+            &mut report,
+        )
         .unwrap();
     let g = &solver.trace().gradient_norms;
     // Quadratic convergence: ‖g_k+1‖ / ‖g_k‖² stays bounded while ‖g_k+1‖ / ‖g_k‖ -> 0.
@@ -116,7 +126,17 @@ fn line_search_accepts_full_steps_once_the_decrease_is_below_round_off() {
     let mut solver = newton(settings);
     let mut x = x_hat.clone();
     let mut report = StepReport::default();
-    let result = solver.minimize(&mut shifted, &x_hat, &state.q, beta, &mut x, &mut report);
+    let result = solver.minimize(
+        &mut shifted,
+        &Problem {
+            x_hat: &x_hat,
+            x_ref: &state.q,
+            beta,
+            damping_anchor: &state.q,
+        },
+        &mut x,
+        &mut report,
+    );
     eprintln!(
         "trace {:?} backtracks {}",
         solver.trace(),

@@ -3,7 +3,7 @@
 //! `q = x`. First order, unconditionally stable, dissipative. Newton starts from `q + dt v`
 //! (the course's guess: the new velocity equals the old one).
 
-use super::newton::{Newton, NewtonSettings, with_halving};
+use super::newton::{Newton, NewtonSettings, Problem, with_halving};
 use super::{Integrator, State, StepError, StepReport};
 use crate::model::Model;
 use crate::solve::LinearSolver;
@@ -37,9 +37,17 @@ impl BackwardEuler {
         self.x_hat
             .extend(state.q.iter().zip(&state.v).map(|(q, v)| q + dt * v));
         self.x.clone_from(&self.x_hat);
-        model.set_time(state.t + dt);
+        // Damping -D v' with D = D(q): the term dt/2 (x - q)^T D (x - q).
         self.newton
-            .minimize(model, &self.x_hat, &state.q, dt * dt, &mut self.x, report)?;
+            .prepare_damping(model, &self.x_hat, &state.q, dt, report)?;
+        model.set_time(state.t + dt);
+        let problem = Problem {
+            x_hat: &self.x_hat,
+            x_ref: &state.q,
+            beta: dt * dt,
+            damping_anchor: &state.q,
+        };
+        self.newton.minimize(model, &problem, &mut self.x, report)?;
         for ((q, v), x) in state.q.iter_mut().zip(state.v.iter_mut()).zip(&self.x) {
             *v = (x - *q) / dt;
             *q = *x;

@@ -5,7 +5,7 @@
 //! same Newton solver. The first step, and any step whose dt differs from the previous one,
 //! is a backward Euler step (constant-step BDF2 needs equal steps).
 
-use super::newton::{Newton, NewtonSettings, with_halving};
+use super::newton::{Newton, NewtonSettings, Problem, with_halving};
 use super::{Integrator, State, StepError, StepReport};
 use crate::model::Model;
 use crate::solve::LinearSolver;
@@ -19,6 +19,8 @@ pub struct Bdf2 {
     v_prev: Vec<f64>,
     x: Vec<f64>,
     x_hat: Vec<f64>,
+    /// `4/3 q - 1/3 q_prev`, where BDF2's velocity (and so its damping term) is zero.
+    x_base: Vec<f64>,
 }
 
 impl Bdf2 {
@@ -31,6 +33,7 @@ impl Bdf2 {
             v_prev: Vec::new(),
             x: Vec::new(),
             x_hat: Vec::new(),
+            x_base: Vec::new(),
         }
     }
 
@@ -56,9 +59,30 @@ impl Bdf2 {
             dt * dt
         };
         self.x.clone_from(&self.x_hat);
-        model.set_time(state.t + dt);
+        // Damping -D v' with v' = 3/(2 dt) (x - x_base): the term dt/3 (x - x_base)^T D (..).
+        self.x_base.clear();
+        if bdf {
+            self.x_base.extend(
+                state
+                    .q
+                    .iter()
+                    .zip(&self.q_prev)
+                    .map(|(q, qp)| 4.0 / 3.0 * q - 1.0 / 3.0 * qp),
+            );
+        } else {
+            self.x_base.extend_from_slice(&state.q);
+        }
+        let gamma = if bdf { 2.0 / 3.0 * dt } else { dt };
         self.newton
-            .minimize(model, &self.x_hat, &state.q, beta, &mut self.x, report)?;
+            .prepare_damping(model, &self.x_hat, &state.q, gamma, report)?;
+        model.set_time(state.t + dt);
+        let problem = Problem {
+            x_hat: &self.x_hat,
+            x_ref: &state.q,
+            beta,
+            damping_anchor: &self.x_base,
+        };
+        self.newton.minimize(model, &problem, &mut self.x, report)?;
         // The new state; the old one becomes the history.
         self.q_prev.resize(state.q.len(), 0.0);
         self.v_prev.resize(state.q.len(), 0.0);

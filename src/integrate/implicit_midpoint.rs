@@ -5,7 +5,7 @@
 //! `y = argmin 1/2 (y - (q + dt/2 v))^T M (y - (q + dt/2 v)) + dt^2/4 V(y)`, then
 //! `q' = 2y - q` and `v' = 4 (y - q)/dt - v`; so it runs on the same Newton solver.
 
-use super::newton::{Newton, NewtonSettings, with_halving};
+use super::newton::{Newton, NewtonSettings, Problem, with_halving};
 use super::{Integrator, State, StepError, StepReport};
 use crate::model::Model;
 use crate::solve::LinearSolver;
@@ -38,15 +38,17 @@ impl ImplicitMidpoint {
         self.y_hat
             .extend(state.q.iter().zip(&state.v).map(|(q, v)| q + 0.5 * dt * v));
         self.y.clone_from(&self.y_hat);
+        // Damping at the midpoint velocity 2 (y - q)/dt: the term dt/4 (y - q)^T D (y - q).
+        self.newton
+            .prepare_damping(model, &self.y_hat, &state.q, 0.5 * dt, report)?;
         model.set_time(state.t + 0.5 * dt);
-        self.newton.minimize(
-            model,
-            &self.y_hat,
-            &state.q,
-            0.25 * dt * dt,
-            &mut self.y,
-            report,
-        )?;
+        let problem = Problem {
+            x_hat: &self.y_hat,
+            x_ref: &state.q,
+            beta: 0.25 * dt * dt,
+            damping_anchor: &state.q,
+        };
+        self.newton.minimize(model, &problem, &mut self.y, report)?;
         for ((q, v), y) in state.q.iter_mut().zip(state.v.iter_mut()).zip(&self.y) {
             *v = 4.0 * (y - *q) / dt - *v;
             *q = 2.0 * y - *q;

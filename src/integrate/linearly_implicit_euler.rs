@@ -1,5 +1,6 @@
 //! Linearly-implicit Euler: backward Euler with the forces linearized at the start of the
-//! step, i.e. one Newton step: `(M + dt^2 K(q)) v' = M v + dt f(q)`, then `q' = q + dt v'`.
+//! step, i.e. one Newton step: `(M + dt^2 K(q) + dt D(q)) v' = M v + dt f(q)`, then
+//! `q' = q + dt v'` (D the damping matrix, zero without damping).
 //! First order; cheap, but it trusts the linearization — the course handout warns that it
 //! explodes on the armadillo once it is dragged.
 
@@ -57,6 +58,8 @@ impl Integrator for LinearlyImplicitEuler {
         for (r, mv) in self.rhs.iter_mut().zip(&self.mv) {
             *r = mv - dt * *r;
         }
+        // (M + dt^2 K + dt D) v' = M v + dt f(q): damping -D v' taken implicitly.
+        self.system.set_damping(model, &state.q, dt, report)?;
         self.system.factor(model, &state.q, dt * dt, report)?;
         self.system.solve(model, &state.q, &mut self.rhs, report)?;
         for ((q, v), v_new) in state.q.iter_mut().zip(state.v.iter_mut()).zip(&self.rhs) {

@@ -39,24 +39,42 @@ impl MassInverse {
     }
 }
 
-/// The accelerations `a = -M^{-1} grad V(q)`, with the mass inverse built on first use.
-pub(crate) fn acceleration(
-    model: &mut Model,
-    mass: &mut Option<MassInverse>,
-    q: &[f64],
-    a: &mut [f64],
-) -> Result<(), StepError> {
-    if mass.is_none() {
-        *mass = Some(MassInverse::new(model)?);
+/// The accelerations of explicit methods, `a = M^{-1} (-grad V(q) - D(q) v)`, with the mass
+/// inverse built on first use and a reusable buffer for the damping force.
+#[derive(Default)]
+pub(crate) struct Dynamics {
+    mass: Option<MassInverse>,
+    damping_force: Vec<f64>,
+}
+
+impl Dynamics {
+    /// `a = M^{-1} (-grad V(q) - D(q) v)`; the damping term only when the model has damping.
+    pub fn acceleration(
+        &mut self,
+        model: &mut Model,
+        q: &[f64],
+        v: &[f64],
+        a: &mut [f64],
+    ) -> Result<(), StepError> {
+        if self.mass.is_none() {
+            self.mass = Some(MassInverse::new(model)?);
+        }
+        model.gradient(q, a)?;
+        if model.has_damping() {
+            self.damping_force.resize(a.len(), 0.0);
+            model.damping_force(q, v, &mut self.damping_force)?;
+            a.iter_mut()
+                .zip(&self.damping_force)
+                .for_each(|(ai, fi)| *ai += fi);
+        }
+        // A state that overflowed gives infinite forces: report the state, not the mass solve.
+        if let Some(index) = a.iter().position(|f| !f.is_finite()) {
+            return Err(StepError::NonFinite {
+                what: "force",
+                index,
+            });
+        }
+        a.iter_mut().for_each(|x| *x = -*x);
+        self.mass.as_mut().expect("built above").apply(a)
     }
-    model.gradient(q, a)?;
-    // A state that overflowed gives infinite forces: report the state, not the mass solve.
-    if let Some(index) = a.iter().position(|f| !f.is_finite()) {
-        return Err(StepError::NonFinite {
-            what: "force",
-            index,
-        });
-    }
-    a.iter_mut().for_each(|x| *x = -*x);
-    mass.as_mut().expect("built above").apply(a)
 }

@@ -95,6 +95,19 @@ impl NewtonSettings {
     }
 }
 
+/// One incremental potential to minimize (see the module docs), plus the damping term
+/// `1/2 gamma (x - x_d)^T D (x - x_d)` when [`Newton::prepare_damping`] set one for the step.
+pub struct Problem<'a> {
+    /// `x_hat`.
+    pub x_hat: &'a [f64],
+    /// The start-of-step positions (the convergence scale; the fallback initial guess).
+    pub x_ref: &'a [f64],
+    /// `beta`.
+    pub beta: f64,
+    /// `x_d`, where the damping term is zero.
+    pub damping_anchor: &'a [f64],
+}
+
 /// Energies whose predicted decrease is below this many ulps of their scale are treated as
 /// round-off in the line search.
 const ROUNDOFF_ULPS: f64 = 256.0;
@@ -124,6 +137,8 @@ pub struct Newton {
     trial: Vec<f64>,
     d: Vec<f64>,
     md: Vec<f64>,
+    dd: Vec<f64>,
+    trial_d: Vec<f64>,
 }
 
 /// An objective value with the scale of its round-off.
@@ -145,6 +160,8 @@ impl Newton {
             trial: Vec::new(),
             d: Vec::new(),
             md: Vec::new(),
+            dd: Vec::new(),
+            trial_d: Vec::new(),
         }
     }
 
@@ -158,44 +175,91 @@ impl Newton {
         &self.trace
     }
 
-    /// `E(x)`; uses `self.d`, `self.md`.
+    /// Assemble the damping matrix for this step with weight `gamma` (a no-op for a model
+    /// without damping). `D` is evaluated at the `predictor` — the method's initial guess,
+    /// within O(dt^2) of where the method evaluates forces, so second-order methods stay second
+    /// order — or at the start-of-step `q` if the predictor inverts an element.
+    pub fn prepare_damping(
+        &mut self,
+        model: &mut Model,
+        predictor: &[f64],
+        q: &[f64],
+        gamma: f64,
+        report: &mut StepReport,
+    ) -> Result<(), StepError> {
+        match self.system.set_damping(model, predictor, gamma, report) {
+            Err(StepError::InvertedElement { .. }) => {
+                self.system.set_damping(model, q, gamma, report)
+            }
+            other => other,
+        }
+    }
+
+    /// `1/2 gamma (x - x_d)^T D (x - x_d)` and, into `self.dd`, `gamma D (x - x_d)`.
+    fn damping_term(&mut self, x: &[f64], anchor: &[f64]) -> f64 {
+        let Some((d, gamma)) = self.system.damping() else {
+            self.dd.fill(0.0);
+            return 0.0;
+        };
+        for ((t, xi), a) in self.trial_d.iter_mut().zip(x).zip(anchor) {
+            *t = xi - a;
+        }
+        d.mul_vec(&self.trial_d, &mut self.dd);
+        let e = 0.5 * gamma * dot(&self.trial_d, &self.dd);
+        self.dd.iter_mut().for_each(|v| *v *= gamma);
+        e
+    }
+
+    /// `E(x)`; uses `self.d`, `self.md`, `self.dd`.
     fn objective(
         &mut self,
         model: &mut Model,
-        x_hat: &[f64],
-        beta: f64,
+        p: &Problem<'_>,
         x: &[f64],
     ) -> Result<Objective, ModelError> {
-        for ((d, xi), xh) in self.d.iter_mut().zip(x).zip(x_hat) {
+        for ((d, xi), xh) in self.d.iter_mut().zip(x).zip(p.x_hat) {
             *d = xi - xh;
         }
         model.mass().mul_vec(&self.d, &mut self.md);
         let inertia = 0.5 * dot(&self.d, &self.md);
         let parts = model.potential_parts(x)?;
-        let value = inertia + beta * parts.total();
+        let damping = self.damping_term(x, p.damping_anchor);
+        let value = inertia + p.beta * parts.total() + damping;
         let scale = inertia.abs()
-            + beta * (parts.elastic.abs() + parts.springs.abs() + parts.gravity.abs());
+            + p.beta
+                * (parts.elastic.abs()
+                    + parts.springs.abs()
+                    + parts.gravity.abs()
+                    + parts.vertex.abs())
+            + damping.abs();
         Ok(Objective {
             value,
             roundoff: ROUNDOFF_ULPS * f64::EPSILON * scale,
         })
     }
 
-    /// `g = M (x - x_hat) + beta grad V(x)`; leaves `grad V(x)` in `self.grad_v`.
+    /// `g = M (x - x_hat) + beta grad V(x) + gamma D (x - x_d)`; leaves `grad V(x)` in
+    /// `self.grad_v`.
     fn gradient(
         &mut self,
         model: &mut Model,
-        x_hat: &[f64],
-        beta: f64,
+        p: &Problem<'_>,
         x: &[f64],
     ) -> Result<(), ModelError> {
-        for ((d, xi), xh) in self.d.iter_mut().zip(x).zip(x_hat) {
+        for ((d, xi), xh) in self.d.iter_mut().zip(x).zip(p.x_hat) {
             *d = xi - xh;
         }
         model.mass().mul_vec(&self.d, &mut self.md);
         model.gradient(x, &mut self.grad_v)?;
-        for ((g, md), gv) in self.g.iter_mut().zip(&self.md).zip(&self.grad_v) {
-            *g = md + beta * gv;
+        self.damping_term(x, p.damping_anchor);
+        for (((g, md), gv), dd) in self
+            .g
+            .iter_mut()
+            .zip(&self.md)
+            .zip(&self.grad_v)
+            .zip(&self.dd)
+        {
+            *g = md + p.beta * gv + dd;
         }
         Ok(())
     }
@@ -206,12 +270,11 @@ impl Newton {
     pub fn minimize(
         &mut self,
         model: &mut Model,
-        x_hat: &[f64],
-        x_ref: &[f64],
-        beta: f64,
+        p: &Problem<'_>,
         x: &mut [f64],
         report: &mut StepReport,
     ) -> Result<(), StepError> {
+        let (x_hat, x_ref, beta) = (p.x_hat, p.x_ref, p.beta);
         let n = x.len();
         for buf in [
             &mut self.g,
@@ -220,6 +283,8 @@ impl Newton {
             &mut self.trial,
             &mut self.d,
             &mut self.md,
+            &mut self.dd,
+            &mut self.trial_d,
         ] {
             buf.resize(n, 0.0);
         }
@@ -228,11 +293,11 @@ impl Newton {
         self.trace.roundoff_accepted = false;
         self.trace.converged = false;
         // The guess may invert elements (a large step); the start-of-step state does not.
-        let mut current = match self.objective(model, x_hat, beta, x) {
+        let mut current = match self.objective(model, p, x) {
             Ok(e) => e,
             Err(ModelError::InvertedElement { .. }) => {
                 x.copy_from_slice(x_ref);
-                self.objective(model, x_hat, beta, x)?
+                self.objective(model, p, x)?
             }
             Err(e) => return Err(e.into()),
         };
@@ -246,7 +311,7 @@ impl Newton {
         let mut converged = false;
         let mut iterations = 0;
         while iterations < s.max_iterations {
-            self.gradient(model, x_hat, beta, x)?;
+            self.gradient(model, p, x)?;
             // ... plus the force term at the first iterate.
             let scale = *scale.get_or_insert(inertial + beta * norm(&self.grad_v));
             self.trace.scale = scale;
@@ -286,7 +351,7 @@ impl Newton {
                     *t = xi + alpha * dx;
                 }
                 let trial = std::mem::take(&mut self.trial);
-                let outcome = self.objective(model, x_hat, beta, &trial);
+                let outcome = self.objective(model, p, &trial);
                 self.trial = trial;
                 match outcome {
                     Ok(e) if e.value <= current.value + s.sufficient_decrease * alpha * slope => {
@@ -313,7 +378,7 @@ impl Newton {
         }
         if !converged {
             // One more gradient tells whether the last iterate met the tolerance.
-            self.gradient(model, x_hat, beta, x)?;
+            self.gradient(model, p, x)?;
             self.trace.gradient_norms.push(norm(&self.g));
             converged = norm(&self.g) <= s.tolerance * scale.unwrap_or(0.0);
         }

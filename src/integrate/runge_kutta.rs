@@ -1,7 +1,7 @@
 //! Explicit Runge–Kutta methods on the first-order system `q' = v, v' = a(q)`, given by their
 //! Butcher tableau. Explicit Euler, midpoint, RK4 and Dormand–Prince are tableaus run here.
 
-use super::mass_inverse::{MassInverse, acceleration};
+use super::mass_inverse::Dynamics;
 use super::{Integrator, State, StepError, StepReport};
 use crate::model::Model;
 
@@ -31,7 +31,7 @@ pub(crate) struct StageOutput<'a> {
 /// An explicit Runge–Kutta integrator with preallocated stage storage.
 pub struct ExplicitRungeKutta {
     tableau: Tableau,
-    mass: Option<MassInverse>,
+    dynamics: Dynamics,
     /// Stage derivatives: `kq[s]` (velocities) and `kv[s]` (accelerations).
     kq: Vec<Vec<f64>>,
     kv: Vec<Vec<f64>>,
@@ -47,7 +47,7 @@ impl ExplicitRungeKutta {
     pub fn new(tableau: Tableau) -> Self {
         Self {
             tableau,
-            mass: None,
+            dynamics: Dynamics::default(),
             kq: Vec::new(),
             kv: Vec::new(),
             q_stage: Vec::new(),
@@ -102,7 +102,8 @@ impl ExplicitRungeKutta {
                 }
             }
             self.kq[s].copy_from_slice(&self.v_stage);
-            acceleration(model, &mut self.mass, &self.q_stage, &mut self.kv[s])?;
+            self.dynamics
+                .acceleration(model, &self.q_stage, &self.v_stage, &mut self.kv[s])?;
         }
         q_out.copy_from_slice(q);
         v_out.copy_from_slice(v);

@@ -1,14 +1,14 @@
 //! Symplectic (semi-implicit) Euler: `v += dt a(q)`, then `q += dt v` with the new velocity.
 //! First order, explicit, and symplectic: its energy error stays bounded at a stable step.
 
-use super::mass_inverse::{MassInverse, acceleration};
+use super::mass_inverse::Dynamics;
 use super::{Integrator, State, StepError, StepReport};
 use crate::model::Model;
 
 /// A symplectic Euler integrator.
 #[derive(Default)]
 pub struct SymplecticEuler {
-    mass: Option<MassInverse>,
+    dynamics: Dynamics,
     a: Vec<f64>,
 }
 
@@ -41,7 +41,8 @@ impl Integrator for SymplecticEuler {
     ) -> Result<(), StepError> {
         self.a.resize(state.q.len(), 0.0);
         model.set_time(state.t);
-        acceleration(model, &mut self.mass, &state.q, &mut self.a)?;
+        self.dynamics
+            .acceleration(model, &state.q, &state.v, &mut self.a)?;
         for ((q, v), a) in state.q.iter_mut().zip(state.v.iter_mut()).zip(&self.a) {
             *v += dt * a;
             *q += dt * *v;

@@ -21,6 +21,10 @@ pub(crate) struct ImplicitSystem {
     /// Last (x, beta) assembled, so the fallback can reassemble the same matrix.
     beta: f64,
     rhs_copy: Vec<f64>,
+    /// The damping matrix D(q_t) of the current step and its weight gamma, if the model damps.
+    damping: Option<SymmetricMatrix>,
+    gamma: f64,
+    damping_active: bool,
 }
 
 fn is_indefinite(e: &SolveError) -> bool {
@@ -39,6 +43,9 @@ impl ImplicitSystem {
             projected: false,
             beta: 0.0,
             rhs_copy: Vec::new(),
+            damping: None,
+            gamma: 0.0,
+            damping_active: false,
         }
     }
 
@@ -64,6 +71,13 @@ impl ImplicitSystem {
             },
         )?;
         model.mass().scale_and_add_to(self.beta, h);
+        if self.damping_active {
+            h.axpby(
+                1.0,
+                self.gamma,
+                self.damping.as_ref().expect("assembled with the step"),
+            );
+        }
         self.projected = project;
         report.times.assemble += start.elapsed().as_secs_f64();
         Ok(())
@@ -79,7 +93,37 @@ impl ImplicitSystem {
         result.map(|_| ())
     }
 
-    /// Assemble and factor `M + beta K(x)`, falling back to the projected matrix if it is
+    /// Assemble the damping matrix `D(q)` for this step, to be added with weight `gamma` to
+    /// every system matrix (`M + beta K + gamma D`). Does nothing when the model does not damp.
+    pub fn set_damping(
+        &mut self,
+        model: &mut Model,
+        q: &[f64],
+        gamma: f64,
+        report: &mut StepReport,
+    ) -> Result<(), StepError> {
+        self.damping_active = model.has_damping();
+        if !self.damping_active {
+            return Ok(());
+        }
+        let start = Instant::now();
+        let d = self.damping.get_or_insert_with(|| model.new_hessian());
+        model.damping_matrix(q, d)?;
+        self.gamma = gamma;
+        report.times.assemble += start.elapsed().as_secs_f64();
+        Ok(())
+    }
+
+    /// The current step's damping matrix and weight, if any.
+    pub fn damping(&self) -> Option<(&SymmetricMatrix, f64)> {
+        if self.damping_active {
+            self.damping.as_ref().map(|d| (d, self.gamma))
+        } else {
+            None
+        }
+    }
+
+    /// Assemble and factor `M + beta K(x)` (plus `gamma D`), falling back to the projected matrix if it is
     /// indefinite.
     pub fn factor(
         &mut self,

@@ -154,3 +154,81 @@ fn hessians<M: Material>(
         Ok(())
     })
 }
+
+impl ElasticBody {
+    /// Viscous element forces `volume * F S_v * grad N_a` (strain-rate damping with `phi`,
+    /// `psi`) for vertex velocities `v`, into `buf` (12 per tet). Never fails: the viscous
+    /// stress is defined for every F.
+    pub fn viscous_forces(
+        &self,
+        par: Parallelism,
+        (phi, psi): (f64, f64),
+        x: &[Vector3<f64>],
+        v: &[Vector3<f64>],
+        buf: &mut [f64],
+    ) {
+        let ok: Result<(), ElementFailure> = for_each_chunk(par, buf, 12 * CHUNK, |ci, out| {
+            for (k, g) in out.chunks_exact_mut(12).enumerate() {
+                let e = ci * CHUNK + k;
+                let rest = &self.rest[e];
+                let f = rest.deformation_gradient(&element_positions(&self.tets[e], x));
+                let fdot = rest.deformation_gradient(&element_positions(&self.tets[e], v));
+                rest.gradient_from_stress(&super::damping::viscous_stress(phi, psi, &f, &fdot), g);
+            }
+            Ok(())
+        });
+        ok.expect("viscous forces cannot fail");
+    }
+
+    /// Element damping matrices `beta * H_e(projected) + V_e` into `buf` (144 per tet,
+    /// block-major): the Rayleigh stiffness part and the strain-rate viscous part.
+    pub fn damping_matrices(
+        &self,
+        par: Parallelism,
+        x: &[Vector3<f64>],
+        beta: f64,
+        viscous: Option<(f64, f64)>,
+        buf: &mut [f64],
+    ) -> Result<(), ElementFailure> {
+        with_material!(&self.material, |m| damping_matrices(
+            m, self, par, x, beta, viscous, buf
+        ))
+    }
+}
+
+fn damping_matrices<M: Material>(
+    m: &M,
+    body: &ElasticBody,
+    par: Parallelism,
+    x: &[Vector3<f64>],
+    beta: f64,
+    viscous: Option<(f64, f64)>,
+    buf: &mut [f64],
+) -> Result<(), ElementFailure> {
+    for_each_chunk(par, buf, 144 * CHUNK, |ci, out| {
+        let mut viscous_block = [0.0; 144];
+        for (k, h) in out.chunks_exact_mut(144).enumerate() {
+            let e = ci * CHUNK + k;
+            let rest = &body.rest[e];
+            let f = rest.deformation_gradient(&element_positions(&body.tets[e], x));
+            if beta != 0.0 {
+                let d = m.first_piola_derivative(&f).map_err(|err| ElementFailure {
+                    tet: e,
+                    det_f: err.det_f,
+                })?;
+                rest.hessian_from_stress_derivative(&d, h);
+                let mut mat = unpack_matrix12(h);
+                mat.project_to_psd();
+                pack_matrix12(&(mat * beta), h);
+            } else {
+                h.fill(0.0);
+            }
+            if let Some((phi, psi)) = viscous {
+                let dv = super::damping::viscous_stress_derivative(phi, psi, &f);
+                rest.hessian_from_stress_derivative(&dv, &mut viscous_block);
+                h.iter_mut().zip(&viscous_block).for_each(|(a, b)| *a += b);
+            }
+        }
+        Ok(())
+    })
+}

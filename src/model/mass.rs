@@ -64,6 +64,22 @@ impl MassMatrix {
         }
     }
 
+    /// `a += alpha M` for a matrix over the Hessian pattern.
+    pub fn add_scaled_to(&self, alpha: f64, a: &mut SymmetricMatrix) {
+        match self {
+            Self::Consistent(m) => a.axpby(1.0, alpha, m),
+            Self::Lumped {
+                diagonal,
+                diagonal_slots,
+            } => {
+                let values = a.values_mut();
+                for (&slot, &m) in diagonal_slots.iter().zip(diagonal) {
+                    values[slot] += alpha * m;
+                }
+            }
+        }
+    }
+
     /// Sum of `x^T M x` style row sums: the diagonal of the lumped matrix, or the row sums of
     /// the consistent one (equal for linear tets).
     pub fn row_sums(&self) -> Vec<f64> {

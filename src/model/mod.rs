@@ -6,6 +6,7 @@
 //! asked) and gathers them in a fixed order, so results are bitwise identical run to run and
 //! across thread counts. Every evaluation is counted in [`EvalCounters`].
 
+mod damping;
 mod dofs;
 mod elastic;
 mod error;
@@ -14,6 +15,7 @@ mod pattern;
 mod springs;
 mod vertex_potential;
 
+pub use damping::Damping;
 pub use dofs::{AxisRule, DofMap, FIXED, FixedSelection, Side};
 pub use error::ModelError;
 pub use mass::{MassKind, MassMatrix};
@@ -64,6 +66,8 @@ pub struct ModelSpec {
     pub inverted_tets: InvertedTets,
     /// How element loops run.
     pub parallelism: Parallelism,
+    /// Rayleigh and strain-rate damping (spring dashpots are per spring).
+    pub damping: Damping,
 }
 
 impl ModelSpec {
@@ -80,6 +84,7 @@ impl ModelSpec {
             fixed: FixedSelection::none(),
             inverted_tets: InvertedTets::Refuse,
             parallelism: Parallelism::Rayon,
+            damping: Damping::default(),
         }
     }
 }
@@ -140,6 +145,10 @@ pub struct Model {
     diagonal_slots: Vec<[usize; 9]>,
     /// The time time-dependent potentials are evaluated at (s).
     time: f64,
+    damping: Damping,
+    /// Scratch: velocities of every vertex (fixed ones zero), and a damping matrix.
+    velocities: Vec<Vector3<f64>>,
+    stiffness_scratch: Option<SymmetricMatrix>,
     pattern: BlockPattern,
     tet_gather: ElementGather,
     spring_gather: ElementGather,
@@ -223,6 +232,7 @@ impl Model {
             fixed,
             inverted_tets,
             parallelism,
+            damping,
         } = spec;
         let n = mesh.num_vertices();
         if let Some(rho) = density
@@ -253,13 +263,45 @@ impl Model {
                 });
             }
             let non_negative = |x: f64| x.is_finite() && x >= 0.0;
-            if !non_negative(sp.stiffness) || !non_negative(sp.rest_length) {
+            if !non_negative(sp.stiffness)
+                || !non_negative(sp.rest_length)
+                || !non_negative(sp.damping)
+            {
                 return Err(invalid(
                     &format!("springs[{s}]"),
-                    format!("stiffness {} rest length {}", sp.stiffness, sp.rest_length),
-                    "finite, non-negative stiffness and rest length",
+                    format!(
+                        "stiffness {} rest length {} damping {}",
+                        sp.stiffness, sp.rest_length, sp.damping
+                    ),
+                    "finite, non-negative stiffness, rest length and damping",
                 ));
             }
+        }
+        let non_negative = |x: f64| x.is_finite() && x >= 0.0;
+        if let Some((alpha, beta)) = damping.rayleigh
+            && !(non_negative(alpha) && non_negative(beta))
+        {
+            return Err(invalid(
+                "damping.rayleigh",
+                format!("alpha {alpha}, beta {beta}"),
+                "alpha >= 0 and beta >= 0",
+            ));
+        }
+        if let Some((phi, psi)) = damping.strain_rate
+            && !(non_negative(phi) && non_negative(psi))
+        {
+            return Err(invalid(
+                "damping.strain_rate",
+                format!("phi {phi}, psi {psi}"),
+                "phi >= 0 and psi >= 0",
+            ));
+        }
+        if damping.strain_rate.is_some() && material.is_none() {
+            return Err(invalid(
+                "damping.strain_rate",
+                "set",
+                "a [material] for the tets it acts on",
+            ));
         }
         let uses_tets = material.is_some() || density.is_some();
         let rest = if uses_tets {
@@ -400,6 +442,9 @@ impl Model {
             vertex_potentials: Vec::new(),
             diagonal_slots,
             time: 0.0,
+            damping,
+            velocities: vec![Vector3::zeros(); n],
+            stiffness_scratch: None,
             pattern,
             tet_gather,
             spring_gather,
@@ -707,6 +752,141 @@ impl Model {
                     }
                 },
             );
+        }
+        Ok(())
+    }
+
+    /// Whether any damping acts (Rayleigh, strain rate, or a spring dashpot).
+    pub fn has_damping(&self) -> bool {
+        self.damping.is_on() || self.springs.iter().any(|s| s.damping > 0.0)
+    }
+
+    /// The damping settings.
+    pub fn damping(&self) -> Damping {
+        self.damping
+    }
+
+    fn load_velocities(&mut self, v: &[f64]) {
+        self.velocities
+            .iter_mut()
+            .for_each(|x| *x = Vector3::zeros());
+        self.dofs.scatter(v, &mut self.velocities);
+    }
+
+    /// `f = D(q) v` over free DOFs (the damping force is `-f`); zero without damping.
+    /// Strain-rate and spring dashpots are evaluated element by element; Rayleigh's
+    /// `beta K(q) v` assembles the projected stiffness matrix (as costly as a Hessian).
+    pub fn damping_force(&mut self, q: &[f64], v: &[f64], f: &mut [f64]) -> Result<(), ModelError> {
+        self.load_state(q)?;
+        self.load_velocities(v);
+        let par = self.parallelism;
+        let b = &mut self.buffers;
+        b.tet_vectors
+            .resize(12 * self.elastic.as_ref().map_or(0, |e| e.tets.len()), 0.0);
+        match (&self.elastic, self.damping.strain_rate) {
+            (Some(body), Some(viscosity)) => body.viscous_forces(
+                par,
+                viscosity,
+                &self.positions,
+                &self.velocities,
+                &mut b.tet_vectors,
+            ),
+            _ => b.tet_vectors.fill(0.0),
+        }
+        b.spring_vectors.resize(6 * self.springs.len(), 0.0);
+        let (x, vel) = (&self.positions, &self.velocities);
+        for (s, out) in self
+            .springs
+            .iter()
+            .zip(b.spring_vectors.chunks_exact_mut(6))
+        {
+            s.damping_force(&x[s.i], &x[s.j], &vel[s.i], &vel[s.j], out);
+        }
+        gather_vector(
+            par,
+            &[
+                (&self.tet_gather, &b.tet_vectors),
+                (&self.spring_gather, &b.spring_vectors),
+            ],
+            f,
+        );
+        if let Some((alpha, beta)) = self.damping.rayleigh {
+            let n = f.len();
+            let mut extra = std::mem::take(&mut self.buffers.partial);
+            extra.resize(n, 0.0);
+            if alpha != 0.0 {
+                self.mass.mul_vec(v, &mut extra);
+                f.iter_mut()
+                    .zip(&extra)
+                    .for_each(|(fi, e)| *fi += alpha * e);
+            }
+            if beta != 0.0 {
+                let mut k = self
+                    .stiffness_scratch
+                    .take()
+                    .unwrap_or_else(|| self.new_hessian());
+                let result = self.hessian(
+                    q,
+                    &mut k,
+                    HessianOptions {
+                        project_elements: true,
+                    },
+                );
+                if result.is_ok() {
+                    k.mul_vec(v, &mut extra);
+                    f.iter_mut().zip(&extra).for_each(|(fi, e)| *fi += beta * e);
+                }
+                self.stiffness_scratch = Some(k);
+                result?;
+            }
+            self.buffers.partial = extra;
+        }
+        Ok(())
+    }
+
+    /// The damping matrix `D(q)` over the Hessian pattern: Rayleigh `alpha M + beta K(q)`
+    /// (projected), the strain-rate viscous matrices and the spring dashpots.
+    pub fn damping_matrix(&mut self, q: &[f64], d: &mut SymmetricMatrix) -> Result<(), ModelError> {
+        self.load_state(q)?;
+        assert!(
+            Arc::ptr_eq(d.pattern(), self.pattern.scalar()),
+            "the damping matrix must be created by Model::new_hessian"
+        );
+        let par = self.parallelism;
+        let (alpha, beta) = self.damping.rayleigh.unwrap_or((0.0, 0.0));
+        let b = &mut self.buffers;
+        if let Some(body) = &self.elastic {
+            b.tet_matrices.resize(144 * body.tets.len(), 0.0);
+            let res = body.damping_matrices(
+                par,
+                &self.positions,
+                beta,
+                self.damping.strain_rate,
+                &mut b.tet_matrices,
+            );
+            if let Err(f) = res {
+                return Err(self.element_error(f));
+            }
+        }
+        b.spring_matrices.resize(36 * self.springs.len(), 0.0);
+        for (s, out) in self
+            .springs
+            .iter()
+            .zip(b.spring_matrices.chunks_exact_mut(36))
+        {
+            s.damping_matrix(&self.positions[s.i], &self.positions[s.j], beta, out);
+        }
+        gather_matrix(
+            par,
+            &self.pattern,
+            &[
+                (&self.tet_gather, &b.tet_matrices),
+                (&self.spring_gather, &b.spring_matrices),
+            ],
+            d.values_mut(),
+        );
+        if alpha != 0.0 {
+            self.mass.add_scaled_to(alpha, d);
         }
         Ok(())
     }

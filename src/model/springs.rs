@@ -68,3 +68,53 @@ impl Spring {
         }
     }
 }
+
+impl Spring {
+    /// The dashpot force on `[xi, xj]` for velocities `[vi, vj]`: `c ((vi - vj) . u) u` on `i`
+    /// (the negative on `j`), written to `out[0..6]` as `D v` (the force is its negative).
+    #[inline]
+    pub fn damping_force(
+        &self,
+        xi: &Vector3<f64>,
+        xj: &Vector3<f64>,
+        vi: &Vector3<f64>,
+        vj: &Vector3<f64>,
+        out: &mut [f64],
+    ) {
+        let d = xi - xj;
+        let l = d.norm();
+        let f = if l > 0.0 && self.damping != 0.0 {
+            let u = d / l;
+            u * (self.damping * (vi - vj).dot(&u))
+        } else {
+            Vector3::zeros()
+        };
+        out[0..3].copy_from_slice(f.as_slice());
+        out[3..6].copy_from_slice((-f).as_slice());
+    }
+
+    /// The dashpot matrix `c [[u u^T, -u u^T], [-u u^T, u u^T]]` plus `beta` times the
+    /// (projected) spring Hessian, written block-major to `out[0..36]`.
+    #[inline]
+    pub fn damping_matrix(&self, xi: &Vector3<f64>, xj: &Vector3<f64>, beta: f64, out: &mut [f64]) {
+        if beta != 0.0 {
+            self.hessian(xi, xj, true, out);
+            out.iter_mut().for_each(|x| *x *= beta);
+        } else {
+            out.fill(0.0);
+        }
+        let d = xi - xj;
+        let l = d.norm();
+        if l > 0.0 && self.damping != 0.0 {
+            let u = d / l;
+            let block = u * u.transpose() * self.damping;
+            for (a, b) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                let sign = if a == b { 1.0 } else { -1.0 };
+                let o = crate::fem::block_offset(2, a, b);
+                for (dst, src) in out[o..o + 9].iter_mut().zip(block.iter()) {
+                    *dst += sign * src;
+                }
+            }
+        }
+    }
+}

@@ -22,6 +22,9 @@ pub struct SceneConfig {
     /// External forces.
     #[serde(default)]
     pub forces: ForcesConfig,
+    /// Damping (none by default, so energy studies stay conservative).
+    #[serde(default)]
+    pub damping: DampingConfig,
     /// The time integrator and its solvers.
     #[serde(default)]
     pub integrator: IntegratorSettings,
@@ -190,4 +193,45 @@ fn one() -> usize {
 
 fn default_energy_limit() -> f64 {
     10.0
+}
+
+/// `[damping]`: `rayleigh = { alpha = .., beta = .. }` (D = alpha M + beta K) and/or
+/// `strain_rate = { phi = .., psi = .. }` (viscous stress on the Green strain rate, Pa s).
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DampingConfig {
+    #[serde(default)]
+    pub rayleigh: Option<RayleighConfig>,
+    #[serde(default)]
+    pub strain_rate: Option<StrainRateConfig>,
+}
+
+/// Rayleigh damping coefficients.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RayleighConfig {
+    /// Mass-proportional coefficient (1/s).
+    #[serde(default)]
+    pub alpha: f64,
+    /// Stiffness-proportional coefficient (s).
+    #[serde(default)]
+    pub beta: f64,
+}
+
+/// Strain-rate viscosity (the Brown course's phi and psi).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StrainRateConfig {
+    pub phi: f64,
+    pub psi: f64,
+}
+
+impl DampingConfig {
+    /// The model's damping settings.
+    pub fn to_model(&self) -> crate::model::Damping {
+        crate::model::Damping {
+            rayleigh: self.rayleigh.map(|r| (r.alpha, r.beta)),
+            strain_rate: self.strain_rate.map(|s| (s.phi, s.psi)),
+        }
+    }
 }

@@ -8,8 +8,8 @@ mod config;
 mod overrides;
 
 pub use config::{
-    Axis, BoxConfig, FixedConfig, ForcesConfig, GenerateConfig, MaterialConfig, MeshConfig,
-    RuleConfig, RunConfig, SceneConfig,
+    Axis, BoxConfig, DampingConfig, FixedConfig, ForcesConfig, GenerateConfig, MaterialConfig,
+    MeshConfig, RayleighConfig, RuleConfig, RunConfig, SceneConfig, StrainRateConfig,
 };
 pub use overrides::{OverrideError, apply as apply_override};
 
@@ -348,6 +348,7 @@ pub fn build(
             InvertedTets::Refuse
         },
         parallelism,
+        damping: c.damping.to_model(),
     };
     let model = Model::new(spec).map_err(|error| SceneError::Model {
         path: path.clone(),
