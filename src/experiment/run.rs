@@ -3,7 +3,9 @@
 //! A run fails at the first step that cannot be taken (non-finite state, inverted element,
 //! Newton or solver failure: see [`crate::integrate::StepError`]) or, at a sampled step, when
 //! the internal energy (kinetic + elastic + springs) exceeds `energy_limit` times its initial
-//! value plus the work gravity has done since the start. The rows written before are valid
+//! value plus the work done on the body since the start: by gravity, and by time-dependent
+//! potentials such as drag springs (`sum over steps of V(x_n, t_n+1) - V(x_n, t_n)`, the work of
+//! moving their targets). The rows written before are valid
 //! states; the [`Outcome`] says where and why the run ended.
 
 use super::metrics::{Energies, Metrics};
@@ -249,7 +251,16 @@ pub fn run(
         let s = initial.internal() + work;
         if s > 0.0 { s } else { 1.0 }
     };
+    let time_dependent = !model.vertex_potentials().is_empty();
+    let mut driven_work = 0.0;
     for step in 1..=config.steps {
+        if time_dependent {
+            let before = model.vertex_energy_at(&state.q, state.t);
+            let after = model.vertex_energy_at(&state.q, state.t + dt);
+            if let (Ok(b), Ok(a)) = (before, after) {
+                driven_work += a - b;
+            }
+        }
         match integrator.step(model, state, dt) {
             Ok(report) => {
                 step_seconds.push(report.times.total);
@@ -302,7 +313,8 @@ pub fn run(
         summary.final_energy = Some(energies);
         // Blow-up: internal energy beyond the limit times what it could legitimately be.
         let gravity_work = (initial.gravity - energies.gravity).max(0.0);
-        let allowed = config.energy_limit * (initial.internal() + gravity_work);
+        let work = gravity_work + driven_work.max(0.0);
+        let allowed = config.energy_limit * (initial.internal() + work);
         let floor = 1e-12 * (1.0 + initial.internal().abs() + initial.gravity.abs());
         if config.energy_limit > 0.0
             && (!energies.total().is_finite() || energies.internal() > allowed + floor)
@@ -312,11 +324,11 @@ pub fn run(
                 t: state.t,
                 cause: "energy growth".into(),
                 message: format!(
-                    "kinetic + elastic energy {:.4e} J exceeds {} x (initial {:.4e} J + gravity work {:.4e} J)",
+                    "kinetic + elastic energy {:.4e} J exceeds {} x (initial {:.4e} J + work done on the body {:.4e} J)",
                     energies.internal(),
                     config.energy_limit,
                     initial.internal(),
-                    gravity_work
+                    work
                 ),
             };
             break;

@@ -533,6 +533,17 @@ impl Model {
         self.time
     }
 
+    /// The energy of the per-vertex potentials at positions `q` and time `t` (not counted as
+    /// a potential evaluation: it serves the work accounting of time-dependent potentials).
+    pub fn vertex_energy_at(&mut self, q: &[f64], t: f64) -> Result<f64, ModelError> {
+        self.load_state(q)?;
+        Ok(self
+            .vertex_potentials
+            .iter()
+            .map(|p| p.energy(t, &self.positions))
+            .sum())
+    }
+
     /// The Hessian's block pattern.
     pub fn block_pattern(&self) -> &BlockPattern {
         &self.pattern

@@ -1,0 +1,78 @@
+//! The run loop's blow-up detection: it stops unstable runs, and does not mistake energy put
+//! in by a driven potential (a moving anchor, like a drag spring) for a blow-up.
+
+mod common;
+
+use common::bodies::{block, block_with_moving_anchor, kicked, omega_max};
+use softbench::experiment::{Outcome, Sample, run};
+use softbench::integrate::{IntegratorSettings, Method, State};
+use softbench::scene::RunConfig;
+
+fn config(dt: f64, steps: usize) -> RunConfig {
+    RunConfig {
+        dt,
+        steps,
+        sample_every: 1,
+        energy_limit: 10.0,
+    }
+}
+
+#[test]
+fn a_body_driven_from_rest_is_not_a_blow_up() {
+    let mut model = block_with_moving_anchor();
+    let mut state = State::at_rest(&model);
+    let mut integ = IntegratorSettings {
+        method: Method::BackwardEuler,
+        ..Default::default()
+    }
+    .build();
+    let mut rows = Vec::new();
+    let summary = run(
+        &mut model,
+        integ.as_mut(),
+        &mut state,
+        &config(2e-3, 200),
+        &mut |s: &Sample| {
+            rows.push(s.kinetic + s.elastic);
+            Ok(())
+        },
+    )
+    .unwrap();
+    assert_eq!(summary.outcome, Outcome::Completed, "{:?}", summary.outcome);
+    // The anchor really did put energy in (from exactly zero at rest).
+    assert!(
+        rows[0].abs() < 1e-9 && rows.iter().cloned().fold(0.0, f64::max) > 1e-4,
+        "{:?}",
+        &rows[..5]
+    );
+}
+
+#[test]
+fn an_unstable_explicit_run_is_stopped_with_its_cause() {
+    let mut model = block(true, false);
+    let mut state = kicked(&model);
+    let dt = 3.0 * 2.0 / omega_max(&mut model);
+    let mut integ = IntegratorSettings {
+        method: Method::SymplecticEuler,
+        ..Default::default()
+    }
+    .build();
+    let summary = run(
+        &mut model,
+        integ.as_mut(),
+        &mut state,
+        &config(dt, 500),
+        &mut |_: &Sample| Ok(()),
+    )
+    .unwrap();
+    match &summary.outcome {
+        Outcome::Failed { step, cause, .. } => {
+            assert!(
+                cause == "energy growth" || cause == "non-finite state",
+                "cause {cause}"
+            );
+            assert!(*step < 500 && summary.steps_completed < 500);
+        }
+        Outcome::Completed => panic!("symplectic Euler at 3x its stability limit should blow up"),
+    }
+}
