@@ -7,6 +7,7 @@
 //! across thread counts. Every evaluation is counted in [`EvalCounters`].
 
 mod dofs;
+mod drag;
 mod elastic;
 mod error;
 mod mass;
@@ -15,6 +16,7 @@ mod springs;
 mod vertex_potential;
 
 pub use dofs::{AxisRule, DofMap, FIXED, FixedSelection, Side};
+pub use drag::{Drag, DragPath, Waypoint};
 pub use error::ModelError;
 pub use mass::{MassKind, MassMatrix};
 pub use pattern::BlockPattern;
