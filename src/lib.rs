@@ -13,6 +13,7 @@
 //! - [`material`]: strain energy densities with closed-form stress and stress derivative;
 //! - [`fem`]: the linear tetrahedron (shape gradients, element energy, gradient, Hessian, mass);
 //! - [`model`]: elastic, spring and gravity potentials assembled over free DOFs;
+//! - [`springs`]: mass-spring bodies (jello cube, jello sphere, springs along tet edges);
 //! - [`sparse`]: the symmetric sparse matrix and its pattern, built once and refilled in place;
 //! - [`solve`]: sparse Cholesky and LDLᵀ (faer), preconditioned CG, dense Cholesky;
 //! - [`integrate`]: explicit, adaptive and implicit integrators, and Newton's method;
@@ -37,3 +38,4 @@ pub mod rng;
 pub mod scene;
 pub mod solve;
 pub mod sparse;
+pub mod springs;

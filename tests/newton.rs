@@ -249,3 +249,135 @@ fn a_failed_step_is_retried_as_two_half_steps_when_asked() {
     assert!(report.substeps >= 2);
     assert!((state.t - 0.02).abs() < 1e-15, "the step still covers dt");
 }
+
+#[test]
+fn a_body_exactly_at_rest_without_gravity_takes_a_step() {
+    // Every term of the incremental potential is zero up to round-off; the elastic energy
+    // itself is a difference of O(mu) terms (J^(-2/3) I1 - 3), so its noise is far above the
+    // Newton decrement. Newton must recognise the rest state, not fail its line search.
+    for method in [
+        Method::BackwardEuler,
+        Method::ImplicitMidpoint,
+        Method::Bdf2,
+    ] {
+        let mut model = block(true, false);
+        let mut state = State::at_rest(&model);
+        let mut integ = IntegratorSettings {
+            method,
+            ..Default::default()
+        }
+        .build();
+        for _ in 0..3 {
+            integ
+                .step(&mut model, &mut state, 0.01)
+                .unwrap_or_else(|e| panic!("{method}: {e}"));
+        }
+        let moved = state
+            .q
+            .iter()
+            .zip(&model.rest_state())
+            .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+        assert!(
+            moved < 1e-12,
+            "{method}: a body at rest moved by {moved:.3e}"
+        );
+    }
+}
+
+#[test]
+fn a_damped_jello_cube_settles_to_rest_without_newton_failing() {
+    use softbench::springs::{JelloCube, ParticleMass, SpringCoefficients};
+    let body = JelloCube {
+        n: 4,
+        size: 0.3,
+        origin: nalgebra::Vector3::zeros(),
+    }
+    .build(|_| SpringCoefficients {
+        stiffness: 500.0,
+        damping: 2.0,
+    });
+    let mut model = Model::new(body.into_model_spec(ParticleMass::Each(0.01))).unwrap();
+    let mut state = State::at_rest(&model);
+    state.v.iter_mut().enumerate().for_each(|(i, v)| {
+        *v = if i % 3 == 0 {
+            0.3 * ((i / 3) as f64).sin()
+        } else {
+            0.0
+        }
+    });
+    for method in [
+        Method::BackwardEuler,
+        Method::ImplicitMidpoint,
+        Method::Bdf2,
+    ] {
+        let mut s = state.clone();
+        let mut integ = IntegratorSettings {
+            method,
+            ..Default::default()
+        }
+        .build();
+        for step in 0..1500 {
+            integ
+                .step(&mut model, &mut s, 0.01)
+                .unwrap_or_else(|e| panic!("{method} at step {step}: {e}"));
+        }
+    }
+}
+
+#[test]
+fn a_spring_cube_released_without_gravity_keeps_stepping() {
+    // Regression: after the drag lets go, every energy term is small while the springs'
+    // (l - L)^2 carries round-off of order k L |l - L| eps; the Armijo test must not chase it.
+    use nalgebra::Vector3;
+    use softbench::model::{AxisRule, Drag, DragPath, FixedSelection, Side, Waypoint};
+    use softbench::springs::{JelloCube, ParticleMass, SpringCoefficients};
+    let body = JelloCube {
+        n: 4,
+        size: 0.3,
+        origin: Vector3::zeros(),
+    }
+    .build(|_| SpringCoefficients::stiffness(200.0));
+    let mut spec = body.into_model_spec(ParticleMass::Each(0.001));
+    spec.fixed = FixedSelection {
+        rules: vec![AxisRule {
+            axis: 1,
+            side: Side::Min,
+            tolerance: 1e-9,
+        }],
+        ..Default::default()
+    };
+    let mut model = Model::new(spec).unwrap();
+    let rest = model.rest_positions().to_vec();
+    let picked = Drag::pick(&rest, &Vector3::new(0.3, 0.3, 0.3), 0.11);
+    let path = DragPath::new(vec![
+        Waypoint {
+            t: 0.0,
+            offset: Vector3::zeros(),
+        },
+        Waypoint {
+            t: 0.2,
+            offset: Vector3::new(0.1, 0.0, 0.0),
+        },
+    ])
+    .unwrap();
+    model.add_vertex_potential(Box::new(
+        Drag::new(&rest, picked, 1000.0, path, Some(0.25)).unwrap(),
+    ));
+    for method in [
+        Method::BackwardEuler,
+        Method::ImplicitMidpoint,
+        Method::Bdf2,
+    ] {
+        let mut state = State::at_rest(&model);
+        let mut integ = IntegratorSettings {
+            method,
+            ..Default::default()
+        }
+        .build();
+        for step in 0..300 {
+            integ
+                .step(&mut model, &mut state, 0.01)
+                .unwrap_or_else(|e| panic!("{method} at step {step}: {e}"));
+        }
+    }
+}

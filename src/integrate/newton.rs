@@ -225,13 +225,10 @@ impl Newton {
         let parts = model.potential_parts(x)?;
         let damping = self.damping_term(x, p.damping_anchor);
         let value = inertia + p.beta * parts.total() + damping;
-        let scale = inertia.abs()
-            + p.beta
-                * (parts.elastic.abs()
-                    + parts.springs.abs()
-                    + parts.gravity.abs()
-                    + parts.vertex.abs())
-            + damping.abs();
+        let terms =
+            parts.elastic.abs() + parts.springs.abs() + parts.gravity.abs() + parts.vertex.abs();
+        let scale =
+            inertia.abs() + p.beta * (terms + model.energy_roundoff_scale()) + damping.abs();
         Ok(Objective {
             value,
             roundoff: ROUNDOFF_ULPS * f64::EPSILON * scale,

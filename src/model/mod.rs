@@ -8,6 +8,7 @@
 
 mod damping;
 mod dofs;
+mod drag;
 mod elastic;
 mod error;
 mod mass;
@@ -17,6 +18,7 @@ mod vertex_potential;
 
 pub use damping::Damping;
 pub use dofs::{AxisRule, DofMap, FIXED, FixedSelection, Side};
+pub use drag::{Drag, DragPath, Waypoint};
 pub use error::ModelError;
 pub use mass::{MassKind, MassMatrix};
 pub use pattern::BlockPattern;
@@ -146,6 +148,8 @@ pub struct Model {
     /// The time time-dependent potentials are evaluated at (s).
     time: f64,
     damping: Damping,
+    /// The size of the terms that cancel in the potential (see [`Model::energy_roundoff_scale`]).
+    energy_roundoff_scale: f64,
     /// Scratch: velocities of every vertex (fixed ones zero), and a damping matrix.
     velocities: Vec<Vector3<f64>>,
     stiffness_scratch: Option<SymmetricMatrix>,
@@ -428,6 +432,21 @@ impl Model {
                 })
             })
             .collect();
+        // Elastic energy is a difference of O(stiffness) terms (e.g. J^(-2/3) I1 - 3) and a
+        // spring's is (l - L)^2 with l - L a difference of O(L) numbers: their round-off is set
+        // by these magnitudes, not by the (possibly tiny) energy itself.
+        let stiffness_scale = material
+            .as_ref()
+            .and_then(|m| {
+                m.first_piola_derivative(&nalgebra::Matrix3::identity())
+                    .ok()
+            })
+            .map_or(0.0, |d| d.norm());
+        let energy_roundoff_scale = stiffness_scale * rest.iter().map(|r| r.volume).sum::<f64>()
+            + springs
+                .iter()
+                .map(|s| s.stiffness * s.rest_length * s.rest_length)
+                .sum::<f64>();
         let elastic = material.map(|material| ElasticBody {
             material,
             tets,
@@ -443,6 +462,7 @@ impl Model {
             diagonal_slots,
             time: 0.0,
             damping,
+            energy_roundoff_scale,
             velocities: vec![Vector3::zeros(); n],
             stiffness_scratch: None,
             pattern,
@@ -775,6 +795,13 @@ impl Model {
     /// The damping settings.
     pub fn damping(&self) -> Damping {
         self.damping
+    }
+
+    /// An energy (J) whose round-off is the round-off of the potential: the elastic stiffness
+    /// times the volume plus `k L^2` of the springs — the sizes of the terms that cancel when
+    /// the energy is small. Newton uses it to tell a real decrease from noise.
+    pub fn energy_roundoff_scale(&self) -> f64 {
+        self.energy_roundoff_scale
     }
 
     fn load_velocities(&mut self, v: &[f64]) {

@@ -3,6 +3,7 @@
 
 use crate::integrate::IntegratorSettings;
 use crate::model::{MassKind, Side};
+use crate::scene::springs::{DragConfig, JelloConfig, SpringsConfig};
 
 /// A scene: everything `softbench simulate` needs.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -11,8 +12,18 @@ pub struct SceneConfig {
     /// A name for reports (default: the file name).
     #[serde(default)]
     pub name: Option<String>,
-    /// The tet mesh.
-    pub mesh: MeshConfig,
+    /// The tet mesh (absent when the body is a `[jello]`).
+    #[serde(default)]
+    pub mesh: Option<MeshConfig>,
+    /// Springs along the mesh's tet edges (a mass-spring body).
+    #[serde(default)]
+    pub springs: Option<SpringsConfig>,
+    /// A generated mass-spring body instead of `[mesh]`.
+    #[serde(default)]
+    pub jello: Option<JelloConfig>,
+    /// Scripted drags (`[[drag]]`).
+    #[serde(default)]
+    pub drag: Vec<DragConfig>,
     /// The elastic material of the tets.
     #[serde(default)]
     pub material: Option<MaterialConfig>,

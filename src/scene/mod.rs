@@ -6,18 +6,22 @@
 
 mod config;
 mod overrides;
+mod springs;
 
 pub use config::{
     Axis, BoxConfig, DampingConfig, FixedConfig, ForcesConfig, GenerateConfig, MaterialConfig,
     MeshConfig, RayleighConfig, RuleConfig, RunConfig, SceneConfig, StrainRateConfig,
 };
 pub use overrides::{OverrideError, apply as apply_override};
+pub use springs::{DragConfig, JelloConfig, JelloShape, KindTable, SpringsConfig, WaypointConfig};
 
 use crate::data::{DataError, DataPaths};
 use crate::integrate::State;
 use crate::material::{LameParameters, MaterialError, MaterialModel, NeoHookean};
 use crate::mesh::{MeshError, TetMesh, generate};
-use crate::model::{AxisRule, FixedSelection, InvertedTets, Model, ModelError, ModelSpec};
+use crate::model::{
+    AxisRule, FixedSelection, InvertedTets, MassKind, Model, ModelError, ModelSpec,
+};
 use crate::parallel::Parallelism;
 use nalgebra::Vector3;
 use std::path::{Path, PathBuf};
@@ -146,16 +150,20 @@ fn validate(c: &SceneConfig, path: &Path) -> Result<(), SceneError> {
             ),
         ));
     }
-    match (&c.mesh.file, &c.mesh.generate) {
-        (Some(_), None) | (None, Some(_)) => {}
-        _ => {
-            return Err(invalid(
-                "mesh",
-                "give exactly one of `file` or `generate`".into(),
-            ));
+    springs::validate(c).map_err(|e| invalid(&e.key, e.message))?;
+    let mesh = c.mesh.as_ref();
+    if let Some(mesh) = mesh {
+        match (&mesh.file, &mesh.generate) {
+            (Some(_), None) | (None, Some(_)) => {}
+            _ => {
+                return Err(invalid(
+                    "mesh",
+                    "give exactly one of `file` or `generate`".into(),
+                ));
+            }
         }
     }
-    if let Some(g) = &c.mesh.generate {
+    if let Some(g) = mesh.and_then(|m| m.generate.as_ref()) {
         let shape = (
             g.box_cells.is_some() || g.size.is_some(),
             g.ball.is_some() || g.radius.is_some(),
@@ -226,10 +234,18 @@ pub struct Scene {
     pub initial: State,
 }
 
-/// The tet mesh a scene names: read through the data search path, or generated.
+/// The tet mesh a scene names: read through the data search path, or generated; for a
+/// `[jello]` body, its particles (with the cube's lattice tets, for display).
 pub fn scene_mesh(loaded: &LoadedScene, data: &DataPaths) -> Result<TetMesh, SceneError> {
     let path = &loaded.path;
-    let mesh_config = &loaded.config.mesh;
+    let Some(mesh_config) = &loaded.config.mesh else {
+        let jello = loaded
+            .config
+            .jello
+            .as_ref()
+            .expect("validated: mesh or jello");
+        return Ok(springs::jello_mesh(jello));
+    };
     if let Some(file) = &mesh_config.file {
         let resolved = data
             .resolve(file, Some(loaded.base_dir()))
@@ -312,7 +328,12 @@ pub fn build(
         .map(|m| scene_material(m, path))
         .transpose()?;
     let density = c.material.as_ref().map(|m| m.density);
-    let mass_kind = c.material.as_ref().map(|m| m.mass).unwrap_or_default();
+    // Particles of a mass-spring body have lumped masses.
+    let mass_kind = c.material.as_ref().map_or(MassKind::Lumped, |m| m.mass);
+    let (point_masses, springs) = match springs::spring_body(c, &mesh) {
+        Some((body, mass)) => (Some(body.point_masses(mass)), body.springs),
+        None => (None, Vec::new()),
+    };
     let fixed = FixedSelection {
         indices: c.fixed.indices.clone(),
         rules: c
@@ -338,11 +359,11 @@ pub fn build(
         material,
         density,
         mass_kind,
-        point_masses: None,
-        springs: Vec::new(),
+        point_masses,
+        springs,
         gravity: (gravity != Vector3::zeros()).then_some(gravity),
         fixed,
-        inverted_tets: if c.mesh.reorient {
+        inverted_tets: if c.mesh.as_ref().is_some_and(|m| m.reorient) {
             InvertedTets::Reorient
         } else {
             InvertedTets::Refuse
@@ -350,9 +371,14 @@ pub fn build(
         parallelism,
         damping: c.damping.to_model(),
     };
-    let model = Model::new(spec).map_err(|error| SceneError::Model {
+    let mut model = Model::new(spec).map_err(|error| SceneError::Model {
         path: path.clone(),
         error,
+    })?;
+    springs::add_drags(&mut model, &c.drag).map_err(|e| SceneError::Invalid {
+        path: path.clone(),
+        key: e.key,
+        message: e.message,
     })?;
     let initial = State::at_rest(&model);
     Ok(Scene {
