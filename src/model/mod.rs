@@ -10,6 +10,7 @@ mod dofs;
 mod elastic;
 mod error;
 mod mass;
+mod measures;
 mod pattern;
 mod springs;
 mod vertex_potential;
