@@ -46,13 +46,9 @@ fn element_energies_sum_to_the_elastic_energy_and_det_f_is_the_volume_ratio() {
         positions: x,
         tets: mesh.tets.clone(),
     };
-    for e in 0..m {
+    for (e, j) in det_f.iter().enumerate() {
         let ratio = deformed.signed_volume6(e) / mesh.signed_volume6(e);
-        assert!(
-            (det_f[e] - ratio).abs() < 1e-12,
-            "tet {e}: {} vs {ratio}",
-            det_f[e]
-        );
+        assert!((j - ratio).abs() < 1e-12, "tet {e}: {j} vs {ratio}");
     }
 }
 
@@ -74,10 +70,10 @@ fn element_measures_of_a_uniform_deformation_are_uniform() {
     let (mut det_f, mut energy) = (vec![0.0; m], vec![0.0; m]);
     model.element_measures(&q, &mut det_f, &mut energy).unwrap();
     let psi = material().energy_density(&a).unwrap();
-    for e in 0..m {
-        assert!((det_f[e] - a.determinant()).abs() < 1e-12);
+    for (e, (j, energy)) in det_f.iter().zip(&energy).enumerate() {
+        assert!((j - a.determinant()).abs() < 1e-12);
         let expected = mesh.signed_volume(e) * psi;
-        assert!((energy[e] - expected).abs() <= 1e-12 * expected, "tet {e}");
+        assert!((energy - expected).abs() <= 1e-12 * expected, "tet {e}");
     }
 }
 

@@ -196,7 +196,7 @@ impl TetGrid {
             // Every unseen tet lies in cells beyond the searched block: bound its distance.
             let mut bound = f64::INFINITY;
             for d in 0..3 {
-                if c[d] >= r + 1 {
+                if c[d] > r {
                     let face = self.origin[d] + (c[d] - r) as f64 * self.cell;
                     bound = bound.min((p[d] - face).max(0.0));
                 }
