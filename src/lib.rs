@@ -18,7 +18,8 @@
 //! - [`solve`]: sparse Cholesky and LDLᵀ (faer), preconditioned CG, dense Cholesky;
 //! - [`integrate`]: explicit, adaptive and implicit integrators, and Newton's method;
 //! - [`experiment`]: running a scene and measuring it (energies, momenta, blow-up detection);
-//! - [`report`]: writing results atomically.
+//! - [`report`]: writing results atomically;
+//! - [`export`]: frames for viewers (VTU + PVD, OBJ; skinned display meshes).
 //!
 //! Conventions: SI units; f64 everywhere; stacked coordinates `q = [x0 y0 z0 x1 y1 z1 ...]`;
 //! `vec(F)` is column-major (`F[(0,0)], F[(1,0)], F[(2,0)], F[(0,1)], ...`), which is nalgebra's
@@ -26,6 +27,7 @@
 
 pub mod data;
 pub mod experiment;
+pub mod export;
 pub mod fem;
 pub mod integrate;
 pub mod material;

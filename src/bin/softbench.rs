@@ -12,12 +12,14 @@ use clap::{Args, Parser, Subcommand};
 use serde::Serialize;
 use softbench::data::{DataError, DataPaths};
 use softbench::experiment::{self, Outcome};
+use softbench::export::{DisplayError, ExportFormat, FrameContent, FrameWriter, load_display};
 use softbench::integrate::Method;
 use softbench::material::MaterialModel;
-use softbench::mesh::{AnyMesh, MeshError, MeshFormat, MeshReport, read_mesh};
+use softbench::mesh::{AnyMesh, MeshError, MeshFormat, MeshReport, TetMesh, read_mesh};
+use softbench::model::Model;
 use softbench::parallel::Parallelism;
 use softbench::report::{AtomicFile, write_atomic};
-use softbench::scene::{self, SceneError};
+use softbench::scene::{self, LoadedScene, SceneError};
 use softbench::solve::LinearSolverKind;
 
 /// A harness for research on time integrators and solvers for deformable bodies.
@@ -52,6 +54,13 @@ struct SimulateArgs {
     /// Threads for element loops (default: one per core).
     #[arg(long)]
     threads: Option<usize>,
+    /// Write frames to <OUT>/frames/: `vtu` (the tets with velocity, J and energy, plus
+    /// series.pvd) or `obj` (the boundary surface, or the scene's [display] mesh skinned).
+    #[arg(long, value_name = "FORMAT")]
+    export: Option<String>,
+    /// With --export: a frame every K steps (and at step 0 and the last step). Default 1.
+    #[arg(long, value_name = "K", requires = "export")]
+    every: Option<usize>,
 }
 
 #[derive(Args)]
@@ -87,7 +96,11 @@ fn main() -> ExitCode {
 /// Whether an error comes from the user's input files rather than from softbench or the system.
 fn is_bad_input(err: &anyhow::Error) -> bool {
     err.chain().any(|e| {
-        e.is::<MeshError>() || e.is::<DataError>() || e.is::<SceneError>() || e.is::<BadInput>()
+        e.is::<MeshError>()
+            || e.is::<DataError>()
+            || e.is::<SceneError>()
+            || e.is::<DisplayError>()
+            || e.is::<BadInput>()
     })
 }
 
@@ -132,7 +145,64 @@ fn mesh_info(args: &MeshInfoArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+/// What the frames of `--export` hold, built before anything is written: the model's tets
+/// (or the scene mesh's, for a body without an elastic material), their boundary surface, or
+/// the scene's display mesh skinned onto them.
+fn frame_content(
+    format: ExportFormat,
+    loaded: &LoadedScene,
+    model: &Model,
+) -> anyhow::Result<FrameContent> {
+    let data = DataPaths::from_env();
+    let tets = if model.tets().is_empty() {
+        scene::scene_mesh(loaded, &data)?.tets
+    } else {
+        model.tets().to_vec()
+    };
+    Ok(match format {
+        ExportFormat::Vtu => FrameContent::tets(model, tets),
+        ExportFormat::Obj => {
+            let rest = TetMesh {
+                positions: model.rest_positions().to_vec(),
+                tets,
+            };
+            match load_display(loaded, &data, &rest)? {
+                None => FrameContent::boundary_surface(&rest.tets),
+                Some(display) => {
+                    let skin = &display.skinning;
+                    if !skin.outside().is_empty() {
+                        eprintln!(
+                            "note: {} of {} display vertices of {} lie outside the tet mesh \
+                             (largest distance {:.3e}); they follow the closest point of their \
+                             nearest tet",
+                            skin.outside().len(),
+                            skin.num_display_vertices(),
+                            display.path.display(),
+                            skin.max_outside_distance()
+                        );
+                    }
+                    let name = display.path.file_name().map_or_else(
+                        || display.path.display().to_string(),
+                        |n| n.to_string_lossy().into_owned(),
+                    );
+                    FrameContent::skinned(display.skinning, display.mesh.triangles, &name)
+                }
+            }
+        }
+    })
+}
+
 fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
+    let export = args
+        .export
+        .as_deref()
+        .map(ExportFormat::from_name)
+        .transpose()
+        .map_err(|e| BadInput(format!("--export: {e}")))?;
+    let every = args.every.unwrap_or(1);
+    if every == 0 {
+        return Err(BadInput("--every must be at least 1".into()).into());
+    }
     if let Some(n) = args.threads {
         if n == 0 {
             return Err(BadInput("--threads must be at least 1".into()).into());
@@ -149,6 +219,9 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
     let mut integrator = config.integrator.build();
     let linear_solver = (!config.integrator.method.is_explicit())
         .then(|| config.integrator.linear_solver.to_string());
+    let content = export
+        .map(|format| frame_content(format, &loaded, &built.model))
+        .transpose()?;
 
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
@@ -158,17 +231,46 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
     let mut csv = csv::Writer::from_writer(trajectory.writer());
     let mut state = built.initial.clone();
     let mut rows = 0usize;
-    let summary = experiment::run(
-        &mut built.model,
-        integrator.as_mut(),
-        &mut state,
-        &config.run,
-        &mut |row: &experiment::Sample| {
-            rows += 1;
-            csv.serialize(row).map_err(std::io::Error::other)
-        },
-    )
-    .with_context(|| format!("cannot write {}", trajectory_path.display()))?;
+    let mut write_row = |row: &experiment::Sample| {
+        rows += 1;
+        csv.serialize(row)
+            .map_err(|e| std::io::Error::other(format!("{}: {e}", trajectory_path.display())))
+    };
+    let frames_dir = args.out.join("frames");
+    let mut frames_written = 0;
+    let summary = match content {
+        None => experiment::run(
+            &mut built.model,
+            integrator.as_mut(),
+            &mut state,
+            &config.run,
+            &mut write_row,
+        )
+        .context("cannot write the output")?,
+        Some(content) => {
+            let mut frames = FrameWriter::new(
+                &frames_dir,
+                every,
+                config.run.steps,
+                content,
+                &mut write_row,
+            )
+            .context("cannot write the frames")?;
+            let summary = experiment::run(
+                &mut built.model,
+                integrator.as_mut(),
+                &mut state,
+                &config.run,
+                &mut frames,
+            )
+            .context("cannot write the output")?;
+            frames_written = frames
+                .finish(&built.model, &state, summary.steps_completed)
+                .context("cannot write the frames")?
+                .len();
+            summary
+        }
+    };
     csv.flush()?;
     drop(csv);
     trajectory
@@ -203,8 +305,13 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
 
     match &summary.outcome {
         Outcome::Completed => {
+            let frames_note = if frames_written > 0 {
+                format!(" ({frames_written} frames in {})", frames_dir.display())
+            } else {
+                String::new()
+            };
             println!(
-                "{}: {} steps of {} with dt = {:e} s in {:.3} s; wrote {}",
+                "{}: {} steps of {} with dt = {:e} s in {:.3} s; wrote {}{frames_note}",
                 built.name,
                 summary.steps_completed,
                 summary.method,

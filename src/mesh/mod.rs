@@ -8,6 +8,8 @@
 //! - [`surface`]: boundary faces, edge topology, closed-manifold check.
 //! - [`generate`]: box, beam and ball meshes.
 //! - [`quality`]: the [`MeshReport`].
+//! - [`skinning`]: barycentric binding of a display mesh to a tet mesh ([`Skinning`]), built
+//!   with the point-query grid [`tet_grid::TetGrid`].
 //!
 //! Orientation convention: a tet `[a, b, c, d]` is positively oriented when
 //! `(b - a) · ((c - a) × (d - a)) > 0` (the convention of every reference mesh). A surface
@@ -20,7 +22,9 @@ pub mod obj;
 pub mod plain;
 pub mod quality;
 mod read;
+pub mod skinning;
 pub mod surface;
+pub mod tet_grid;
 pub mod tetgen;
 mod text;
 
@@ -28,6 +32,7 @@ pub use error::MeshError;
 pub use generate::{ball, beam, box_mesh};
 pub use quality::{BoundingBox, MeshReport};
 pub use read::{AnyMesh, MeshFormat, read_mesh, read_surface_mesh, read_tet_mesh};
+pub use skinning::{OutsideVertex, Skinning, SkinningError};
 
 use nalgebra::Vector3;
 

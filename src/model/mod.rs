@@ -12,6 +12,7 @@ mod drag;
 mod elastic;
 mod error;
 mod mass;
+mod measures;
 mod pattern;
 mod springs;
 mod vertex_potential;

@@ -41,6 +41,9 @@ pub struct SceneConfig {
     pub integrator: IntegratorSettings,
     /// Time step, length and output sampling.
     pub run: RunConfig,
+    /// A display mesh that OBJ frames show instead of the tet mesh's boundary.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub display: Option<crate::export::DisplayConfig>,
 }
 
 /// `[mesh]`: a file (found next to the scene file, then in `SOFTBENCH_DATA`) or a generator.
