@@ -3,22 +3,10 @@
 
 mod common;
 
+use common::{scene, softbench};
+
 use common::TempDir;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn softbench(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_softbench"))
-        .args(args)
-        .output()
-        .expect("cannot run softbench")
-}
-
-fn scene(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("experiments/scenes")
-        .join(name)
-}
+use std::path::Path;
 
 /// The file names in `dir`, sorted.
 fn listing(dir: &Path) -> Vec<String> {

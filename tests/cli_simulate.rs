@@ -4,24 +4,12 @@
 
 mod common;
 
+use common::{scene, softbench};
+
 use common::TempDir;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
 
 const TRAJECTORY_HEADER: &str = "step,t,dt,kinetic,elastic,gravity,total,momentum_x,momentum_y,momentum_z,newton_iterations,linear_iterations,wall_seconds";
-
-fn softbench(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_softbench"))
-        .args(args)
-        .output()
-        .expect("cannot run softbench")
-}
-
-fn scene(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("experiments/scenes")
-        .join(name)
-}
 
 fn methods() -> Vec<String> {
     softbench::integrate::Method::ALL

@@ -4,23 +4,11 @@
 
 mod common;
 
+use common::{scene, softbench};
+
 use common::TempDir;
 use softbench::scene::{self, SceneError};
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn softbench(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_softbench"))
-        .args(args)
-        .output()
-        .expect("cannot run softbench")
-}
-
-fn scene_file(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("experiments/scenes")
-        .join(name)
-}
+use std::path::Path;
 
 /// Run a shipped scene for `steps` steps with `extra` overrides; return the exit code, the
 /// summary and stderr.
@@ -32,7 +20,7 @@ fn simulate(
 ) -> (i32, serde_json::Value, String) {
     let out = dir.path().join(format!("{name}-{}", extra.join("-")));
     let steps = format!("run.steps={steps}");
-    let file = scene_file(name);
+    let file = scene(name);
     let mut args = vec![
         "simulate",
         file.to_str().unwrap(),
@@ -77,7 +65,7 @@ fn the_jello_scenes_run_a_few_steps_and_fall() {
 }
 
 fn build(name: &str) -> scene::Scene {
-    let loaded = scene::load(&scene_file(name), &[]).unwrap();
+    let loaded = scene::load(&scene(name), &[]).unwrap();
     scene::build(
         &loaded,
         &softbench::data::DataPaths::from_env(),

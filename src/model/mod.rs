@@ -611,6 +611,26 @@ impl Model {
         Ok(())
     }
 
+    /// Sum the element vectors in the buffers (tets, springs) into `out` over free DOFs.
+    fn gather_element_vectors(&self, out: &mut [f64]) {
+        let b = &self.buffers;
+        let families = [
+            (&self.tet_gather, b.tet_vectors.as_slice()),
+            (&self.spring_gather, b.spring_vectors.as_slice()),
+        ];
+        gather_vector(self.parallelism, &families, out);
+    }
+
+    /// Sum the element matrices in the buffers (tets, springs) into `values` over the pattern.
+    fn gather_element_matrices(&self, values: &mut [f64]) {
+        let b = &self.buffers;
+        let families = [
+            (&self.tet_gather, b.tet_matrices.as_slice()),
+            (&self.spring_gather, b.spring_matrices.as_slice()),
+        ];
+        gather_matrix(self.parallelism, &self.pattern, &families, values);
+    }
+
     fn element_error(&self, f: ElementFailure) -> ModelError {
         let material = self.material().map_or("material", |m| m.name());
         ModelError::InvertedElement {
@@ -688,14 +708,7 @@ impl Model {
         {
             s.gradient(&self.positions[s.i], &self.positions[s.j], out);
         }
-        gather_vector(
-            par,
-            &[
-                (&self.tet_gather, &b.tet_vectors),
-                (&self.spring_gather, &b.spring_vectors),
-            ],
-            g,
-        );
+        self.gather_element_vectors(g);
         if let Some(gr) = self.gravity {
             for (f, &v) in self.dofs.free_vertices().iter().enumerate() {
                 for i in 0..3 {
@@ -759,15 +772,7 @@ impl Model {
                 out,
             );
         }
-        gather_matrix(
-            par,
-            &self.pattern,
-            &[
-                (&self.tet_gather, &b.tet_matrices),
-                (&self.spring_gather, &b.spring_matrices),
-            ],
-            h.values_mut(),
-        );
+        self.gather_element_matrices(h.values_mut());
         let values = h.values_mut();
         let (dofs, slots) = (&self.dofs, &self.diagonal_slots);
         for p in &self.vertex_potentials {
@@ -841,14 +846,7 @@ impl Model {
         {
             s.damping_force(&x[s.i], &x[s.j], &vel[s.i], &vel[s.j], out);
         }
-        gather_vector(
-            par,
-            &[
-                (&self.tet_gather, &b.tet_vectors),
-                (&self.spring_gather, &b.spring_vectors),
-            ],
-            f,
-        );
+        self.gather_element_vectors(f);
         if let Some((alpha, beta)) = self.damping.rayleigh {
             let n = f.len();
             let mut extra = std::mem::take(&mut self.buffers.partial);
@@ -915,15 +913,7 @@ impl Model {
         {
             s.damping_matrix(&self.positions[s.i], &self.positions[s.j], beta, out);
         }
-        gather_matrix(
-            par,
-            &self.pattern,
-            &[
-                (&self.tet_gather, &b.tet_matrices),
-                (&self.spring_gather, &b.spring_matrices),
-            ],
-            d.values_mut(),
-        );
+        self.gather_element_matrices(d.values_mut());
         if alpha != 0.0 {
             self.mass.add_scaled_to(alpha, d);
         }

@@ -161,3 +161,59 @@ pub(crate) fn relative_residual(
     let bn = norm(b);
     if bn > 0.0 { r2.sqrt() / bn } else { r2.sqrt() }
 }
+
+/// Record a `factor` call that took `time` in `stats`: counts and time, and the time in the
+/// report (every backend's `factor` ends this way).
+pub(crate) fn record_factor(
+    stats: &mut super::SolverStats,
+    time: std::time::Duration,
+    result: Result<super::FactorReport, SolveError>,
+) -> Result<super::FactorReport, SolveError> {
+    stats.factor_time += time;
+    match result {
+        Ok(report) => {
+            stats.factorizations += 1;
+            Ok(super::FactorReport { time, ..report })
+        }
+        Err(e) => {
+            stats.failed_factorizations += 1;
+            Err(e)
+        }
+    }
+}
+
+/// The end of a direct solve started at `start`: the residual `‖b − A x‖ / ‖b‖` (one
+/// mat-vec into `ax`), the report (1 iteration) and the stats.
+pub(crate) fn finish_direct_solve(
+    residual: ResidualCheck<'_>,
+    start: std::time::Instant,
+    stats: &mut super::SolverStats,
+) -> super::SolveReport {
+    let residual_start = std::time::Instant::now();
+    let relative_residual = relative_residual(
+        residual.a,
+        residual.b,
+        residual.x,
+        residual.ax,
+        residual.parallelism,
+    );
+    let report = super::SolveReport {
+        iterations: 1,
+        relative_residual,
+        time: start.elapsed(),
+        residual_time: residual_start.elapsed(),
+    };
+    stats.solves += 1;
+    stats.linear_iterations += 1;
+    stats.solve_time += report.time;
+    report
+}
+
+/// What a residual check reads: `A`, the right-hand side, the solution and a buffer.
+pub(crate) struct ResidualCheck<'a> {
+    pub a: &'a SymmetricMatrix,
+    pub b: &'a [f64],
+    pub x: &'a [f64],
+    pub ax: &'a mut [f64],
+    pub parallelism: Parallelism,
+}

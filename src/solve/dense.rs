@@ -11,8 +11,8 @@ use std::time::Instant;
 use nalgebra::{DMatrix, DVectorViewMut};
 
 use super::{
-    Analyzed, FactorReport, LinearSolver, SolveError, SolveReport, SolverStats, check_rhs,
-    relative_residual,
+    Analyzed, FactorReport, LinearSolver, ResidualCheck, SolveError, SolveReport, SolverStats,
+    check_rhs, finish_direct_solve, record_factor,
 };
 use crate::parallel::Parallelism;
 use crate::sparse::{SparsityPattern, SymmetricMatrix};
@@ -117,22 +117,8 @@ impl LinearSolver for DenseCholeskySolver {
 
     fn factor(&mut self, a: &SymmetricMatrix) -> Result<FactorReport, SolveError> {
         let start = Instant::now();
-        let result = self.factor_inner(a);
-        let time = start.elapsed();
-        self.stats.factor_time += time;
-        match result {
-            Ok(()) => {
-                self.stats.factorizations += 1;
-                Ok(FactorReport {
-                    time,
-                    ..Default::default()
-                })
-            }
-            Err(e) => {
-                self.stats.failed_factorizations += 1;
-                Err(e)
-            }
-        }
+        let result = self.factor_inner(a).map(|()| FactorReport::default());
+        record_factor(&mut self.stats, start.elapsed(), result)
     }
 
     fn solve(&mut self, x: &mut [f64]) -> Result<SolveReport, SolveError> {
@@ -145,19 +131,14 @@ impl LinearSolver for DenseCholeskySolver {
         // The diagonal of L is positive (checked by `factor`), so the unchecked solves are safe.
         self.l.solve_lower_triangular_unchecked_mut(&mut v);
         self.l.tr_solve_lower_triangular_unchecked_mut(&mut v);
-        let residual_start = Instant::now();
-        let relative_residual =
-            relative_residual(a, &self.b, x, &mut self.ax, Parallelism::Sequential);
-        let report = SolveReport {
-            iterations: 1,
-            relative_residual,
-            time: start.elapsed(),
-            residual_time: residual_start.elapsed(),
+        let check = ResidualCheck {
+            a,
+            b: &self.b,
+            x,
+            ax: &mut self.ax,
+            parallelism: Parallelism::Sequential,
         };
-        self.stats.solves += 1;
-        self.stats.linear_iterations += 1;
-        self.stats.solve_time += report.time;
-        Ok(report)
+        Ok(finish_direct_solve(check, start, &mut self.stats))
     }
 
     fn stats(&self) -> &SolverStats {

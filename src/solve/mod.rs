@@ -33,7 +33,9 @@ use crate::sparse::{SparsityPattern, SymmetricMatrix};
 pub use cg::{CgSettings, CgSolver, Preconditioner};
 pub use cholesky::CholeskySolver;
 pub use common::symmetric_mul_vec;
-pub(crate) use common::{Analyzed, check_rhs, dot, norm, relative_residual};
+pub(crate) use common::{
+    Analyzed, ResidualCheck, check_rhs, dot, finish_direct_solve, norm, record_factor,
+};
 pub use dense::DenseCholeskySolver;
 pub use kind::{
     DirectSettings, LinearSolverKind, Ordering, SolverSettings, Supernodal, UnknownSolverError,

@@ -80,3 +80,18 @@ pub fn assert_close(a: f64, b: f64, rel: f64) {
     );
 }
 pub mod bodies;
+
+/// Run the `softbench` binary with `args` (environment inherited) and collect its output.
+pub fn softbench(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_softbench"))
+        .args(args)
+        .output()
+        .expect("cannot run softbench")
+}
+
+/// A shipped scene file, `experiments/scenes/<name>`.
+pub fn scene(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("experiments/scenes")
+        .join(name)
+}
