@@ -146,7 +146,7 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
     let loaded = scene::load(&args.scene, &args.set)?;
     let mut built = scene::build(&loaded, &DataPaths::from_env(), Parallelism::Rayon)?;
     let config = &built.config;
-    let mut integrator = config.integrator.build();
+    let mut integrator = built.integrator();
     let linear_solver = (!config.integrator.method.is_explicit())
         .then(|| config.integrator.linear_solver.to_string());
 

@@ -1,6 +1,7 @@
 //! The scene file schema (TOML): what body, which material, what is fixed, which forces,
 //! which integrator, how long. Unknown keys are errors that list the valid ones.
 
+use crate::contact::{ContactConfig, ObstacleConfig};
 use crate::integrate::IntegratorSettings;
 use crate::model::{MassKind, Side};
 
@@ -27,6 +28,12 @@ pub struct SceneConfig {
     pub integrator: IntegratorSettings,
     /// Time step, length and output sampling.
     pub run: RunConfig,
+    /// Obstacles (`[[obstacles]]`); none means no contact code runs.
+    #[serde(default)]
+    pub obstacles: Vec<ObstacleConfig>,
+    /// How contact with the obstacles is resolved.
+    #[serde(default)]
+    pub contact: ContactConfig,
 }
 
 /// `[mesh]`: a file (found next to the scene file, then in `SOFTBENCH_DATA`) or a generator.
