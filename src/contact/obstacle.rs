@@ -5,16 +5,22 @@ use super::path::Path;
 use super::sdf::{Sdf, SdfValue};
 use super::{Capsule, Cuboid, HalfSpace, Sphere};
 use nalgebra::{Isometry3, Point3, Translation3, Vector3};
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::cell::Cell;
 
-/// Obstacle queries made by this process (each [`Obstacle::sample`] and
-/// [`Obstacle::for_each_piece`] call counts one), so tests can check that a scene without
-/// obstacles runs no contact code.
-static QUERIES: AtomicU64 = AtomicU64::new(0);
+thread_local! {
+    /// Obstacle queries made by this thread (each [`Obstacle::sample`] and
+    /// [`Obstacle::for_each_piece`] call counts one). Contact code runs on the thread that
+    /// steps the integrator, so this tells whether a run touched any contact code.
+    static QUERIES: Cell<u64> = const { Cell::new(0) };
+}
 
-/// How many obstacle queries this process has made.
+/// How many obstacle queries the current thread has made.
 pub fn query_count() -> u64 {
-    QUERIES.load(Ordering::Relaxed)
+    QUERIES.with(Cell::get)
+}
+
+fn count_query() {
+    QUERIES.with(|q| q.set(q.get() + 1));
 }
 
 /// What an obstacle is made of. One variant per shape file, plus groups.
@@ -83,7 +89,7 @@ impl Obstacle {
 
     /// The signed distance to this obstacle (a group: the nearest member) at `p`, time `t`.
     pub fn sample(&self, p: &Vector3<f64>, t: f64) -> ObstacleSample {
-        QUERIES.fetch_add(1, Ordering::Relaxed);
+        count_query();
         let mut nearest: Option<ObstacleSample> = None;
         self.visit(p, t, &mut |_, s| {
             if nearest.is_none_or(|n| s.sdf.distance < n.sdf.distance) {
@@ -105,7 +111,7 @@ impl Obstacle {
         t: f64,
         f: &mut dyn FnMut(usize, ObstacleSample),
     ) {
-        QUERIES.fetch_add(1, Ordering::Relaxed);
+        count_query();
         self.visit(p, t, f);
     }
 
