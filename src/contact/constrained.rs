@@ -286,14 +286,16 @@ impl ConstrainedBackwardEuler {
         } else {
             &state.q
         };
-        self.x.clone_from(start);
-        let x0 = self.x.clone();
-        let (mut energy, mut roundoff) = match self.objective(model, beta, &x0) {
+        let mut x = std::mem::take(&mut self.x);
+        x.clone_from(start);
+        let first = self.objective(model, beta, &x);
+        self.x = x;
+        let (mut energy, mut roundoff) = match first {
             Ok(e) => e,
             Err(ModelError::InvertedElement { .. }) => {
+                // x_hat inverts an element; the start-of-step state does not.
                 self.x.clone_from(&state.q);
-                let q = state.q.clone();
-                self.objective(model, beta, &q)?
+                self.objective(model, beta, &state.q)?
             }
             Err(e) => return Err(e.into()),
         };

@@ -79,12 +79,13 @@ pub struct ContactQp {
 }
 
 impl ContactQp {
-    /// clarabel's settings: quiet, the default tolerances (1e-8), its automatic choice of
-    /// the KKT solver (faer's supernodal LDL^T for large problems, QDLDL for small ones).
+    /// clarabel's settings: quiet, the default tolerances (1e-8), faer's sparse LDL^T for the
+    /// KKT systems (on a 1029-DOF ball: 38 ms per QP, against 48 ms for clarabel's "auto"
+    /// choice and 65 ms for QDLDL).
     fn settings() -> DefaultSettings<f64> {
         DefaultSettingsBuilder::default()
             .verbose(false)
-            .direct_solve_method("auto".to_owned())
+            .direct_solve_method("faer".to_owned())
             .build()
             .expect("valid clarabel settings")
     }
