@@ -124,6 +124,24 @@ named_enum! {
     }
 }
 
+impl ContactResponse {
+    /// One line on what the response is good for.
+    pub fn description(self) -> &'static str {
+        match self {
+            Self::Penalty => "spring 1/2 k d^2 on the depth; any integrator, penetrates ~ load/k",
+            Self::Projection => {
+                "move to the surface, restitution/friction; any integrator, needs a small dt"
+            }
+            Self::VelocityFlip => {
+                "reflect the normal velocity only; bounces, cannot hold a resting body"
+            }
+            Self::Constrained => {
+                "backward Euler with non-penetration constraints (a QP per iteration); exact"
+            }
+        }
+    }
+}
+
 /// A rotation by `degrees` about `axis` (right-handed).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
