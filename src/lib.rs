@@ -17,6 +17,7 @@
 //! - [`sparse`]: the symmetric sparse matrix and its pattern, built once and refilled in place;
 //! - [`solve`]: sparse Cholesky and LDLᵀ (faer), preconditioned CG, dense Cholesky;
 //! - [`integrate`]: explicit, adaptive and implicit integrators, and Newton's method;
+//! - [`contact`]: obstacles (signed distances) and four contact responses;
 //! - [`experiment`]: running a scene and measuring it (energies, momenta, blow-up detection);
 //! - [`report`]: writing results atomically;
 //! - [`export`]: frames for viewers (VTU + PVD, OBJ; skinned display meshes).
@@ -25,6 +26,7 @@
 //! `vec(F)` is column-major (`F[(0,0)], F[(1,0)], F[(2,0)], F[(0,1)], ...`), which is nalgebra's
 //! storage order.
 
+pub mod contact;
 pub mod data;
 pub mod experiment;
 pub mod export;

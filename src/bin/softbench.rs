@@ -10,6 +10,7 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::{Args, Parser, Subcommand};
 use serde::Serialize;
+use softbench::contact::ContactResponse;
 use softbench::data::{DataError, DataPaths};
 use softbench::experiment::{self, Outcome};
 use softbench::export::{DisplayError, ExportFormat, FrameContent, FrameWriter, load_display};
@@ -37,7 +38,7 @@ enum Command {
     /// Run one scene with one integrator; write trajectory.csv, final_positions.csv and
     /// summary.json to the output folder.
     Simulate(SimulateArgs),
-    /// List the integrators, linear solvers and materials, one line each.
+    /// List the integrators, linear solvers, materials and contact responses, one line each.
     List,
 }
 
@@ -216,7 +217,7 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
     let loaded = scene::load(&args.scene, &args.set)?;
     let mut built = scene::build(&loaded, &DataPaths::from_env(), Parallelism::Rayon)?;
     let config = &built.config;
-    let mut integrator = config.integrator.build();
+    let mut integrator = built.integrator();
     let linear_solver = (!config.integrator.method.is_explicit())
         .then(|| config.integrator.linear_solver.to_string());
     let content = export
@@ -352,6 +353,10 @@ fn list() -> anyhow::Result<ExitCode> {
     writeln!(out, "materials (material.model):")?;
     for name in MaterialModel::NAMES {
         writeln!(out, "  {:26} {}", name, MaterialModel::description_of(name))?;
+    }
+    writeln!(out, "contact responses (contact.response):")?;
+    for r in ContactResponse::ALL {
+        writeln!(out, "  {:26} {}", r.name(), r.description())?;
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -62,6 +62,14 @@ pub struct Sample {
     pub solve_seconds: f64,
     /// Wall time since the start of the run (s).
     pub elapsed_seconds: f64,
+    /// Most (vertex, obstacle) pairs in contact after any step since the previous row.
+    pub contacts: u64,
+    /// Deepest penetration into an obstacle after any step since the previous row (m).
+    pub max_penetration: f64,
+    /// Quadratic programs solved since the previous row (constrained contact).
+    pub qp_solves: u64,
+    /// Their wall time (s).
+    pub qp_seconds: f64,
 }
 
 /// What watches a run: every sampled row, and (optionally) the state after every step —
@@ -180,6 +188,10 @@ fn sample(
         factor_seconds: work.times.factor,
         solve_seconds: work.times.solve,
         elapsed_seconds: w.elapsed,
+        contacts: work.contacts.into(),
+        max_penetration: work.max_penetration,
+        qp_solves: work.qp_solves.into(),
+        qp_seconds: work.times.qp,
     }
 }
 

@@ -25,7 +25,7 @@ mod report;
 pub mod rk4;
 pub mod runge_kutta;
 pub mod symplectic_euler;
-mod system;
+pub(crate) mod system;
 
 pub use adaptive::{Adaptive, AdaptiveSettings};
 pub use kind::{IntegratorSettings, Method, UnknownMethodError};

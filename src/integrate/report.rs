@@ -13,6 +13,8 @@ pub struct PhaseTimes {
     pub factor: f64,
     /// Linear solves.
     pub solve: f64,
+    /// Quadratic programs (the constrained contact response).
+    pub qp: f64,
     /// The whole step.
     pub total: f64,
 }
@@ -48,10 +50,18 @@ pub struct StepReport {
     pub evaluations: EvalCounters,
     /// Wall time per phase.
     pub times: PhaseTimes,
+    /// (vertex, obstacle) pairs in contact (within the contact margin) after the step; 0
+    /// without obstacles.
+    pub contacts: u32,
+    /// The deepest penetration of a vertex into an obstacle after the step (m).
+    pub max_penetration: f64,
+    /// Quadratic programs solved (the constrained contact response).
+    pub qp_solves: u32,
 }
 
 impl StepReport {
-    /// Add the work of a sub-step (halving retries, adaptive sub-steps).
+    /// Add the work of a sub-step (halving retries, adaptive sub-steps); contacts and
+    /// penetration take the larger value.
     pub fn absorb(&mut self, other: &StepReport) {
         self.substeps += other.substeps;
         self.rejected_substeps += other.rejected_substeps;
@@ -67,6 +77,10 @@ impl StepReport {
         self.times.assemble += other.times.assemble;
         self.times.factor += other.times.factor;
         self.times.solve += other.times.solve;
+        self.times.qp += other.times.qp;
+        self.contacts = self.contacts.max(other.contacts);
+        self.max_penetration = self.max_penetration.max(other.max_penetration);
+        self.qp_solves += other.qp_solves;
     }
 }
 

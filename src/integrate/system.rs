@@ -83,6 +83,21 @@ impl ImplicitSystem {
         Ok(())
     }
 
+    /// Assemble `M + beta K(x)` without factoring it, element Hessians projected when
+    /// `project`, for a caller that hands the matrix to another solver (the contact QP).
+    pub fn assemble_matrix(
+        &mut self,
+        model: &mut Model,
+        x: &[f64],
+        beta: f64,
+        project: bool,
+        report: &mut StepReport,
+    ) -> Result<&SymmetricMatrix, StepError> {
+        self.beta = beta;
+        self.assemble(model, x, project, report)?;
+        Ok(self.matrix.as_ref().expect("assembled"))
+    }
+
     fn factor_current(&mut self, report: &mut StepReport) -> Result<(), SolveError> {
         let start = Instant::now();
         let result = self.solver.factor(self.matrix.as_ref().expect("assembled"));

@@ -1,6 +1,7 @@
 //! The scene file schema (TOML): what body, which material, what is fixed, which forces,
 //! which integrator, how long. Unknown keys are errors that list the valid ones.
 
+use crate::contact::{ContactConfig, ObstacleConfig};
 use crate::integrate::IntegratorSettings;
 use crate::model::{MassKind, Side};
 use crate::scene::springs::{DragConfig, JelloConfig, SpringsConfig};
@@ -44,6 +45,12 @@ pub struct SceneConfig {
     /// A display mesh that OBJ frames show instead of the tet mesh's boundary.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub display: Option<crate::export::DisplayConfig>,
+    /// Obstacles (`[[obstacles]]`); none means no contact code runs.
+    #[serde(default)]
+    pub obstacles: Vec<ObstacleConfig>,
+    /// How contact with the obstacles is resolved.
+    #[serde(default)]
+    pub contact: ContactConfig,
 }
 
 /// `[mesh]`: a file (found next to the scene file, then in `SOFTBENCH_DATA`) or a generator.

@@ -15,8 +15,9 @@ pub use config::{
 pub use overrides::{OverrideError, apply as apply_override};
 pub use springs::{DragConfig, JelloConfig, JelloShape, KindTable, SpringsConfig, WaypointConfig};
 
+use crate::contact::Contact;
 use crate::data::{DataError, DataPaths};
-use crate::integrate::State;
+use crate::integrate::{Integrator, State};
 use crate::material::{LameParameters, MaterialError, MaterialModel, NeoHookean};
 use crate::mesh::{MeshError, TetMesh, generate};
 use crate::model::{
@@ -223,6 +224,13 @@ fn validate(c: &SceneConfig, path: &Path) -> Result<(), SceneError> {
         .newton
         .validate()
         .map_err(|m| invalid("integrator", m))?;
+    for (i, o) in c.obstacles.iter().enumerate() {
+        o.validate(&format!("obstacles[{i}]"))
+            .map_err(|e| invalid(&e.key, e.message))?;
+    }
+    c.contact
+        .validate(c.integrator.method)
+        .map_err(|e| invalid(&e.key, e.message))?;
     Ok(())
 }
 
@@ -232,6 +240,18 @@ pub struct Scene {
     pub config: SceneConfig,
     pub model: Model,
     pub initial: State,
+    /// Obstacles and their response; `None` without obstacles.
+    pub contact: Option<Contact>,
+}
+
+impl Scene {
+    /// The scene's integrator, with its contact response if it has obstacles.
+    pub fn integrator(&self) -> Box<dyn Integrator> {
+        match &self.contact {
+            Some(contact) => contact.integrator(&self.config.integrator),
+            None => self.config.integrator.build(),
+        }
+    }
 }
 
 /// The tet mesh a scene names: read through the data search path, or generated; for a
@@ -313,7 +333,7 @@ fn scene_material(m: &MaterialConfig, path: &Path) -> Result<MaterialModel, Scen
     MaterialModel::from_name(&m.model, lame).map_err(err)
 }
 
-/// Build the scene: mesh, material, fixed vertices, forces; the body starts at rest.
+/// Build the scene: mesh, material, fixed vertices, forces, obstacles; the body starts at rest.
 pub fn build(
     loaded: &LoadedScene,
     data: &DataPaths,
@@ -380,11 +400,13 @@ pub fn build(
         key: e.key,
         message: e.message,
     })?;
+    let contact = Contact::build(&c.obstacles, &c.contact, &mut model);
     let initial = State::at_rest(&model);
     Ok(Scene {
         name: loaded.name(),
         config: c.clone(),
         model,
         initial,
+        contact,
     })
 }

@@ -1,0 +1,526 @@
+//! The scene-file side of contact: `[[obstacles]]` tables and the `[contact]` section, their
+//! validation, and turning them into [`Obstacle`]s.
+//!
+//! ```toml
+//! [[obstacles]]
+//! kind = "plane"
+//! point = [0.0, 0.0, 0.0]
+//! normal = [0.0, 1.0, 0.0]
+//!
+//! [[obstacles]]
+//! kind = "sphere"
+//! center = [0.0, -1.2, 0.0]
+//! radius = 1.0
+//! transform = { translation = [0.5, 0.0, 0.0], rotation = { axis = [0, 0, 1], degrees = 30 } }
+//! path = { times = [0.0, 1.0], offsets = [[0, 0, 0], [0, 0.2, 0]] }
+//!
+//! [contact]
+//! response = "projection"
+//! restitution = 0.5
+//! friction = 0.2
+//! ```
+
+use super::obstacle::{Obstacle, Shape};
+use super::path::Path;
+use super::{Capsule, Cuboid, HalfSpace, Sphere};
+use crate::integrate::Method;
+use nalgebra::{Isometry3, Rotation3, Translation3, Unit, UnitQuaternion, Vector3};
+use std::fmt;
+use std::str::FromStr;
+
+/// Declares a name-keyed enum that (de)serializes as its name and rejects unknown names with
+/// the valid ones listed and the closest suggested.
+macro_rules! named_enum {
+    ($(#[$doc:meta])* $ty:ident, $what:literal, $err:ident { $($(#[$vdoc:meta])* $variant:ident = $name:literal,)+ }) => {
+        $(#[$doc])*
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+        #[serde(try_from = "String", into = "String")]
+        pub enum $ty {
+            $($(#[$vdoc])* $variant,)+
+        }
+
+        impl $ty {
+            /// Every value, in documentation order.
+            pub const ALL: &'static [$ty] = &[$($ty::$variant,)+];
+
+            /// The name scene files use.
+            pub fn name(self) -> &'static str {
+                match self {
+                    $($ty::$variant => $name,)+
+                }
+            }
+
+            /// Every name, for messages.
+            pub fn names() -> Vec<&'static str> {
+                Self::ALL.iter().map(|v| v.name()).collect()
+            }
+        }
+
+        #[doc = concat!("An unknown ", $what, " name; the message lists the valid ones.")]
+        #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+        #[error("{}", crate::names::unknown_name_message($what, .0, &$ty::names()))]
+        pub struct $err(pub String);
+
+        impl FromStr for $ty {
+            type Err = $err;
+            fn from_str(s: &str) -> Result<Self, Self::Err> {
+                Self::ALL
+                    .iter()
+                    .copied()
+                    .find(|v| v.name() == s)
+                    .ok_or_else(|| $err(s.to_owned()))
+            }
+        }
+
+        impl TryFrom<String> for $ty {
+            type Error = $err;
+            fn try_from(s: String) -> Result<Self, Self::Error> {
+                s.parse()
+            }
+        }
+
+        impl From<$ty> for String {
+            fn from(v: $ty) -> String {
+                v.name().to_owned()
+            }
+        }
+
+        impl fmt::Display for $ty {
+            fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.write_str(self.name())
+            }
+        }
+    };
+}
+
+named_enum! {
+    /// The shape of an obstacle (`kind` in `[[obstacles]]`).
+    ObstacleKind, "obstacle kind", UnknownObstacleKind {
+        /// A half-space below a plane: `point`, `normal` (outward).
+        Plane = "plane",
+        /// `center`, `radius`.
+        Sphere = "sphere",
+        /// An oriented box: `center`, `half_extents`, optional `rotation`.
+        Box = "box",
+        /// A segment from `a` to `b` thickened by `radius`.
+        Capsule = "capsule",
+        /// The union of `members` (obstacle tables): the minimum distance.
+        Group = "group",
+    }
+}
+
+named_enum! {
+    /// How contact is resolved (`response` in `[contact]`).
+    ContactResponse, "contact response", UnknownContactResponse {
+        /// A stiff spring `1/2 k d^2` on the penetration depth, inside the model.
+        Penalty = "penalty",
+        /// After each step, move penetrating vertices to the surface and change their
+        /// velocity (restitution, friction).
+        Projection = "projection",
+        /// After each step, change the velocity of penetrating vertices only.
+        VelocityFlip = "velocity-flip",
+        /// Backward Euler with linearized non-penetration constraints (a QP per iteration).
+        Constrained = "constrained",
+    }
+}
+
+impl ContactResponse {
+    /// One line on what the response is good for.
+    pub fn description(self) -> &'static str {
+        match self {
+            Self::Penalty => "spring 1/2 k d^2 on the depth; any integrator, penetrates ~ load/k",
+            Self::Projection => {
+                "move to the surface, restitution/friction; any integrator, needs a small dt"
+            }
+            Self::VelocityFlip => {
+                "reflect the normal velocity only; bounces, cannot hold a resting body"
+            }
+            Self::Constrained => {
+                "backward Euler with non-penetration constraints (a QP per iteration); exact"
+            }
+        }
+    }
+}
+
+/// A rotation by `degrees` about `axis` (right-handed).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RotationConfig {
+    pub axis: [f64; 3],
+    pub degrees: f64,
+}
+
+impl RotationConfig {
+    fn rotation(&self) -> Rotation3<f64> {
+        Rotation3::from_axis_angle(
+            &Unit::new_normalize(Vector3::from(self.axis)),
+            self.degrees.to_radians(),
+        )
+    }
+}
+
+/// A rigid transform: rotate (about the origin), then translate.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TransformConfig {
+    /// Translation (m). Default 0.
+    #[serde(default)]
+    pub translation: [f64; 3],
+    /// Rotation. Default none.
+    #[serde(default)]
+    pub rotation: Option<RotationConfig>,
+}
+
+impl TransformConfig {
+    fn isometry(&self) -> Isometry3<f64> {
+        let rotation = self
+            .rotation
+            .map_or(Rotation3::identity(), |r| r.rotation());
+        Isometry3::from_parts(
+            Translation3::from(Vector3::from(self.translation)),
+            UnitQuaternion::from_rotation_matrix(&rotation),
+        )
+    }
+}
+
+/// A prescribed translation through waypoints, linear in between (see [`Path`]).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PathConfig {
+    /// Strictly increasing times (s).
+    pub times: Vec<f64>,
+    /// The offset (m) at each time.
+    pub offsets: Vec<[f64; 3]>,
+}
+
+/// One `[[obstacles]]` table. Which fields apply depends on `kind` (see [`ObstacleKind`]);
+/// a field that does not apply is an error.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObstacleConfig {
+    pub kind: ObstacleKind,
+    /// A point on a plane (m). Default: the origin.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub point: Option<[f64; 3]>,
+    /// A plane's outward normal (need not be unit length).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub normal: Option<[f64; 3]>,
+    /// Centre of a sphere or box (m). Default: the origin.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub center: Option<[f64; 3]>,
+    /// Radius of a sphere or capsule (m).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub radius: Option<f64>,
+    /// Half-extents of a box along its axes (m).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub half_extents: Option<[f64; 3]>,
+    /// Orientation of a box's axes.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rotation: Option<RotationConfig>,
+    /// End points of a capsule's segment (m).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub a: Option<[f64; 3]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub b: Option<[f64; 3]>,
+    /// The obstacles of a group.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub members: Option<Vec<ObstacleConfig>>,
+    /// Placement of the shape (any kind).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub transform: Option<TransformConfig>,
+    /// Prescribed motion (any kind), applied after `transform`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub path: Option<PathConfig>,
+}
+
+/// `[contact]`: how contact with the obstacles is resolved. Ignored without obstacles.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ContactConfig {
+    /// Default `penalty`.
+    pub response: ContactResponse,
+    /// Projection and velocity-flip: the fraction of the approaching normal velocity that is
+    /// reversed, in [0, 1] (1 elastic, 0 inelastic). Default 0.
+    pub restitution: f64,
+    /// Projection and velocity-flip: the fraction of the tangential velocity removed, in
+    /// [0, 1] (0 frictionless, 1 sticking). Default 0.
+    pub friction: f64,
+    /// Penalty stiffness k (N/m per vertex and obstacle), > 0. Default 1e5.
+    pub stiffness: f64,
+    /// Vertices within this distance (m) of an obstacle count as contacts in reports and get
+    /// a constraint in the constrained response; >= 0. Default 1e-3.
+    pub margin: f64,
+}
+
+impl Default for ContactConfig {
+    fn default() -> Self {
+        Self {
+            response: ContactResponse::Penalty,
+            restitution: 0.0,
+            friction: 0.0,
+            stiffness: 1e5,
+            margin: 1e-3,
+        }
+    }
+}
+
+/// A configuration mistake: the dotted key and what is wrong.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ConfigError {
+    pub key: String,
+    pub message: String,
+}
+
+fn error(key: impl Into<String>, message: impl Into<String>) -> ConfigError {
+    ConfigError {
+        key: key.into(),
+        message: message.into(),
+    }
+}
+
+fn finite(v: &[f64]) -> bool {
+    v.iter().all(|x| x.is_finite())
+}
+
+impl ContactConfig {
+    /// Check ranges; `method` is the scene's integrator (the constrained response is a
+    /// backward Euler method of its own).
+    pub fn validate(&self, method: Method) -> Result<(), ConfigError> {
+        let unit = |x: f64| (0.0..=1.0).contains(&x);
+        if !unit(self.restitution) {
+            return Err(error(
+                "contact.restitution",
+                format!("must lie in [0, 1] (got {})", self.restitution),
+            ));
+        }
+        if !unit(self.friction) {
+            return Err(error(
+                "contact.friction",
+                format!("must lie in [0, 1] (got {})", self.friction),
+            ));
+        }
+        if !(self.stiffness.is_finite() && self.stiffness > 0.0) {
+            return Err(error(
+                "contact.stiffness",
+                format!("must be > 0 (N/m; got {})", self.stiffness),
+            ));
+        }
+        if !(self.margin.is_finite() && self.margin >= 0.0) {
+            return Err(error(
+                "contact.margin",
+                format!("must be >= 0 (m; got {})", self.margin),
+            ));
+        }
+        if self.response == ContactResponse::Constrained && method != Method::BackwardEuler {
+            return Err(error(
+                "contact.response",
+                format!(
+                    "`constrained` is a backward Euler step with contact constraints; it needs \
+                     integrator.method = \"backward-euler\" (got `{method}`)"
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
+impl ObstacleConfig {
+    /// The fields that apply to this kind (besides `kind`, `transform` and `path`).
+    fn fields(kind: ObstacleKind) -> &'static [&'static str] {
+        match kind {
+            ObstacleKind::Plane => &["point", "normal"],
+            ObstacleKind::Sphere => &["center", "radius"],
+            ObstacleKind::Box => &["center", "half_extents", "rotation"],
+            ObstacleKind::Capsule => &["a", "b", "radius"],
+            ObstacleKind::Group => &["members"],
+        }
+    }
+
+    /// Check that the fields fit the kind and their values; `key` names this table in
+    /// messages (`obstacles[0]`).
+    pub fn validate(&self, key: &str) -> Result<(), ConfigError> {
+        let kind = self.kind;
+        let present = [
+            ("point", self.point.is_some()),
+            ("normal", self.normal.is_some()),
+            ("center", self.center.is_some()),
+            ("radius", self.radius.is_some()),
+            ("half_extents", self.half_extents.is_some()),
+            ("rotation", self.rotation.is_some()),
+            ("a", self.a.is_some()),
+            ("b", self.b.is_some()),
+            ("members", self.members.is_some()),
+        ];
+        let allowed = Self::fields(kind);
+        if let Some((name, _)) = present
+            .iter()
+            .find(|(name, set)| *set && !allowed.contains(name))
+        {
+            return Err(error(
+                format!("{key}.{name}"),
+                format!(
+                    "does not apply to a {kind} (its fields: {}, transform, path)",
+                    allowed.join(", ")
+                ),
+            ));
+        }
+        let required: &[&str] = match kind {
+            ObstacleKind::Plane => &["normal"],
+            ObstacleKind::Sphere => &["radius"],
+            ObstacleKind::Box => &["half_extents"],
+            ObstacleKind::Capsule => &["a", "b", "radius"],
+            ObstacleKind::Group => &["members"],
+        };
+        if let Some(name) = required
+            .iter()
+            .find(|name| !present.iter().any(|(n, set)| n == *name && *set))
+        {
+            return Err(error(
+                format!("{key}.{name}"),
+                format!("a {kind} needs `{name}`"),
+            ));
+        }
+        let points = [
+            ("point", self.point),
+            ("center", self.center),
+            ("a", self.a),
+            ("b", self.b),
+        ];
+        for (name, p) in points {
+            if let Some(p) = p
+                && !finite(&p)
+            {
+                return Err(error(format!("{key}.{name}"), "must be finite (m)"));
+            }
+        }
+        if let Some(n) = self.normal
+            && !(finite(&n) && Vector3::from(n).norm() > 0.0)
+        {
+            return Err(error(
+                format!("{key}.normal"),
+                format!("must be a finite, non-zero vector (got {n:?})"),
+            ));
+        }
+        if let Some(r) = self.radius
+            && !(r.is_finite() && r > 0.0)
+        {
+            return Err(error(
+                format!("{key}.radius"),
+                format!("must be > 0 (m; got {r})"),
+            ));
+        }
+        if let Some(h) = self.half_extents
+            && !h.iter().all(|x| x.is_finite() && *x > 0.0)
+        {
+            return Err(error(
+                format!("{key}.half_extents"),
+                format!("must be three numbers > 0 (m; got {h:?})"),
+            ));
+        }
+        if let Some(r) = &self.rotation {
+            validate_rotation(r, &format!("{key}.rotation"))?;
+        }
+        if let Some(members) = &self.members {
+            if members.is_empty() {
+                return Err(error(
+                    format!("{key}.members"),
+                    "a group needs at least one member",
+                ));
+            }
+            for (i, m) in members.iter().enumerate() {
+                m.validate(&format!("{key}.members[{i}]"))?;
+            }
+        }
+        if let Some(tr) = &self.transform {
+            if !finite(&tr.translation) {
+                return Err(error(
+                    format!("{key}.transform.translation"),
+                    "must be finite (m)",
+                ));
+            }
+            if let Some(r) = &tr.rotation {
+                validate_rotation(r, &format!("{key}.transform.rotation"))?;
+            }
+        }
+        if let Some(path) = &self.path {
+            let key = format!("{key}.path");
+            if path.times.is_empty() || path.times.len() != path.offsets.len() {
+                return Err(error(
+                    key,
+                    format!(
+                        "needs as many offsets as times, and at least one (got {} times, {} offsets)",
+                        path.times.len(),
+                        path.offsets.len()
+                    ),
+                ));
+            }
+            let increasing = path.times.windows(2).all(|w| w[0] < w[1]);
+            if !finite(&path.times) || !increasing {
+                return Err(error(
+                    format!("{key}.times"),
+                    "must be finite and strictly increasing (s)",
+                ));
+            }
+            if !path.offsets.iter().all(|o| finite(o)) {
+                return Err(error(format!("{key}.offsets"), "must be finite (m)"));
+            }
+        }
+        Ok(())
+    }
+
+    /// The obstacle this table describes. Call [`Self::validate`] first.
+    ///
+    /// # Panics
+    /// On a table that does not validate.
+    pub fn obstacle(&self) -> Obstacle {
+        let v = |p: Option<[f64; 3]>| p.map_or(Vector3::zeros(), Vector3::from);
+        let shape = match self.kind {
+            ObstacleKind::Plane => Shape::HalfSpace(HalfSpace::new(v(self.point), v(self.normal))),
+            ObstacleKind::Sphere => {
+                Shape::Sphere(Sphere::new(v(self.center), self.radius.expect("validated")))
+            }
+            ObstacleKind::Box => Shape::Cuboid(Cuboid::new(
+                v(self.center),
+                v(self.half_extents),
+                self.rotation
+                    .map_or(Rotation3::identity(), |r| r.rotation()),
+            )),
+            ObstacleKind::Capsule => Shape::Capsule(Capsule::new(
+                v(self.a),
+                v(self.b),
+                self.radius.expect("validated"),
+            )),
+            ObstacleKind::Group => Shape::Group(
+                self.members
+                    .iter()
+                    .flatten()
+                    .map(ObstacleConfig::obstacle)
+                    .collect(),
+            ),
+        };
+        let mut obstacle = Obstacle::new(shape);
+        if let Some(tr) = &self.transform {
+            obstacle = obstacle.with_transform(tr.isometry());
+        }
+        if let Some(path) = &self.path {
+            obstacle = obstacle.with_path(Path::new(
+                path.times.clone(),
+                path.offsets.iter().map(|o| Vector3::from(*o)).collect(),
+            ));
+        }
+        obstacle
+    }
+}
+
+fn validate_rotation(r: &RotationConfig, key: &str) -> Result<(), ConfigError> {
+    if !(finite(&r.axis) && Vector3::from(r.axis).norm() > 0.0) {
+        return Err(error(
+            format!("{key}.axis"),
+            format!("must be a finite, non-zero vector (got {:?})", r.axis),
+        ));
+    }
+    if !r.degrees.is_finite() {
+        return Err(error(format!("{key}.degrees"), "must be finite"));
+    }
+    Ok(())
+}

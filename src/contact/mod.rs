@@ -1,0 +1,127 @@
+//! Obstacles and contact (issue 4).
+//!
+//! Obstacles are signed distance functions with gradient and Hessian, one file per shape —
+//! [`HalfSpace`] (the ground), [`Sphere`], [`Cuboid`] (an oriented box), [`Capsule`] — each
+//! placed by a rigid transform and optionally moving along a [`Path`]; a group is the union of
+//! its members (the minimum distance). See [`obstacle`].
+//!
+//! Four responses, chosen per scene (`[contact] response`) so a study can compare them on the
+//! same scene:
+//! - `penalty` ([`PenaltyContact`]): a per-vertex potential `1/2 k d^2` on the penetration
+//!   depth; every integrator sees it as a force, implicit ones also see its Hessian;
+//! - `projection` and `velocity-flip` ([`WithContactResponse`]): after each step of any
+//!   integrator, penetrating vertices are moved to the surface (projection only) and their
+//!   velocity relative to the obstacle is reflected with restitution and damped tangentially
+//!   by friction ([`VelocityRule`]);
+//! - `constrained` ([`ConstrainedBackwardEuler`]): backward Euler whose iterations solve a
+//!   convex QP with linearized non-penetration constraints (clarabel).
+//!
+//! Every response reports contacts (pairs within the margin) and the deepest penetration in
+//! the [`crate::integrate::StepReport`]. A scene without obstacles builds none of this:
+//! [`Contact::build`] returns `None`, and no obstacle is ever queried ([`query_count`]).
+
+mod capsule;
+pub mod config;
+pub mod constrained;
+mod cuboid;
+mod half_space;
+pub mod obstacle;
+mod path;
+mod penalty;
+pub mod qp;
+mod response;
+mod sdf;
+mod sphere;
+
+pub use capsule::Capsule;
+pub use config::{ContactConfig, ContactResponse, ObstacleConfig, ObstacleKind};
+pub use constrained::ConstrainedBackwardEuler;
+pub use cuboid::Cuboid;
+pub use half_space::HalfSpace;
+pub use obstacle::{ContactStats, Obstacle, ObstacleSample, Obstacles, Shape, query_count};
+pub use path::Path;
+pub use penalty::PenaltyContact;
+pub use response::{Response, VelocityRule, WithContactResponse};
+pub use sdf::{Sdf, SdfValue};
+pub use sphere::Sphere;
+
+use crate::integrate::{Integrator, IntegratorSettings};
+use crate::model::Model;
+use std::sync::Arc;
+
+/// A scene's obstacles with its contact settings.
+#[derive(Clone, Debug)]
+pub struct Contact {
+    obstacles: Arc<Obstacles>,
+    config: ContactConfig,
+}
+
+impl Contact {
+    /// Contact for `obstacles` (validated tables) with `config`, or `None` without
+    /// obstacles. With the penalty response, adds the penalty potential to `model`.
+    pub fn build(
+        obstacles: &[ObstacleConfig],
+        config: &ContactConfig,
+        model: &mut Model,
+    ) -> Option<Self> {
+        if obstacles.is_empty() {
+            return None;
+        }
+        let set = obstacles.iter().map(ObstacleConfig::obstacle).collect();
+        Some(Self::new(set, *config, model))
+    }
+
+    /// Contact with `obstacles`; with the penalty response, adds the penalty potential to
+    /// `model`.
+    pub fn new(obstacles: Obstacles, config: ContactConfig, model: &mut Model) -> Self {
+        let obstacles = Arc::new(obstacles);
+        if config.response == ContactResponse::Penalty {
+            model.add_vertex_potential(Box::new(PenaltyContact::new(
+                obstacles.clone(),
+                config.stiffness,
+            )));
+        }
+        Self { obstacles, config }
+    }
+
+    /// The obstacles.
+    pub fn obstacles(&self) -> &Arc<Obstacles> {
+        &self.obstacles
+    }
+
+    /// The settings.
+    pub fn config(&self) -> &ContactConfig {
+        &self.config
+    }
+
+    /// The integrator `settings` describe, with this contact response: the method wrapped in
+    /// [`WithContactResponse`], or for `constrained` a [`ConstrainedBackwardEuler`] with the
+    /// settings' linear solver and Newton settings (whatever the method; scene validation
+    /// requires backward Euler).
+    pub fn integrator(&self, settings: &IntegratorSettings) -> Box<dyn Integrator> {
+        let c = &self.config;
+        let rule = VelocityRule {
+            restitution: c.restitution,
+            friction: c.friction,
+        };
+        let response = match c.response {
+            ContactResponse::Penalty => Response::ReportOnly,
+            ContactResponse::Projection => Response::Projection(rule),
+            ContactResponse::VelocityFlip => Response::VelocityFlip(rule),
+            ContactResponse::Constrained => {
+                return Box::new(ConstrainedBackwardEuler::new(
+                    self.obstacles.clone(),
+                    c.margin,
+                    settings.linear_solver.build(&settings.solver),
+                    settings.newton,
+                ));
+            }
+        };
+        Box::new(WithContactResponse::new(
+            settings.build(),
+            self.obstacles.clone(),
+            response,
+            c.margin,
+        ))
+    }
+}
