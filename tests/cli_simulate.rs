@@ -318,3 +318,41 @@ fn scene_path_str() -> &'static str {
     static PATH: std::sync::OnceLock<String> = std::sync::OnceLock::new();
     PATH.get_or_init(|| scene("cantilever.toml").to_str().unwrap().to_owned())
 }
+
+#[test]
+fn every_shipped_scene_runs_a_few_steps() {
+    let dir = TempDir::new("simulate-every-scene");
+    let mut scenes: Vec<_> = std::fs::read_dir(scene(""))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+        .collect();
+    scenes.sort();
+    assert!(
+        scenes.len() >= 10,
+        "expected the shipped scenes, found {scenes:?}"
+    );
+    let data_set = std::env::var_os("SOFTBENCH_DATA").is_some();
+    for path in scenes {
+        let name = path.file_stem().unwrap().to_string_lossy().into_owned();
+        let out = dir.path().join(&name);
+        let result = softbench(&[
+            "simulate",
+            path.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--set",
+            "run.steps=3",
+        ]);
+        let stderr = String::from_utf8_lossy(&result.stderr);
+        if !data_set && result.status.code() == Some(2) && stderr.contains("SOFTBENCH_DATA") {
+            use std::io::Write;
+            let _ = writeln!(
+                std::io::stderr(),
+                "skipped: {name}: needs a reference mesh and SOFTBENCH_DATA is not set"
+            );
+            continue;
+        }
+        assert_eq!(result.status.code(), Some(0), "{name}: {stderr}");
+    }
+}
