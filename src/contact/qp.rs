@@ -79,13 +79,14 @@ pub struct ContactQp {
 }
 
 impl ContactQp {
-    /// clarabel's settings: quiet, the default tolerances (1e-8), faer's sparse LDL^T for the
-    /// KKT systems (on a 1029-DOF ball: 38 ms per QP, against 48 ms for clarabel's "auto"
-    /// choice and 65 ms for QDLDL).
+    /// clarabel's settings: quiet, the default tolerances (1e-8), QDLDL for the KKT systems.
+    /// (clarabel's `faer-sparse` feature solved the 1029-DOF ball's QP in 38 ms instead of
+    /// 65 ms, but it builds a second faer version, about 7 minutes on 2 cores for every clean
+    /// build; the constrained response is not worth that.)
     fn settings() -> DefaultSettings<f64> {
         DefaultSettingsBuilder::default()
             .verbose(false)
-            .direct_solve_method("faer".to_owned())
+            .direct_solve_method("qdldl".to_owned())
             .build()
             .expect("valid clarabel settings")
     }
