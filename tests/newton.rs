@@ -381,3 +381,37 @@ fn a_spring_cube_released_without_gravity_keeps_stepping() {
         }
     }
 }
+
+#[test]
+fn steps_report_the_size_of_their_factor() {
+    let mut model = block(true, true);
+    let lower_triangle = {
+        let p = model.hessian_pattern();
+        (p.nnz() + p.dim()) / 2
+    };
+    let mut state = kicked(&model);
+    let implicit = IntegratorSettings {
+        method: Method::BackwardEuler,
+        ..Default::default()
+    }
+    .build()
+    .step(&mut model, &mut state, 0.01)
+    .unwrap();
+    // A Cholesky factor holds at least A's lower triangle.
+    assert!(
+        implicit.factor_nnz >= lower_triangle,
+        "nnz(L) = {} < {lower_triangle}",
+        implicit.factor_nnz
+    );
+    let explicit = IntegratorSettings {
+        method: Method::Rk4,
+        ..Default::default()
+    }
+    .build()
+    .step(&mut model, &mut state, 1e-4)
+    .unwrap();
+    assert_eq!(
+        explicit.factor_nnz, 0,
+        "explicit methods factor no system (the mass factor is not a step's)"
+    );
+}

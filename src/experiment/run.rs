@@ -70,6 +70,8 @@ pub struct Sample {
     pub qp_solves: u64,
     /// Their wall time (s).
     pub qp_seconds: f64,
+    /// Entries of the largest sparse factor built since the previous row (nnz(L)).
+    pub factor_nnz: u64,
 }
 
 /// What watches a run: every sampled row, and (optionally) the state after every step —
@@ -192,6 +194,7 @@ fn sample(
         max_penetration: work.max_penetration,
         qp_solves: work.qp_solves.into(),
         qp_seconds: work.times.qp,
+        factor_nnz: work.factor_nnz as u64,
     }
 }
 

@@ -42,6 +42,8 @@ pub struct StepReport {
     pub factorizations: u32,
     /// Largest relative residual `‖b − A x‖/‖b‖` of any linear solve.
     pub max_relative_residual: f64,
+    /// Entries of the largest sparse factor (nnz(L), or the IC(0) factor for CG) built.
+    pub factor_nnz: usize,
     /// Times an indefinite system matrix was replaced by its projected (PSD) form.
     pub indefinite_fallbacks: u32,
     /// Times a failed step was retried as two steps of half the size.
@@ -72,6 +74,7 @@ impl StepReport {
         self.linear_iterations += other.linear_iterations;
         self.factorizations += other.factorizations;
         self.max_relative_residual = self.max_relative_residual.max(other.max_relative_residual);
+        self.factor_nnz = self.factor_nnz.max(other.factor_nnz);
         self.indefinite_fallbacks += other.indefinite_fallbacks;
         self.dt_halvings += other.dt_halvings;
         self.times.assemble += other.times.assemble;

@@ -104,6 +104,7 @@ impl ImplicitSystem {
         report.times.factor += start.elapsed().as_secs_f64();
         if result.is_ok() {
             report.factorizations += 1;
+            report.factor_nnz = report.factor_nnz.max(self.solver.stats().factor_nnz);
         }
         result.map(|_| ())
     }
