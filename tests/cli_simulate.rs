@@ -356,3 +356,26 @@ fn every_shipped_scene_runs_a_few_steps() {
         assert_eq!(result.status.code(), Some(0), "{name}: {stderr}");
     }
 }
+
+#[test]
+fn constrained_contact_with_damping_is_refused_not_silently_undamped() {
+    let dir = TempDir::new("simulate-constrained-damping");
+    let out = dir.path().join("out");
+    let result = softbench(&[
+        "simulate",
+        scene("ball-drop.toml").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--set",
+        "contact.response=constrained",
+        "--set",
+        "damping.strain_rate={ phi = 1.0, psi = 1.0 }",
+    ]);
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    assert_eq!(result.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("contact.response") && stderr.contains("damping"),
+        "{stderr}"
+    );
+    assert!(!out.exists());
+}
