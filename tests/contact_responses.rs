@@ -577,3 +577,18 @@ path = { times = [0.1, 0.3], offsets = [[0.0, 0.0, 0.0], [0.0, 0.02, 0.0]] }
         assert!((rise - 0.02).abs() < 5e-4, "{response}: rises {rise}");
     }
 }
+
+#[test]
+fn the_constrained_integrator_refuses_a_damped_model_instead_of_dropping_the_damping() {
+    // The scene layer refuses constrained + damping up front; the integrator itself must too,
+    // for code that builds it directly.
+    let constrained = scene(&[&response_override(ContactResponse::Constrained)]);
+    let mut integ = constrained.integrator();
+    let mut damped = scene(&["damping.strain_rate={ phi = 1.0, psi = 1.0 }"]);
+    assert!(damped.model.has_damping());
+    let mut state = damped.initial.clone();
+    let before = state.clone();
+    let err = integ.step(&mut damped.model, &mut state, 1e-3).unwrap_err();
+    assert!(err.to_string().contains("damping"), "{err}");
+    assert_eq!(state, before, "a refused step leaves the state as it was");
+}

@@ -23,7 +23,7 @@
 
 use super::obstacle::Obstacles;
 use super::qp::{ContactQp, ContactRow};
-use crate::integrate::newton::{NewtonSettings, dot, norm};
+use crate::integrate::newton::{IncrementalPotential, NewtonSettings, Problem, dot, norm};
 use crate::integrate::system::ImplicitSystem;
 use crate::integrate::{Integrator, State, StepError, StepReport};
 use crate::model::{Model, ModelError};
@@ -38,10 +38,6 @@ pub const MAX_EXPANSIONS: usize = 8;
 /// Penetration (m) below which an iterate counts as feasible (the QP meets its constraints
 /// to about clarabel's tolerance, not exactly).
 pub const PENETRATION_TOLERANCE: f64 = 1e-8;
-
-/// Energies whose predicted decrease is below this many ulps of their scale are round-off
-/// (as in Newton).
-const ROUNDOFF_ULPS: f64 = 256.0;
 
 /// The linearized constraints of one iteration, one per (free vertex, obstacle, piece).
 #[derive(Debug, Default)]
@@ -112,12 +108,10 @@ pub struct ConstrainedBackwardEuler {
     rows: Rows,
     x: Vec<f64>,
     x_hat: Vec<f64>,
-    g: Vec<f64>,
-    grad_v: Vec<f64>,
+    potential: IncrementalPotential,
     dx: Vec<f64>,
     trial: Vec<f64>,
-    d: Vec<f64>,
-    md: Vec<f64>,
+    residual: Vec<f64>,
 }
 
 impl ConstrainedBackwardEuler {
@@ -138,47 +132,23 @@ impl ConstrainedBackwardEuler {
             rows: Rows::default(),
             x: Vec::new(),
             x_hat: Vec::new(),
-            g: Vec::new(),
-            grad_v: Vec::new(),
+            potential: IncrementalPotential::default(),
             dx: Vec::new(),
             trial: Vec::new(),
-            d: Vec::new(),
-            md: Vec::new(),
+            residual: Vec::new(),
         }
     }
 
-    /// `E(x)` and the scale of its round-off.
+    /// `E(x)` and the scale of its round-off (the evaluator Newton uses, without damping).
     fn objective(
         &mut self,
         model: &mut Model,
-        beta: f64,
+        p: &Problem<'_>,
         x: &[f64],
     ) -> Result<(f64, f64), ModelError> {
-        for ((d, xi), xh) in self.d.iter_mut().zip(x).zip(&self.x_hat) {
-            *d = xi - xh;
-        }
-        model.mass().mul_vec(&self.d, &mut self.md);
-        let inertia = 0.5 * dot(&self.d, &self.md);
-        let parts = model.potential_parts(x)?;
-        let scale = inertia.abs()
-            + beta * (parts.elastic.abs() + parts.springs.abs() + parts.gravity.abs());
-        Ok((
-            inertia + beta * parts.total(),
-            ROUNDOFF_ULPS * f64::EPSILON * scale,
-        ))
-    }
-
-    /// `g = M (x - x_hat) + beta grad V(x)` at `self.x`.
-    fn gradient(&mut self, model: &mut Model, beta: f64) -> Result<(), ModelError> {
-        for ((d, xi), xh) in self.d.iter_mut().zip(&self.x).zip(&self.x_hat) {
-            *d = xi - xh;
-        }
-        model.mass().mul_vec(&self.d, &mut self.md);
-        model.gradient(&self.x, &mut self.grad_v)?;
-        for ((g, md), gv) in self.g.iter_mut().zip(&self.md).zip(&self.grad_v) {
-            *g = md + beta * gv;
-        }
-        Ok(())
+        self.potential
+            .objective(model, None, p, x)
+            .map(|o| (o.value, o.roundoff))
     }
 
     /// The smallest signed distance of any free vertex at `x` to any obstacle.
@@ -201,7 +171,7 @@ impl ConstrainedBackwardEuler {
         self.rows.clear();
         if self.rows.add(obstacles, &self.x, t, margin, None) == 0 {
             self.system.factor(model, &self.x, beta, report)?;
-            for (dx, g) in self.dx.iter_mut().zip(&self.g) {
+            for (dx, g) in self.dx.iter_mut().zip(&self.potential.g) {
                 *dx = -g;
             }
             self.system.solve(model, &self.x, &mut self.dx, report)?;
@@ -214,7 +184,7 @@ impl ConstrainedBackwardEuler {
                 .add(obstacles, &self.x, t, margin, Some(&self.trial))
                 == 0
             {
-                return Ok(norm(&self.g));
+                return Ok(norm(&self.potential.g));
             }
         }
         let h = self
@@ -224,7 +194,7 @@ impl ConstrainedBackwardEuler {
         loop {
             let solution = self
                 .qp
-                .solve(h, &self.g, &self.rows.rows)
+                .solve(h, &self.potential.g, &self.rows.rows)
                 .map_err(|reason| StepError::NewtonFailed {
                     iterations: report.newton_iterations,
                     reason,
@@ -244,13 +214,14 @@ impl ConstrainedBackwardEuler {
             expansions += 1;
             if added == 0 {
                 // The Lagrangian gradient g + A^T z (A's rows are -n^T).
-                let mut r = self.g.clone();
+                let r = &mut self.residual;
+                r.clone_from(&self.potential.g);
                 for (row, z) in self.rows.rows.iter().zip(&solution.multipliers) {
                     for i in 0..3 {
                         r[row.dof + i] -= z * row.normal[i];
                     }
                 }
-                return Ok(norm(&r));
+                return Ok(norm(r));
             }
         }
     }
@@ -263,67 +234,87 @@ impl ConstrainedBackwardEuler {
         dt: f64,
         report: &mut StepReport,
     ) -> Result<(), StepError> {
-        let n = state.q.len();
-        for buf in [
-            &mut self.g,
-            &mut self.grad_v,
-            &mut self.dx,
-            &mut self.trial,
-            &mut self.d,
-            &mut self.md,
-        ] {
-            buf.resize(n, 0.0);
+        if model.has_damping() {
+            // The SQP loop has no damping term: refuse rather than silently drop it.
+            return Err(StepError::Model(ModelError::InvalidParameter {
+                field: "contact.response".into(),
+                value: "constrained".into(),
+                expected: "a model without damping (the constrained step has no damping term)"
+                    .into(),
+            }));
         }
+        // x_hat leaves `self` for the step so the problem can borrow it beside `&mut self`.
+        let mut x_hat = std::mem::take(&mut self.x_hat);
+        x_hat.clear();
+        x_hat.extend(state.q.iter().zip(&state.v).map(|(q, v)| q + dt * v));
+        let result = self.solve_step(model, state, dt, &x_hat, report);
+        self.x_hat = x_hat;
+        result
+    }
+
+    /// [`Self::single`] for a given `x_hat = q + dt v`.
+    fn solve_step(
+        &mut self,
+        model: &mut Model,
+        state: &mut State,
+        dt: f64,
+        x_hat: &[f64],
+        report: &mut StepReport,
+    ) -> Result<(), StepError> {
+        let n = state.q.len();
+        self.potential.resize(n);
+        self.dx.resize(n, 0.0);
+        self.trial.resize(n, 0.0);
         let s = self.settings;
         let beta = dt * dt;
         let t = state.t + dt;
         model.set_time(t);
-        self.x_hat.clear();
-        self.x_hat
-            .extend(state.q.iter().zip(&state.v).map(|(q, v)| q + dt * v));
-        let start = if self.min_distance(&self.x_hat, t) >= 0.0 {
-            &self.x_hat
+        let p = Problem {
+            x_hat,
+            x_ref: &state.q,
+            beta,
+            damping_anchor: &state.q,
+        };
+        let start = if self.min_distance(x_hat, t) >= 0.0 {
+            x_hat
         } else {
             &state.q
         };
         let mut x = std::mem::take(&mut self.x);
-        x.clone_from(start);
-        let first = self.objective(model, beta, &x);
+        x.clear();
+        x.extend_from_slice(start);
+        let first = self.objective(model, &p, &x);
         self.x = x;
         let (mut energy, mut roundoff) = match first {
             Ok(e) => e,
             Err(ModelError::InvertedElement { .. }) => {
                 // x_hat inverts an element; the start-of-step state does not.
                 self.x.clone_from(&state.q);
-                self.objective(model, beta, &state.q)?
+                self.objective(model, &p, &state.q)?
             }
             Err(e) => return Err(e.into()),
         };
         // The convergence scale: inertial term plus the force term at the first iterate.
-        for ((d, a), b) in self.d.iter_mut().zip(&self.x_hat).zip(&state.q) {
-            *d = a - b;
-        }
-        model.mass().mul_vec(&self.d, &mut self.md);
-        let inertial = norm(&self.md);
+        let inertial = self.potential.inertial_scale(model, &p);
         let mut scale = None;
         let mut converged = false;
         for iteration in 0..s.max_iterations {
-            self.gradient(model, beta)?;
-            let scale = *scale.get_or_insert(inertial + beta * norm(&self.grad_v));
+            self.potential.gradient(model, None, &p, &self.x)?;
+            let scale = *scale.get_or_insert(inertial + beta * norm(&self.potential.grad_v));
             let feasible = self.min_distance(&self.x, t) >= -PENETRATION_TOLERANCE;
             let residual = self.direction(model, beta, t, report)?;
             report.newton_iterations += 1;
-            let slope = dot(&self.g, &self.dx);
+            let slope = dot(&self.potential.g, &self.dx);
             let small = residual <= s.tolerance * scale || -slope <= roundoff;
             if !feasible || small || slope >= 0.0 {
                 // Restoration, convergence or no predicted decrease: the full step.
-                let x = self
-                    .x
-                    .iter()
-                    .zip(&self.dx)
-                    .map(|(x, dx)| x + dx)
-                    .collect::<Vec<_>>();
-                match self.objective(model, beta, &x) {
+                for ((t, x), dx) in self.trial.iter_mut().zip(&self.x).zip(&self.dx) {
+                    *t = x + dx;
+                }
+                let trial = std::mem::take(&mut self.trial);
+                let outcome = self.objective(model, &p, &trial);
+                self.trial = trial;
+                match outcome {
                     Ok((e, r)) => (energy, roundoff) = (e, r),
                     Err(ModelError::InvertedElement { .. }) if feasible => {
                         return Err(StepError::NewtonFailed {
@@ -333,7 +324,7 @@ impl ConstrainedBackwardEuler {
                     }
                     Err(e) => return Err(e.into()),
                 }
-                self.x = x;
+                self.x.copy_from_slice(&self.trial);
                 if small && feasible {
                     converged = true;
                     break;
@@ -347,7 +338,7 @@ impl ConstrainedBackwardEuler {
                     *t = x + alpha * dx;
                 }
                 let trial = std::mem::take(&mut self.trial);
-                let outcome = self.objective(model, beta, &trial);
+                let outcome = self.objective(model, &p, &trial);
                 self.trial = trial;
                 match outcome {
                     Ok((e, r)) if e <= energy + s.sufficient_decrease * alpha * slope => {

@@ -18,6 +18,7 @@ use super::system::ImplicitSystem;
 use super::{State, StepError, StepReport};
 use crate::model::{Model, ModelError};
 use crate::solve::LinearSolver;
+use crate::sparse::SymmetricMatrix;
 
 /// Newton and line-search settings. Defaults follow the course handout (initial step 1,
 /// shrink 0.5, sufficient decrease 1e-8, at most 5 iterations).
@@ -131,20 +132,128 @@ pub struct Newton {
     settings: NewtonSettings,
     trace: NewtonTrace,
     system: ImplicitSystem,
-    g: Vec<f64>,
-    grad_v: Vec<f64>,
+    potential: IncrementalPotential,
     dx: Vec<f64>,
     trial: Vec<f64>,
+}
+
+/// An objective value with the scale of its round-off.
+pub(crate) struct Objective {
+    pub value: f64,
+    pub roundoff: f64,
+}
+
+/// Evaluates the incremental potential `E` of a [`Problem`] and its gradient with reusable
+/// buffers; Newton and the constrained contact step share it.
+#[derive(Default)]
+pub(crate) struct IncrementalPotential {
+    /// The gradient `g` after [`Self::gradient`].
+    pub g: Vec<f64>,
+    /// `grad V(x)` after [`Self::gradient`].
+    pub grad_v: Vec<f64>,
     d: Vec<f64>,
     md: Vec<f64>,
     dd: Vec<f64>,
     trial_d: Vec<f64>,
 }
 
-/// An objective value with the scale of its round-off.
-struct Objective {
-    value: f64,
-    roundoff: f64,
+impl IncrementalPotential {
+    /// Size the buffers for `n` DOFs (allocates only when `n` grows).
+    pub fn resize(&mut self, n: usize) {
+        for buf in [
+            &mut self.g,
+            &mut self.grad_v,
+            &mut self.d,
+            &mut self.md,
+            &mut self.dd,
+            &mut self.trial_d,
+        ] {
+            buf.resize(n, 0.0);
+        }
+    }
+
+    /// `‖M (x_hat − x_ref)‖`, the size of the step's inertial term.
+    pub fn inertial_scale(&mut self, model: &Model, p: &Problem<'_>) -> f64 {
+        for ((d, a), b) in self.d.iter_mut().zip(p.x_hat).zip(p.x_ref) {
+            *d = a - b;
+        }
+        model.mass().mul_vec(&self.d, &mut self.md);
+        norm(&self.md)
+    }
+
+    /// `1/2 gamma (x - x_d)^T D (x - x_d)` and, into `self.dd`, `gamma D (x - x_d)`.
+    fn damping_term(
+        &mut self,
+        damping: Option<(&SymmetricMatrix, f64)>,
+        x: &[f64],
+        anchor: &[f64],
+    ) -> f64 {
+        let Some((d, gamma)) = damping else {
+            self.dd.fill(0.0);
+            return 0.0;
+        };
+        for ((t, xi), a) in self.trial_d.iter_mut().zip(x).zip(anchor) {
+            *t = xi - a;
+        }
+        d.mul_vec(&self.trial_d, &mut self.dd);
+        let e = 0.5 * gamma * dot(&self.trial_d, &self.dd);
+        self.dd.iter_mut().for_each(|v| *v *= gamma);
+        e
+    }
+
+    /// `E(x)` and the scale of its round-off (which includes the magnitudes of the terms that
+    /// cancel in the potential, [`Model::energy_roundoff_scale`]).
+    pub fn objective(
+        &mut self,
+        model: &mut Model,
+        damping: Option<(&SymmetricMatrix, f64)>,
+        p: &Problem<'_>,
+        x: &[f64],
+    ) -> Result<Objective, ModelError> {
+        for ((d, xi), xh) in self.d.iter_mut().zip(x).zip(p.x_hat) {
+            *d = xi - xh;
+        }
+        model.mass().mul_vec(&self.d, &mut self.md);
+        let inertia = 0.5 * dot(&self.d, &self.md);
+        let parts = model.potential_parts(x)?;
+        let damping = self.damping_term(damping, x, p.damping_anchor);
+        let value = inertia + p.beta * parts.total() + damping;
+        let terms =
+            parts.elastic.abs() + parts.springs.abs() + parts.gravity.abs() + parts.vertex.abs();
+        let scale =
+            inertia.abs() + p.beta * (terms + model.energy_roundoff_scale()) + damping.abs();
+        Ok(Objective {
+            value,
+            roundoff: ROUNDOFF_ULPS * f64::EPSILON * scale,
+        })
+    }
+
+    /// `g = M (x - x_hat) + beta grad V(x) + gamma D (x - x_d)` into `self.g`, and `grad V(x)`
+    /// into `self.grad_v`.
+    pub fn gradient(
+        &mut self,
+        model: &mut Model,
+        damping: Option<(&SymmetricMatrix, f64)>,
+        p: &Problem<'_>,
+        x: &[f64],
+    ) -> Result<(), ModelError> {
+        for ((d, xi), xh) in self.d.iter_mut().zip(x).zip(p.x_hat) {
+            *d = xi - xh;
+        }
+        model.mass().mul_vec(&self.d, &mut self.md);
+        model.gradient(x, &mut self.grad_v)?;
+        self.damping_term(damping, x, p.damping_anchor);
+        for (((g, md), gv), dd) in self
+            .g
+            .iter_mut()
+            .zip(&self.md)
+            .zip(&self.grad_v)
+            .zip(&self.dd)
+        {
+            *g = md + p.beta * gv + dd;
+        }
+        Ok(())
+    }
 }
 
 impl Newton {
@@ -154,14 +263,9 @@ impl Newton {
             settings,
             trace: NewtonTrace::default(),
             system: ImplicitSystem::new(solver, settings.project_hessian),
-            g: Vec::new(),
-            grad_v: Vec::new(),
+            potential: IncrementalPotential::default(),
             dx: Vec::new(),
             trial: Vec::new(),
-            d: Vec::new(),
-            md: Vec::new(),
-            dd: Vec::new(),
-            trial_d: Vec::new(),
         }
     }
 
@@ -195,70 +299,24 @@ impl Newton {
         }
     }
 
-    /// `1/2 gamma (x - x_d)^T D (x - x_d)` and, into `self.dd`, `gamma D (x - x_d)`.
-    fn damping_term(&mut self, x: &[f64], anchor: &[f64]) -> f64 {
-        let Some((d, gamma)) = self.system.damping() else {
-            self.dd.fill(0.0);
-            return 0.0;
-        };
-        for ((t, xi), a) in self.trial_d.iter_mut().zip(x).zip(anchor) {
-            *t = xi - a;
-        }
-        d.mul_vec(&self.trial_d, &mut self.dd);
-        let e = 0.5 * gamma * dot(&self.trial_d, &self.dd);
-        self.dd.iter_mut().for_each(|v| *v *= gamma);
-        e
-    }
-
-    /// `E(x)`; uses `self.d`, `self.md`, `self.dd`.
+    /// `E(x)` with this step's damping term.
     fn objective(
         &mut self,
         model: &mut Model,
         p: &Problem<'_>,
         x: &[f64],
     ) -> Result<Objective, ModelError> {
-        for ((d, xi), xh) in self.d.iter_mut().zip(x).zip(p.x_hat) {
-            *d = xi - xh;
-        }
-        model.mass().mul_vec(&self.d, &mut self.md);
-        let inertia = 0.5 * dot(&self.d, &self.md);
-        let parts = model.potential_parts(x)?;
-        let damping = self.damping_term(x, p.damping_anchor);
-        let value = inertia + p.beta * parts.total() + damping;
-        let terms =
-            parts.elastic.abs() + parts.springs.abs() + parts.gravity.abs() + parts.vertex.abs();
-        let scale =
-            inertia.abs() + p.beta * (terms + model.energy_roundoff_scale()) + damping.abs();
-        Ok(Objective {
-            value,
-            roundoff: ROUNDOFF_ULPS * f64::EPSILON * scale,
-        })
+        self.potential.objective(model, self.system.damping(), p, x)
     }
 
-    /// `g = M (x - x_hat) + beta grad V(x) + gamma D (x - x_d)`; leaves `grad V(x)` in
-    /// `self.grad_v`.
+    /// The gradient of `E` at `x` into `self.potential.g`.
     fn gradient(
         &mut self,
         model: &mut Model,
         p: &Problem<'_>,
         x: &[f64],
     ) -> Result<(), ModelError> {
-        for ((d, xi), xh) in self.d.iter_mut().zip(x).zip(p.x_hat) {
-            *d = xi - xh;
-        }
-        model.mass().mul_vec(&self.d, &mut self.md);
-        model.gradient(x, &mut self.grad_v)?;
-        self.damping_term(x, p.damping_anchor);
-        for (((g, md), gv), dd) in self
-            .g
-            .iter_mut()
-            .zip(&self.md)
-            .zip(&self.grad_v)
-            .zip(&self.dd)
-        {
-            *g = md + p.beta * gv + dd;
-        }
-        Ok(())
+        self.potential.gradient(model, self.system.damping(), p, x)
     }
 
     /// Minimize `E` (see the module docs) starting from the guess in `x`; `x_ref` is the
@@ -271,20 +329,11 @@ impl Newton {
         x: &mut [f64],
         report: &mut StepReport,
     ) -> Result<(), StepError> {
-        let (x_hat, x_ref, beta) = (p.x_hat, p.x_ref, p.beta);
+        let (x_ref, beta) = (p.x_ref, p.beta);
         let n = x.len();
-        for buf in [
-            &mut self.g,
-            &mut self.grad_v,
-            &mut self.dx,
-            &mut self.trial,
-            &mut self.d,
-            &mut self.md,
-            &mut self.dd,
-            &mut self.trial_d,
-        ] {
-            buf.resize(n, 0.0);
-        }
+        self.potential.resize(n);
+        self.dx.resize(n, 0.0);
+        self.trial.resize(n, 0.0);
         let s = self.settings;
         self.trace.gradient_norms.clear();
         self.trace.roundoff_accepted = false;
@@ -299,30 +348,26 @@ impl Newton {
             Err(e) => return Err(e.into()),
         };
         // Scale of the convergence test: the inertial term M (x_hat - x_ref) ...
-        for ((d, a), b) in self.d.iter_mut().zip(x_hat).zip(x_ref) {
-            *d = a - b;
-        }
-        model.mass().mul_vec(&self.d, &mut self.md);
-        let inertial = norm(&self.md);
+        let inertial = self.potential.inertial_scale(model, p);
         let mut scale = None;
         let mut converged = false;
         let mut iterations = 0;
         while iterations < s.max_iterations {
             self.gradient(model, p, x)?;
             // ... plus the force term at the first iterate.
-            let scale = *scale.get_or_insert(inertial + beta * norm(&self.grad_v));
+            let scale = *scale.get_or_insert(inertial + beta * norm(&self.potential.grad_v));
             self.trace.scale = scale;
-            self.trace.gradient_norms.push(norm(&self.g));
-            if norm(&self.g) <= s.tolerance * scale {
+            self.trace.gradient_norms.push(norm(&self.potential.g));
+            if norm(&self.potential.g) <= s.tolerance * scale {
                 converged = true;
                 break;
             }
             self.system.factor(model, x, beta, report)?;
-            for (dx, g) in self.dx.iter_mut().zip(&self.g) {
+            for (dx, g) in self.dx.iter_mut().zip(&self.potential.g) {
                 *dx = -g;
             }
             self.system.solve(model, x, &mut self.dx, report)?;
-            let slope = dot(&self.g, &self.dx);
+            let slope = dot(&self.potential.g, &self.dx);
             if slope.is_nan() || slope >= 0.0 {
                 return Err(StepError::NewtonFailed {
                     iterations,
@@ -376,8 +421,8 @@ impl Newton {
         if !converged {
             // One more gradient tells whether the last iterate met the tolerance.
             self.gradient(model, p, x)?;
-            self.trace.gradient_norms.push(norm(&self.g));
-            converged = norm(&self.g) <= s.tolerance * scale.unwrap_or(0.0);
+            self.trace.gradient_norms.push(norm(&self.potential.g));
+            converged = norm(&self.potential.g) <= s.tolerance * scale.unwrap_or(0.0);
         }
         self.trace.converged = converged;
         if !converged {
