@@ -12,7 +12,8 @@
 //! - [`data`]: where data files are found (the scene's folder, then `SOFTBENCH_DATA`);
 //! - [`material`]: strain energy densities with closed-form stress and stress derivative;
 //! - [`fem`]: the linear tetrahedron (shape gradients, element energy, gradient, Hessian, mass);
-//! - [`model`]: elastic, spring and gravity potentials assembled over free DOFs;
+//! - [`model`]: elastic, spring and gravity potentials assembled over free DOFs, and the
+//!   highest natural frequency of the linearized model (the explicit step limit);
 //! - [`springs`]: mass-spring bodies (jello cube, jello sphere, springs along tet edges);
 //! - [`sparse`]: the symmetric sparse matrix and its pattern, built once and refilled in place;
 //! - [`solve`]: sparse Cholesky and LDLᵀ (faer), preconditioned CG, dense Cholesky;

@@ -1,6 +1,7 @@
 //! The mass matrix over free DOFs: consistent (sparse, same pattern as the Hessian) or lumped
-//! (diagonal).
+//! (diagonal), and its inverse as an operator ([`MassInverse`]).
 
+use crate::solve::{CholeskySolver, DirectSettings, LinearSolver, SolveError};
 use crate::sparse::SymmetricMatrix;
 
 /// Which mass discretization a model uses.
@@ -92,5 +93,42 @@ impl MassMatrix {
             }
             Self::Lumped { diagonal, .. } => diagonal.clone(),
         }
+    }
+}
+
+/// Applying `M^{-1}` to vectors: a division for lumped mass, a solve with the sparse Cholesky
+/// factorization of the (constant) consistent mass matrix, computed once. Explicit integrators
+/// and the spectrum estimate both use it.
+pub(crate) enum MassInverse {
+    Lumped(Vec<f64>),
+    Consistent(Box<CholeskySolver>),
+}
+
+impl MassInverse {
+    /// Factor (or invert) `mass`. Fails only if the consistent matrix is not positive definite.
+    pub fn new(mass: &MassMatrix) -> Result<Self, SolveError> {
+        Ok(match mass {
+            MassMatrix::Lumped { diagonal, .. } => {
+                Self::Lumped(diagonal.iter().map(|m| 1.0 / m).collect())
+            }
+            MassMatrix::Consistent(m) => {
+                let mut solver = CholeskySolver::new(DirectSettings::default());
+                solver.analyze(m.pattern())?;
+                solver.factor(m)?;
+                Self::Consistent(Box::new(solver))
+            }
+        })
+    }
+
+    /// `x = M^{-1} x` in place. Fails on a wrong length or a non-finite entry of `x`
+    /// (consistent mass; the lumped division passes them through).
+    pub fn apply(&mut self, x: &mut [f64]) -> Result<(), SolveError> {
+        match self {
+            Self::Lumped(inv) => x.iter_mut().zip(inv.iter()).for_each(|(xi, mi)| *xi *= mi),
+            Self::Consistent(solver) => {
+                solver.solve(x)?;
+            }
+        }
+        Ok(())
     }
 }

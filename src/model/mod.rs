@@ -5,6 +5,9 @@
 //! each evaluation computes element quantities into preallocated buffers (in parallel when
 //! asked) and gathers them in a fixed order, so results are bitwise identical run to run and
 //! across thread counts. Every evaluation is counted in [`EvalCounters`].
+//!
+//! [`highest_mode`] finds the highest natural frequency of the linearized model (the explicit
+//! stability limit `2 / omega_max`).
 
 mod damping;
 mod dofs;
@@ -14,6 +17,7 @@ mod error;
 mod mass;
 mod measures;
 mod pattern;
+mod spectrum;
 mod springs;
 mod vertex_potential;
 
@@ -21,8 +25,10 @@ pub use damping::Damping;
 pub use dofs::{AxisRule, DofMap, FIXED, FixedSelection, Side};
 pub use drag::{Drag, DragPath, Waypoint};
 pub use error::ModelError;
+pub(crate) use mass::MassInverse;
 pub use mass::{MassKind, MassMatrix};
 pub use pattern::BlockPattern;
+pub use spectrum::{HighestMode, SpectrumError, SpectrumSettings, highest_mode};
 pub use springs::Spring;
 pub use vertex_potential::VertexPotential;
 
