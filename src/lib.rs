@@ -21,6 +21,7 @@
 //! - [`contact`]: obstacles (signed distances) and four contact responses;
 //! - [`experiment`]: running a scene and measuring it (energies, momenta, blow-up detection);
 //! - [`report`]: writing results atomically;
+//! - [`plot`]: charts of the experiment runner (PNG and SVG);
 //! - [`export`]: frames for viewers (VTU + PVD, OBJ; skinned display meshes).
 //!
 //! Conventions: SI units; f64 everywhere; stacked coordinates `q = [x0 y0 z0 x1 y1 z1 ...]`;
@@ -38,6 +39,7 @@ pub mod mesh;
 pub mod model;
 pub mod names;
 pub mod parallel;
+pub mod plot;
 pub mod report;
 pub mod rng;
 pub mod scene;

@@ -1,0 +1,93 @@
+//! Line charts: one line with markers per series, the legend in a column to the right.
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+use super::axis::{Axis, Scale};
+use super::frame::{Frame, Layout};
+use super::legend::{Column, Entry, Glyph};
+use super::style::{self, LINE_WIDTH};
+use super::{LineChart, PlotError, draw_err, no_data};
+
+/// Draw `chart` into `body` (the image below the title); `root` is the whole image, used for
+/// drawing in absolute pixels.
+pub fn draw<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    body: &DrawingArea<DB, Shift>,
+    chart: &LineChart,
+) -> Result<(), PlotError> {
+    let (xs, ys) = (Scale::log_if(chart.x_log), Scale::log_if(chart.y_log));
+    let drawable = |&(x, y): &(f64, f64)| Axis::accepts(xs, x) && Axis::accepts(ys, y);
+    let all = || {
+        chart
+            .series
+            .iter()
+            .flat_map(|s| s.points.iter().filter(|p| drawable(p)))
+    };
+    if all().next().is_none() {
+        return no_data(body);
+    }
+    let x = Axis::fit(xs, all().map(|p| p.0), false);
+    let y = Axis::fit(ys, all().map(|p| p.1), false);
+
+    let entries: Vec<Entry> = chart
+        .series
+        .iter()
+        .enumerate()
+        .map(|(i, s)| {
+            let (color, marker) = style::series_look(i);
+            let empty = !s.points.iter().any(drawable);
+            Entry {
+                label: if empty {
+                    format!("{} (no data)", s.label)
+                } else {
+                    s.label.clone()
+                },
+                glyph: Glyph::Series(color, marker),
+            }
+        })
+        .collect();
+    let legend = Column::new(&entries)?;
+    let (w, _) = body.dim_in_pixel();
+    let legend_w = if entries.is_empty() {
+        0
+    } else {
+        legend.width + 16
+    };
+    let (plot_area, _) = body.split_horizontally(w.saturating_sub(legend_w));
+
+    let layout = Layout::numeric(&y, Some(&x), &chart.x_label)?;
+    let frame = Frame::draw(
+        &plot_area,
+        x,
+        y,
+        (&chart.x_label, &chart.y_label),
+        layout,
+        true,
+    )?;
+    let (_, top, right, _) = frame.rect();
+    legend.draw(root, (right + layout.right as i32 + 6, top))?;
+
+    for (i, s) in chart.series.iter().enumerate() {
+        let (color, marker) = style::series_look(i);
+        // Non-drawable points break the line: a gap shows where the data is missing.
+        let mut runs: Vec<Vec<(i32, i32)>> = vec![Vec::new()];
+        for p in &s.points {
+            match (frame.x.to_display(p.0), frame.y.to_display(p.1)) {
+                (Some(xd), Some(yd)) => runs.last_mut().expect("a run").push(frame.px(xd, yd)),
+                _ => runs.push(Vec::new()),
+            }
+        }
+        for run in runs.iter().filter(|r| r.len() > 1) {
+            root.draw(&PathElement::new(
+                run.clone(),
+                color.stroke_width(LINE_WIDTH),
+            ))
+            .map_err(draw_err)?;
+        }
+        for &c in runs.iter().flatten() {
+            style::draw_marker(root, c, marker, color)?;
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,94 @@
+//! Stacked bar charts: one bar per category, one coloured segment per part, the legend in a
+//! column to the right listed top to bottom in stacking order.
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+use super::axis::{Axis, Scale};
+use super::category::Labels;
+use super::frame::{Frame, Layout};
+use super::legend::{Column, Entry, Glyph};
+use super::style::{HEIGHT, PALETTE};
+use super::{PlotError, StackedBarChart, draw_err, no_data};
+
+/// Bar width as a fraction of its slot.
+const BAR: f64 = 0.7;
+
+/// Height of part `k` in category `i`, or 0 when missing, not finite or negative (a stack
+/// cannot show those).
+fn height(chart: &StackedBarChart, k: usize, i: usize) -> f64 {
+    match chart.parts[k].1.get(i) {
+        Some(&v) if v.is_finite() && v > 0.0 => v,
+        _ => 0.0,
+    }
+}
+
+/// Draw `chart` into `body` (the image below the title); `root` is the whole image, used for
+/// drawing in absolute pixels.
+pub fn draw<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    body: &DrawingArea<DB, Shift>,
+    chart: &StackedBarChart,
+) -> Result<(), PlotError> {
+    let n = chart.categories.len();
+    if n == 0 || chart.parts.is_empty() {
+        return no_data(body);
+    }
+    let totals: Vec<f64> = (0..n)
+        .map(|i| (0..chart.parts.len()).map(|k| height(chart, k, i)).sum())
+        .collect();
+    let y = Axis::fit(Scale::Linear, totals.iter().copied(), true);
+
+    // Listed top to bottom as stacked, so the legend reads like the bars.
+    let entries: Vec<Entry> = chart
+        .parts
+        .iter()
+        .enumerate()
+        .rev()
+        .map(|(k, (label, _))| Entry {
+            label: label.clone(),
+            glyph: Glyph::Swatch(&PALETTE[k % PALETTE.len()]),
+        })
+        .collect();
+    let legend = Column::new(&entries)?;
+    let (w, _) = body.dim_in_pixel();
+    let (frame_area, _) = body.split_horizontally(w.saturating_sub(legend.width + 16));
+
+    let mut layout = Layout::numeric(&y, None, "")?;
+    let slot_w = layout.plot_width(frame_area.dim_in_pixel().0) / n as u32;
+    let names: Vec<&str> = chart.categories.iter().map(String::as_str).collect();
+    let labels = Labels::new(&names, slot_w, HEIGHT * 3 / 10)?;
+    layout.bottom = labels.height;
+    let frame = Frame::draw(
+        &frame_area,
+        Axis::slots(n),
+        y,
+        ("", &chart.y_label),
+        layout,
+        false,
+    )?;
+    let (_, top, right, _) = frame.rect();
+    legend.draw(root, (right + layout.right as i32 + 6, top))?;
+    labels.draw(root, &frame)?;
+
+    for i in 0..n {
+        let at = i as f64;
+        let mut level = 0.0;
+        for k in 0..chart.parts.len() {
+            let h = height(chart, k, i);
+            if h == 0.0 {
+                continue;
+            }
+            let a = frame.px(at - BAR / 2.0, level + h);
+            let b = frame.px(at + BAR / 2.0, level);
+            let color = &PALETTE[k % PALETTE.len()];
+            root.draw(&Rectangle::new([a, b], color.filled()))
+                .map_err(draw_err)?;
+            // A white seam keeps neighbouring segments apart.
+            root.draw(&Rectangle::new([a, b], WHITE.stroke_width(1)))
+                .map_err(draw_err)?;
+            level += h;
+        }
+    }
+    Ok(())
+}
