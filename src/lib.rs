@@ -46,3 +46,4 @@ pub mod scene;
 pub mod solve;
 pub mod sparse;
 pub mod springs;
+pub mod study;

@@ -22,6 +22,7 @@ use softbench::parallel::Parallelism;
 use softbench::report::{AtomicFile, write_atomic};
 use softbench::scene::{self, LoadedScene, SceneError};
 use softbench::solve::LinearSolverKind;
+use softbench::study::{self, StudyError};
 
 /// A harness for research on time integrators and solvers for deformable bodies.
 #[derive(Parser)]
@@ -38,8 +39,42 @@ enum Command {
     /// Run one scene with one integrator; write trajectory.csv, final_positions.csv and
     /// summary.json to the output folder.
     Simulate(SimulateArgs),
-    /// List the integrators, linear solvers, materials and contact responses, one line each.
+    /// Run a study: every run of its grid, then runs.csv, series/, plots, report.md and
+    /// meta.json in <OUT>/<study name>/. Runs already complete with the same configuration
+    /// are reused.
+    Run(RunArgs),
+    /// Redraw the plots of a results folder from its CSV files.
+    Plot(PlotArgs),
+    /// List the integrators, linear solvers, materials, contact responses, scenes and studies,
+    /// one line each.
     List,
+}
+
+#[derive(Args)]
+struct RunArgs {
+    /// Study file (TOML).
+    study: PathBuf,
+    /// Parent folder of the study's results folder.
+    #[arg(long, default_value = "results")]
+    out: PathBuf,
+    /// Only the runs whose id contains PATTERN (`*` matches any text).
+    #[arg(long, value_name = "PATTERN")]
+    only: Option<String>,
+    /// Runs to execute in parallel (each then uses one thread for its element loops).
+    #[arg(long, default_value_t = 1)]
+    jobs: usize,
+    /// Shorten horizons and ladders so the study finishes in under a minute (a smoke test).
+    #[arg(long)]
+    quick: bool,
+    /// Redo runs that are already complete.
+    #[arg(long)]
+    force: bool,
+}
+
+#[derive(Args)]
+struct PlotArgs {
+    /// A study's results folder (with runs.csv, meta.json and series/).
+    dir: PathBuf,
 }
 
 #[derive(Args)]
@@ -79,6 +114,8 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::MeshInfo(args) => mesh_info(&args),
         Command::Simulate(args) => simulate(&args),
+        Command::Run(args) => run_study(&args),
+        Command::Plot(args) => plot(&args),
         Command::List => list(),
     };
     match result {
@@ -102,6 +139,7 @@ fn is_bad_input(err: &anyhow::Error) -> bool {
             || e.is::<SceneError>()
             || e.is::<DisplayError>()
             || e.is::<BadInput>()
+            || e.is::<StudyError>()
     })
 }
 
@@ -357,6 +395,104 @@ fn list() -> anyhow::Result<ExitCode> {
     writeln!(out, "contact responses (contact.response):")?;
     for r in ContactResponse::ALL {
         writeln!(out, "  {:26} {}", r.name(), r.description())?;
+    }
+    for (title, folder) in [
+        ("scenes (experiments/scenes)", "experiments/scenes"),
+        ("studies (experiments)", "experiments"),
+    ] {
+        let files = toml_files(Path::new(folder));
+        if files.is_empty() {
+            continue;
+        }
+        writeln!(out, "{title}:")?;
+        for (path, line) in files {
+            writeln!(out, "  {:26} {line}", path.display())?;
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The TOML files of `folder` (relative to the current folder, else to the softbench source
+/// tree) with the first comment or description line of each.
+fn toml_files(folder: &Path) -> Vec<(PathBuf, String)> {
+    let base = if folder.is_dir() {
+        folder.to_owned()
+    } else {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join(folder)
+    };
+    let Ok(entries) = std::fs::read_dir(&base) else {
+        return Vec::new();
+    };
+    let mut files: Vec<PathBuf> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    files.sort();
+    files
+        .into_iter()
+        .map(|p| {
+            let text = std::fs::read_to_string(&p).unwrap_or_default();
+            let line = text
+                .lines()
+                .find_map(|l| {
+                    l.strip_prefix("description = ")
+                        .map(|d| d.trim_matches('"').to_owned())
+                        .or_else(|| l.strip_prefix('#').map(|c| c.trim().to_owned()))
+                })
+                .unwrap_or_default();
+            let name = p.strip_prefix(&base).map_or(p.clone(), Path::to_path_buf);
+            (folder.join(name), line)
+        })
+        .collect()
+}
+
+fn run_study(args: &RunArgs) -> anyhow::Result<ExitCode> {
+    if args.jobs == 0 {
+        return Err(BadInput("--jobs must be at least 1".into()).into());
+    }
+    // Everything that can be wrong with the study is found before anything is written.
+    let study = study::load(&args.study, args.quick)?;
+    let options = study::RunOptions {
+        dir: args.out.join(&study.file.name),
+        only: args.only.clone(),
+        jobs: args.jobs,
+        force: args.force,
+        progress: true,
+    };
+    if let Some(p) = &options.only
+        && !study.runs.iter().any(|r| study::matches(&r.id, p))
+    {
+        let ids: Vec<&str> = study.runs.iter().map(|r| r.id.as_str()).collect();
+        return Err(BadInput(format!(
+            "--only {p}: no run id matches (runs: {})",
+            ids.join(", ")
+        ))
+        .into());
+    }
+    let done = study::run(&study, &options)
+        .with_context(|| format!("study {} stopped", study.file.name))?;
+    println!(
+        "{}: {} runs ({} run now, {} reused{}); {} not ok; wrote {}",
+        study.file.name,
+        done.ran + done.reused,
+        done.ran,
+        done.reused,
+        if done.skipped > 0 {
+            format!(", {} left out by --only", done.skipped)
+        } else {
+            String::new()
+        },
+        done.not_ok.len(),
+        done.dir.display()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+fn plot(args: &PlotArgs) -> anyhow::Result<ExitCode> {
+    let plots = study::redraw(&args.dir)
+        .with_context(|| format!("cannot redraw the plots of {}", args.dir.display()))?;
+    for p in &plots {
+        println!("{}", args.dir.join(format!("{}.png", p.stem)).display());
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -51,6 +51,26 @@ pub struct SceneConfig {
     /// How contact with the obstacles is resolved.
     #[serde(default)]
     pub contact: ContactConfig,
+    /// The initial state (default: at rest).
+    #[serde(default)]
+    pub initial: InitialConfig,
+}
+
+/// `[initial]`: a deformed and moving start instead of rest, for studies of free bodies.
+/// Applied to the free vertices about the centroid `c` of the rest positions:
+/// `x = c + stretch (X - c)`, `v = velocity + angular_velocity x (X - c)`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InitialConfig {
+    /// Scale factor per axis (default 1: undeformed).
+    #[serde(default)]
+    pub stretch: Option<[f64; 3]>,
+    /// Rigid velocity (m/s).
+    #[serde(default)]
+    pub velocity: [f64; 3],
+    /// Rigid angular velocity about the centroid (rad/s).
+    #[serde(default)]
+    pub angular_velocity: [f64; 3],
 }
 
 /// `[mesh]`: a file (found next to the scene file, then in `SOFTBENCH_DATA`) or a generator.

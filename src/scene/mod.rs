@@ -9,10 +9,11 @@ mod overrides;
 mod springs;
 
 pub use config::{
-    Axis, BoxConfig, DampingConfig, FixedConfig, ForcesConfig, GenerateConfig, MaterialConfig,
-    MeshConfig, RayleighConfig, RuleConfig, RunConfig, SceneConfig, StrainRateConfig,
+    Axis, BoxConfig, DampingConfig, FixedConfig, ForcesConfig, GenerateConfig, InitialConfig,
+    MaterialConfig, MeshConfig, RayleighConfig, RuleConfig, RunConfig, SceneConfig,
+    StrainRateConfig,
 };
-pub use overrides::{OverrideError, apply as apply_override};
+pub use overrides::{OverrideError, apply as apply_override, set_value};
 pub use springs::{DragConfig, JelloConfig, JelloShape, KindTable, SpringsConfig, WaypointConfig};
 
 use crate::contact::Contact;
@@ -97,25 +98,47 @@ pub fn load(path: &Path, overrides: &[String]) -> Result<LoadedScene, SceneError
 
 /// Parse scene text (`path` only names it in messages), apply overrides, validate.
 pub fn parse(text: &str, path: &Path, overrides: &[String]) -> Result<SceneConfig, SceneError> {
-    let parse_error = |e: toml::de::Error| SceneError::Parse {
-        path: path.to_owned(),
-        message: e.to_string().trim_end().to_owned(),
-    };
-    let mut table: toml::Table = toml::from_str(text).map_err(parse_error)?;
+    let mut table = parse_text(text, path)?;
     for o in overrides {
         apply_override(&mut table, o)?;
     }
+    from_table(table, Some(text), path)
+}
+
+/// Scene text as a TOML table, before overrides (`path` only names it in messages).
+pub fn parse_text(text: &str, path: &Path) -> Result<toml::Table, SceneError> {
+    toml::from_str(text).map_err(|e| SceneError::Parse {
+        path: path.to_owned(),
+        message: e.to_string().trim_end().to_owned(),
+    })
+}
+
+/// Deserialize and validate a scene table (the file's, with any overrides applied). `text`,
+/// the file as written, lets an error in the file itself name its line.
+pub fn from_table(
+    table: toml::Table,
+    text: Option<&str>,
+    path: &Path,
+) -> Result<SceneConfig, SceneError> {
     let config: SceneConfig = match table.try_into() {
         Ok(c) => c,
         Err(e) => {
             // Deserializing the file text directly gives the error its line and column; if the
             // file alone is fine, the overrides are at fault.
-            if let Err(located) = toml::from_str::<SceneConfig>(text) {
-                return Err(parse_error(located));
+            if let Some(Err(located)) = text.map(toml::from_str::<SceneConfig>) {
+                return Err(SceneError::Parse {
+                    path: path.to_owned(),
+                    message: located.to_string().trim_end().to_owned(),
+                });
             }
+            let context = if text.is_some() {
+                "after overrides: "
+            } else {
+                ""
+            };
             return Err(SceneError::Parse {
                 path: path.to_owned(),
-                message: format!("after --set overrides: {}", e.to_string().trim_end()),
+                message: format!("{context}{}", e.to_string().trim_end()),
             });
         }
     };
@@ -212,6 +235,27 @@ fn validate(c: &SceneConfig, path: &Path) -> Result<(), SceneError> {
         return Err(invalid(
             "fixed.rule.tolerance",
             format!("must be >= 0 (got {})", rule.tolerance),
+        ));
+    }
+    let init = &c.initial;
+    if init
+        .stretch
+        .is_some_and(|s| !s.iter().all(|x| x.is_finite() && *x > 0.0))
+    {
+        return Err(invalid(
+            "initial.stretch",
+            "must be three positive scale factors".into(),
+        ));
+    }
+    if !init
+        .velocity
+        .iter()
+        .chain(&init.angular_velocity)
+        .all(|x| x.is_finite())
+    {
+        return Err(invalid(
+            "initial",
+            "velocity and angular_velocity must be finite".into(),
         ));
     }
     if !c.forces.gravity.iter().all(|g| g.is_finite()) {
@@ -333,7 +377,30 @@ fn scene_material(m: &MaterialConfig, path: &Path) -> Result<MaterialModel, Scen
     MaterialModel::from_name(&m.model, lame).map_err(err)
 }
 
-/// Build the scene: mesh, material, fixed vertices, forces, obstacles; the body starts at rest.
+/// The state `[initial]` describes: rest, stretched and moving about the rest centroid.
+fn initial_state(model: &Model, init: &InitialConfig) -> State {
+    let mut state = State::at_rest(model);
+    if *init == InitialConfig::default() {
+        return state;
+    }
+    let rest = model.rest_positions();
+    let centroid = rest.iter().sum::<Vector3<f64>>() / rest.len().max(1) as f64;
+    let stretch = Vector3::from(init.stretch.unwrap_or([1.0; 3]));
+    let (v0, w) = (
+        Vector3::from(init.velocity),
+        Vector3::from(init.angular_velocity),
+    );
+    for (k, &vertex) in model.dofs().free_vertices().iter().enumerate() {
+        let r = rest[vertex] - centroid;
+        let x = centroid + r.component_mul(&stretch);
+        let v = v0 + w.cross(&r);
+        state.q[3 * k..3 * k + 3].copy_from_slice(x.as_slice());
+        state.v[3 * k..3 * k + 3].copy_from_slice(v.as_slice());
+    }
+    state
+}
+
+/// Build the scene: mesh, material, fixed vertices, forces, obstacles, initial state.
 pub fn build(
     loaded: &LoadedScene,
     data: &DataPaths,
@@ -415,7 +482,7 @@ pub fn build(
         });
     }
     let contact = Contact::build(&c.obstacles, &c.contact, &mut model);
-    let initial = State::at_rest(&model);
+    let initial = initial_state(&model, &c.initial);
     Ok(Scene {
         name: loaded.name(),
         config: c.clone(),

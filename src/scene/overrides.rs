@@ -34,6 +34,15 @@ pub fn apply(root: &mut Table, assignment: &str) -> Result<(), OverrideError> {
     if parts.iter().any(|p| p.is_empty()) {
         return Err(OverrideError::Syntax(assignment.to_owned()));
     }
+    set_value(root, key.trim(), parse_value(value.trim()))
+}
+
+/// Set the value at a dotted `key`, creating intermediate tables as needed.
+pub fn set_value(root: &mut Table, key: &str, value: Value) -> Result<(), OverrideError> {
+    let parts: Vec<&str> = key.split('.').map(str::trim).collect();
+    if parts.iter().any(|p| p.is_empty()) {
+        return Err(OverrideError::Syntax(key.to_owned()));
+    }
     let (last, path) = parts.split_last().expect("non-empty");
     let mut table = root;
     for (depth, part) in path.iter().enumerate() {
@@ -43,11 +52,11 @@ pub fn apply(root: &mut Table, assignment: &str) -> Result<(), OverrideError> {
         table = entry
             .as_table_mut()
             .ok_or_else(|| OverrideError::NotATable {
-                key: key.trim().to_owned(),
+                key: key.to_owned(),
                 prefix: parts[..=depth].join("."),
             })?;
     }
-    table.insert((*last).to_owned(), parse_value(value.trim()));
+    table.insert((*last).to_owned(), value);
     Ok(())
 }
 

@@ -1,0 +1,201 @@
+//! The study file schema (TOML): which scenes, which grid of runs, what is measured.
+//!
+//! Values the runner must point back to (grid entries, scenes, overrides) keep their byte
+//! span in the file, so an error can name the line.
+
+use crate::integrate::Method;
+use std::collections::BTreeMap;
+use toml::Spanned;
+
+/// What a study measures.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum StudyKind {
+    /// Energies, momenta, iterations and time per step over each run.
+    Trajectory,
+    /// Error against a reference solution next to wall time and evaluation counts.
+    WorkPrecision,
+    /// The largest stable time step per run, by bisection.
+    Stability,
+    /// One of the above over a parameter, with its metrics plotted against it.
+    Sweep,
+}
+
+impl StudyKind {
+    /// The name in study files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Trajectory => "trajectory",
+            Self::WorkPrecision => "work-precision",
+            Self::Stability => "stability",
+            Self::Sweep => "sweep",
+        }
+    }
+}
+
+/// A study file as written.
+#[derive(Clone, Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StudyFile {
+    /// The study's name: its results folder.
+    pub name: String,
+    /// What is measured.
+    pub study: StudyKind,
+    /// A sentence or two for the report.
+    #[serde(default)]
+    pub description: Option<String>,
+    /// Scene files (relative to the study file) or inline scene tables.
+    pub scenes: Vec<Spanned<toml::Value>>,
+    /// Scene keys set for every run (dotted paths), e.g. `"run.steps" = 100`.
+    #[serde(default)]
+    pub set: BTreeMap<String, Spanned<toml::Value>>,
+    /// Scene keys to sweep (dotted paths); every combination is one run.
+    #[serde(default)]
+    pub grid: BTreeMap<String, Spanned<toml::Value>>,
+    /// Methods each with their own options (`[[methods]] method = "adaptive-rk4"
+    /// "integrator.adaptive.tolerance" = [1e-4, 1e-6]`), instead of `integrator.method` in
+    /// the grid.
+    #[serde(default)]
+    pub methods: Vec<Spanned<toml::Table>>,
+    #[serde(default)]
+    pub stability: Option<StabilitySettings>,
+    #[serde(default, rename = "work-precision", alias = "work_precision")]
+    pub work_precision: Option<WorkPrecisionSettings>,
+    #[serde(default)]
+    pub sweep: Option<SweepSettings>,
+    /// What `--quick` changes.
+    #[serde(default)]
+    pub quick: QuickSettings,
+}
+
+/// `[stability]`: the bisection of the largest stable time step.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StabilitySettings {
+    /// Lower end of the bracket (s).
+    pub dt_min: f64,
+    /// Upper end of the bracket (s); a run stable here is reported as stable at `dt_max`.
+    pub dt_max: f64,
+    /// Simulated time per trial (s).
+    pub horizon: f64,
+    /// A trial is unstable when kinetic + elastic energy exceeds this factor times its initial
+    /// value plus the work done on the body. Default 10.
+    #[serde(default = "default_energy_factor")]
+    pub energy_factor: f64,
+    /// Bisection stops when `hi/lo - 1` is below this. Default 0.01.
+    #[serde(default = "default_relative_precision")]
+    pub relative_precision: f64,
+    /// If `dt_min` is unstable the bracket widens downward by 10x steps to this floor.
+    /// Default `dt_min / 1000`.
+    #[serde(default)]
+    pub dt_floor: Option<f64>,
+    /// Steps per trial at most: a trial at a small dt covers `min(horizon, max_steps dt)`, so
+    /// explicit methods on stiff bodies stay affordable. Default 20,000.
+    #[serde(default = "default_max_steps")]
+    pub max_steps: usize,
+}
+
+fn default_energy_factor() -> f64 {
+    10.0
+}
+fn default_relative_precision() -> f64 {
+    0.01
+}
+fn default_max_steps() -> usize {
+    20_000
+}
+
+impl StabilitySettings {
+    /// The floor of the downward widening.
+    pub fn floor(&self) -> f64 {
+        self.dt_floor.unwrap_or(self.dt_min / 1000.0)
+    }
+}
+
+/// `[work-precision]`: where errors are measured and against what.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WorkPrecisionSettings {
+    /// Simulated time of every run (s); must be a whole number of steps of every dt.
+    pub horizon: f64,
+    /// Errors are measured at `horizon k / samples`, k = 1..samples. Default 4.
+    #[serde(default = "default_samples")]
+    pub samples: usize,
+    #[serde(default)]
+    pub reference: ReferenceSettings,
+}
+
+fn default_samples() -> usize {
+    4
+}
+
+/// How the reference solution is computed.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ReferenceSettings {
+    /// The method. Default: RK4 when it is stable at the reference step (below 2.5/omega_max),
+    /// else implicit midpoint (second order, stable at any step).
+    pub method: Option<Method>,
+    /// The reference step (s). Default: the smallest dt of the grid divided by `dt_factor`.
+    pub dt: Option<f64>,
+    /// Default 8.
+    pub dt_factor: f64,
+    /// Newton tolerance of an implicit reference. Default 1e-10.
+    pub newton_tolerance: f64,
+    /// Errors below this factor times the difference between the reference and a second one
+    /// at half its step are not scored. Default 2.
+    pub floor_factor: f64,
+}
+
+impl Default for ReferenceSettings {
+    fn default() -> Self {
+        Self {
+            method: None,
+            dt: None,
+            dt_factor: 8.0,
+            newton_tolerance: 1e-10,
+            floor_factor: 2.0,
+        }
+    }
+}
+
+/// `[sweep]`: a study of another kind over one grid key.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SweepSettings {
+    /// What each run measures: trajectory, work-precision or stability.
+    pub kind: StudyKind,
+    /// The swept grid key (dotted path), the x axis of the sweep plots.
+    pub parameter: String,
+    /// Columns of runs.csv plotted against the parameter. Default per kind.
+    #[serde(default)]
+    pub metrics: Vec<String>,
+}
+
+/// `[quick]`: how `--quick` shortens the study (so any shipped study takes under a minute).
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct QuickSettings {
+    /// Scene keys set in quick mode (dotted paths), after `set` and the grid.
+    #[serde(default)]
+    pub set: BTreeMap<String, toml::Value>,
+    /// Trajectory runs take at most this many steps. Default 20.
+    #[serde(default)]
+    pub steps: Option<usize>,
+    /// Stability: horizon and steps per trial, and the bisection precision. Defaults: a tenth
+    /// of the horizon, 300 steps, 0.05.
+    #[serde(default)]
+    pub horizon: Option<f64>,
+    #[serde(default)]
+    pub max_steps: Option<usize>,
+    #[serde(default)]
+    pub relative_precision: Option<f64>,
+    /// Work-precision: only the largest this many time steps of the ladder. Default 2.
+    #[serde(default)]
+    pub dts: Option<usize>,
+}
+
+/// The line (1-based) of byte offset `at` in `text`.
+pub fn line_of(text: &str, at: usize) -> usize {
+    text[..at.min(text.len())].matches('\n').count() + 1
+}

@@ -1,0 +1,798 @@
+//! Loading a study: parse the file, resolve its scenes, expand the grid into runs and check
+//! every run's scene before anything is run or written.
+
+use super::config::{StudyFile, StudyKind, line_of};
+use super::error::StudyError;
+use crate::data::DataPaths;
+use crate::integrate::Method;
+use crate::parallel::Parallelism;
+use crate::scene::{self, LoadedScene, RunConfig, SceneConfig, SceneError};
+use crate::solve::LinearSolverKind;
+use std::collections::{BTreeSet, HashMap};
+use std::path::{Path, PathBuf};
+use toml::Value;
+
+/// A study ready to run: its settings and the runs of its grid.
+#[derive(Clone, Debug)]
+pub struct Study {
+    /// The study file.
+    pub path: PathBuf,
+    /// The study as written, with `--quick` applied.
+    pub file: StudyFile,
+    /// What each run measures (a sweep's inner kind).
+    pub kind: StudyKind,
+    /// Whether `--quick` shortened it.
+    pub quick: bool,
+    /// Swept scene keys other than the method and linear solver: the parameter columns.
+    pub parameters: Vec<String>,
+    /// The runs, in grid order.
+    pub runs: Vec<RunSpec>,
+}
+
+/// One run of the grid.
+#[derive(Clone, Debug)]
+pub struct RunSpec {
+    /// Unique within the study; names its series file.
+    pub id: String,
+    /// The scene's name.
+    pub scene: String,
+    pub method: Method,
+    /// `None` for explicit methods (which need no linear solver of their own).
+    pub linear_solver: Option<LinearSolverKind>,
+    /// The value of each of [`Study::parameters`] (`None` where this run does not set it).
+    pub parameters: Vec<Option<Value>>,
+    /// The resolved scene: file plus `set`, the grid values and quick settings.
+    pub loaded: LoadedScene,
+    /// Identifies the resolved run (scene, settings of the study kind, softbench version):
+    /// a finished run with the same hash is not run again.
+    pub hash: String,
+    /// Identifies the physics (everything but integrator and run settings), for the caches of
+    /// reference solutions and eigenvalues.
+    pub physics: u64,
+}
+
+/// A scene named by the study, before the grid.
+struct SceneSource {
+    name: String,
+    path: PathBuf,
+    /// The scene file's text (for error lines); `None` for inline scenes.
+    text: Option<String>,
+    table: toml::Table,
+    /// Where the study names it.
+    line: usize,
+}
+
+/// One axis of the grid: a dotted key and its values.
+#[derive(Clone, Debug)]
+struct Axis {
+    key: String,
+    values: Vec<Value>,
+    line: usize,
+}
+
+const METHOD_KEY: &str = "integrator.method";
+const SOLVER_KEY: &str = "integrator.linear_solver";
+
+/// Read, expand and check a study. `quick` applies its `[quick]` settings.
+pub fn load(path: &Path, quick: bool) -> Result<Study, StudyError> {
+    let text = std::fs::read_to_string(path).map_err(|error| StudyError::Io {
+        path: path.to_owned(),
+        error,
+    })?;
+    let file: StudyFile = toml::from_str(&text).map_err(|e| StudyError::Parse {
+        path: path.to_owned(),
+        message: e.to_string().trim_end().to_owned(),
+    })?;
+    let ctx = Context { path, text: &text };
+    let kind = check_settings(&file, &ctx)?;
+    let mut file = file;
+    if quick && let Some(s) = file.stability.as_mut() {
+        let q = &file.quick;
+        s.horizon = q.horizon.unwrap_or(s.horizon / 10.0);
+        s.max_steps = q.max_steps.unwrap_or(300);
+        s.relative_precision = q.relative_precision.unwrap_or(0.05);
+    }
+    if quick && let Some(w) = file.work_precision.as_mut() {
+        w.horizon = file.quick.horizon.unwrap_or(w.horizon);
+    }
+    let file = file;
+    let scenes = scene_sources(&file, &ctx)?;
+    let mut axes = grid_axes(&file, &ctx)?;
+    if quick && kind == StudyKind::WorkPrecision {
+        let keep = file.quick.dts.unwrap_or(2).max(1);
+        for axis in axes.iter_mut().filter(|a| a.key == "run.dt") {
+            axis.values.sort_by(|a, b| float(b).total_cmp(&float(a)));
+            axis.values.truncate(keep);
+        }
+    }
+    let method_axes = method_entries(&file, &ctx, &axes)?;
+    let mut parameters: Vec<String> = Vec::new();
+    let mut distinct: HashMap<String, BTreeSet<String>> = HashMap::new();
+    for entry in &method_axes {
+        for axis in entry {
+            if axis.key != METHOD_KEY && axis.key != SOLVER_KEY && !parameters.contains(&axis.key) {
+                parameters.push(axis.key.clone());
+            }
+            let set = distinct.entry(axis.key.clone()).or_default();
+            set.extend(axis.values.iter().map(|v| v.to_string()));
+        }
+    }
+    let in_id: Vec<&String> = parameters
+        .iter()
+        .filter(|k| distinct.get(*k).is_some_and(|s| s.len() > 1))
+        .collect();
+
+    let mut runs: Vec<RunSpec> = Vec::new();
+    let mut seen = BTreeSet::new();
+    for source in &scenes {
+        for entry in &method_axes {
+            for combo in product(entry) {
+                let Some(run) = resolve_run(&ctx, &file, quick, kind, source, &combo, entry)?
+                else {
+                    continue;
+                };
+                let mut id = vec![source.name.clone(), run.0.name().to_owned()];
+                if let Some(solver) = run.1 {
+                    id.push(solver.name().to_owned());
+                }
+                for key in &in_id {
+                    if let Some((_, v)) = combo.iter().find(|(k, _)| k == *key) {
+                        let short = key.rsplit('.').next().unwrap_or(key);
+                        id.push(format!("{short}={}", value_text(v)));
+                    }
+                }
+                let id = sanitize(&id.join("-"));
+                if !seen.insert(id.clone()) {
+                    continue;
+                }
+                let parameters = parameters
+                    .iter()
+                    .map(|p| combo.iter().find(|(k, _)| k == p).map(|(_, v)| v.clone()))
+                    .collect();
+                let (method, linear_solver, loaded) = run;
+                let hash = run_hash(&loaded.config, &file, kind, quick);
+                let physics = physics_hash(&loaded.config);
+                runs.push(RunSpec {
+                    id,
+                    scene: source.name.clone(),
+                    method,
+                    linear_solver,
+                    parameters,
+                    loaded,
+                    hash,
+                    physics,
+                });
+            }
+        }
+    }
+    check_scenes_build(&runs, &scenes, &ctx)?;
+    Ok(Study {
+        path: path.to_owned(),
+        file,
+        kind,
+        quick,
+        parameters,
+        runs,
+    })
+}
+
+/// The study file and its text, for error messages.
+struct Context<'a> {
+    path: &'a Path,
+    text: &'a str,
+}
+
+impl Context<'_> {
+    fn invalid(&self, at: usize, key: &str, message: impl Into<String>) -> StudyError {
+        StudyError::Invalid {
+            path: self.path.to_owned(),
+            line: line_of(self.text, at),
+            key: key.to_owned(),
+            message: message.into(),
+        }
+    }
+
+    /// The line of the first `key` (optionally quoted) at the start of a line, for keys
+    /// whose span the parser does not keep.
+    fn line_of_key(&self, key: &str) -> usize {
+        let quoted = format!("\"{key}\"");
+        self.text
+            .lines()
+            .position(|l| {
+                let l = l.trim_start();
+                (l.starts_with(&quoted) || l.starts_with(key))
+                    && l.split_once('=').is_some_and(|(k, _)| {
+                        let k = k.trim();
+                        k == key || k == quoted
+                    })
+            })
+            .map_or(1, |i| i + 1)
+    }
+}
+
+/// The measured kind, after checking the kind's settings are present and sane.
+fn check_settings(file: &StudyFile, ctx: &Context) -> Result<StudyKind, StudyError> {
+    if file.name.trim().is_empty()
+        || file
+            .name
+            .chars()
+            .any(|c| !(c.is_ascii_alphanumeric() || "-_.".contains(c)))
+    {
+        return Err(ctx.invalid(
+            0,
+            "name",
+            format!(
+                "`{}` must be a non-empty folder name of letters, digits, '-', '_' or '.'",
+                file.name
+            ),
+        ));
+    }
+    let kind = match (&file.study, &file.sweep) {
+        (StudyKind::Sweep, Some(sweep)) => {
+            if sweep.kind == StudyKind::Sweep {
+                return Err(ctx.invalid(
+                    0,
+                    "sweep.kind",
+                    "must be trajectory, work-precision or stability",
+                ));
+            }
+            if !file.grid.contains_key(&sweep.parameter)
+                && !file
+                    .methods
+                    .iter()
+                    .any(|m| m.get_ref().contains_key(&sweep.parameter))
+            {
+                return Err(StudyError::Invalid {
+                    path: ctx.path.to_owned(),
+                    line: ctx.line_of_key("parameter"),
+                    key: "sweep.parameter".into(),
+                    message: format!(
+                        "`{}` is not a key of [grid]; the swept parameter must be one",
+                        sweep.parameter
+                    ),
+                });
+            }
+            sweep.kind
+        }
+        (StudyKind::Sweep, None) => {
+            return Err(ctx.invalid(
+                0,
+                "sweep",
+                "a sweep study needs a [sweep] table with `kind` and `parameter`",
+            ));
+        }
+        (kind, _) => *kind,
+    };
+    let line = |key: &str| ctx.line_of_key(key);
+    let bad = |key: &str, message: String| StudyError::Invalid {
+        path: ctx.path.to_owned(),
+        line: line(key.rsplit('.').next().unwrap_or(key)),
+        key: key.to_owned(),
+        message,
+    };
+    match kind {
+        StudyKind::Stability => {
+            let Some(s) = &file.stability else {
+                return Err(ctx.invalid(
+                    0,
+                    "stability",
+                    "a stability study needs a [stability] table with dt_min, dt_max and horizon",
+                ));
+            };
+            let positive = |x: f64| x.is_finite() && x > 0.0;
+            if !positive(s.dt_min) {
+                return Err(bad(
+                    "stability.dt_min",
+                    format!("must be > 0 s (got {})", s.dt_min),
+                ));
+            }
+            if !(positive(s.dt_max) && s.dt_max > s.dt_min) {
+                return Err(bad(
+                    "stability.dt_max",
+                    format!("must be > dt_min = {} s (got {})", s.dt_min, s.dt_max),
+                ));
+            }
+            if !positive(s.horizon) {
+                return Err(bad(
+                    "stability.horizon",
+                    format!("must be > 0 s (got {})", s.horizon),
+                ));
+            }
+            if !(s.energy_factor.is_finite() && s.energy_factor > 1.0) {
+                return Err(bad(
+                    "stability.energy_factor",
+                    format!("must be > 1 (got {})", s.energy_factor),
+                ));
+            }
+            if !(s.relative_precision > 0.0 && s.relative_precision < 1.0) {
+                return Err(bad(
+                    "stability.relative_precision",
+                    format!("must be in (0, 1) (got {})", s.relative_precision),
+                ));
+            }
+            if !(positive(s.floor()) && s.floor() <= s.dt_min) {
+                return Err(bad(
+                    "stability.dt_floor",
+                    format!("must be in (0, dt_min] (got {})", s.floor()),
+                ));
+            }
+            if s.max_steps == 0 {
+                return Err(bad("stability.max_steps", "must be at least 1".into()));
+            }
+        }
+        StudyKind::WorkPrecision => {
+            let Some(w) = &file.work_precision else {
+                return Err(ctx.invalid(
+                    0,
+                    "work-precision",
+                    "a work-precision study needs a [work-precision] table with `horizon`",
+                ));
+            };
+            if !(w.horizon.is_finite() && w.horizon > 0.0) {
+                return Err(bad(
+                    "work-precision.horizon",
+                    format!("must be > 0 s (got {})", w.horizon),
+                ));
+            }
+            if w.samples == 0 {
+                return Err(bad("work-precision.samples", "must be at least 1".into()));
+            }
+            let r = &w.reference;
+            if !(r.dt_factor.is_finite() && r.dt_factor >= 1.0) {
+                return Err(bad(
+                    "work-precision.reference.dt_factor",
+                    format!("must be >= 1 (got {})", r.dt_factor),
+                ));
+            }
+            if r.dt.is_some_and(|dt| !(dt.is_finite() && dt > 0.0)) {
+                return Err(bad("work-precision.reference.dt", "must be > 0 s".into()));
+            }
+            if !file.grid.contains_key("run.dt")
+                && !file
+                    .methods
+                    .iter()
+                    .any(|m| m.get_ref().contains_key("run.dt"))
+            {
+                return Err(ctx.invalid(
+                    0,
+                    "grid",
+                    "a work-precision study sweeps the time step: add \"run.dt\" = [..] to [grid]",
+                ));
+            }
+        }
+        StudyKind::Trajectory | StudyKind::Sweep => {}
+    }
+    Ok(kind)
+}
+
+/// The scenes the study names, read and parsed (not yet validated: the grid may complete them).
+fn scene_sources(file: &StudyFile, ctx: &Context) -> Result<Vec<SceneSource>, StudyError> {
+    if file.scenes.is_empty() {
+        return Err(ctx.invalid(0, "scenes", "name at least one scene file"));
+    }
+    let base = ctx.path.parent().unwrap_or(Path::new("."));
+    let mut sources: Vec<SceneSource> = Vec::new();
+    for (i, entry) in file.scenes.iter().enumerate() {
+        let at = entry.span().start;
+        let key = format!("scenes[{i}]");
+        let scene_error = |error| StudyError::Scene {
+            path: ctx.path.to_owned(),
+            line: line_of(ctx.text, at),
+            key: key.clone(),
+            error: Box::new(error),
+        };
+        let source = match entry.get_ref() {
+            Value::String(rel) => {
+                let path = base.join(rel);
+                let text = std::fs::read_to_string(&path).map_err(|error| {
+                    scene_error(SceneError::Io {
+                        path: path.clone(),
+                        error,
+                    })
+                })?;
+                let table = scene::parse_text(&text, &path).map_err(scene_error)?;
+                let name = table
+                    .get("name")
+                    .and_then(Value::as_str)
+                    .map(str::to_owned)
+                    .unwrap_or_else(|| {
+                        path.file_stem()
+                            .map_or("scene".into(), |s| s.to_string_lossy().into_owned())
+                    });
+                SceneSource {
+                    name,
+                    path,
+                    text: Some(text),
+                    table,
+                    line: line_of(ctx.text, at),
+                }
+            }
+            Value::Table(table) => SceneSource {
+                name: table
+                    .get("name")
+                    .and_then(Value::as_str)
+                    .map_or_else(|| format!("scene{i}"), str::to_owned),
+                path: ctx.path.to_owned(),
+                text: None,
+                table: table.clone(),
+                line: line_of(ctx.text, at),
+            },
+            other => {
+                return Err(ctx.invalid(
+                    at,
+                    &key,
+                    format!(
+                        "expected a scene file path or an inline scene table, found {}",
+                        other.type_str()
+                    ),
+                ));
+            }
+        };
+        if sources.iter().any(|s| s.name == source.name) {
+            return Err(ctx.invalid(
+                at,
+                &key,
+                format!(
+                    "two scenes are named `{}`; give one a different `name`",
+                    source.name
+                ),
+            ));
+        }
+        sources.push(source);
+    }
+    Ok(sources)
+}
+
+/// The `[grid]` axes in file order.
+fn grid_axes(file: &StudyFile, ctx: &Context) -> Result<Vec<Axis>, StudyError> {
+    let mut axes = Vec::new();
+    for (key, value) in &file.grid {
+        axes.push(axis(key, value.get_ref(), value.span().start, ctx, true)?);
+    }
+    if axes.is_empty() && file.methods.is_empty() {
+        return Err(ctx.invalid(
+            0,
+            "grid",
+            "the grid is empty: give at least one key with a list of values, e.g. \
+             \"integrator.method\" = [\"rk4\", \"backward-euler\"]",
+        ));
+    }
+    axes.sort_by_key(|a| a.line);
+    Ok(axes)
+}
+
+/// One axis from a grid entry; `list_only` refuses single values (as in `[grid]`).
+fn axis(
+    key: &str,
+    value: &Value,
+    at: usize,
+    ctx: &Context,
+    list_only: bool,
+) -> Result<Axis, StudyError> {
+    let values = match value {
+        Value::Array(values) => values.clone(),
+        other if !list_only => vec![other.clone()],
+        other => {
+            return Err(ctx.invalid(
+                at,
+                &format!("grid.\"{key}\""),
+                format!("expected a list of values, found {}", other.type_str()),
+            ));
+        }
+    };
+    if values.is_empty() {
+        return Err(ctx.invalid(
+            at,
+            &format!("grid.\"{key}\""),
+            "the list is empty: give at least one value",
+        ));
+    }
+    Ok(Axis {
+        key: key.to_owned(),
+        values,
+        line: line_of(ctx.text, at),
+    })
+}
+
+/// The axes of each method entry: the grid with the entry's own options on top. Without
+/// `[[methods]]`, the grid alone.
+fn method_entries(
+    file: &StudyFile,
+    ctx: &Context,
+    grid: &[Axis],
+) -> Result<Vec<Vec<Axis>>, StudyError> {
+    if file.methods.is_empty() {
+        return Ok(vec![grid.to_vec()]);
+    }
+    if let Some(axis) = grid.iter().find(|a| a.key == METHOD_KEY) {
+        return Err(StudyError::Invalid {
+            path: ctx.path.to_owned(),
+            line: axis.line,
+            key: format!("grid.\"{METHOD_KEY}\""),
+            message: "give the methods either in [grid] or as [[methods]], not both".into(),
+        });
+    }
+    let mut entries = Vec::new();
+    for (i, entry) in file.methods.iter().enumerate() {
+        let at = entry.span().start;
+        let table = entry.get_ref();
+        let Some(method) = table.get("method") else {
+            return Err(ctx.invalid(
+                at,
+                &format!("methods[{i}]"),
+                "each [[methods]] entry needs `method = \"...\"`",
+            ));
+        };
+        let mut axes: Vec<Axis> = grid.to_vec();
+        let line = line_of(ctx.text, at);
+        axes.push(Axis {
+            key: METHOD_KEY.into(),
+            values: vec![method.clone()],
+            line,
+        });
+        for (key, value) in table.iter().filter(|(k, _)| *k != "method") {
+            let mut a = axis(key, value, at, ctx, false)?;
+            a.line = line;
+            axes.retain(|b| b.key != a.key);
+            axes.push(a);
+        }
+        entries.push(axes);
+    }
+    Ok(entries)
+}
+
+/// Every combination of the axes' values.
+fn product(axes: &[Axis]) -> Vec<Vec<(String, Value)>> {
+    let mut combos: Vec<Vec<(String, Value)>> = vec![Vec::new()];
+    for axis in axes {
+        combos = combos
+            .into_iter()
+            .flat_map(|c| {
+                axis.values.iter().map(move |v| {
+                    let mut c = c.clone();
+                    c.push((axis.key.clone(), v.clone()));
+                    c
+                })
+            })
+            .collect();
+    }
+    combos
+}
+
+type ResolvedRun = (Method, Option<LinearSolverKind>, LoadedScene);
+
+/// The resolved scene of one combination, or `None` when the combination makes no sense
+/// (a second linear solver or Newton setting for an explicit method).
+fn resolve_run(
+    ctx: &Context,
+    file: &StudyFile,
+    quick: bool,
+    kind: StudyKind,
+    source: &SceneSource,
+    combo: &[(String, Value)],
+    axes: &[Axis],
+) -> Result<Option<ResolvedRun>, StudyError> {
+    let assignments: Vec<(&str, &Value, usize)> = file
+        .set
+        .iter()
+        .map(|(k, v)| (k.as_str(), v.get_ref(), line_of(ctx.text, v.span().start)))
+        .chain(combo.iter().map(|(k, v)| {
+            let line = axes.iter().find(|a| &a.key == k).map_or(1, |a| a.line);
+            (k.as_str(), v, line)
+        }))
+        .collect();
+    let config = match configure(source, &assignments, file, quick) {
+        Ok(c) => c,
+        Err(error) => {
+            // Find the assignment at fault: the first that fails on its own.
+            for (key, value, line) in &assignments {
+                if configure(source, &[(key, value, *line)], file, false).is_err() {
+                    let e = configure(source, &[(key, value, *line)], file, false)
+                        .expect_err("failed just above");
+                    return Err(StudyError::Scene {
+                        path: ctx.path.to_owned(),
+                        line: *line,
+                        key: format!("\"{key}\" = {value}"),
+                        error: Box::new(e),
+                    });
+                }
+            }
+            return Err(StudyError::Scene {
+                path: ctx.path.to_owned(),
+                line: source.line,
+                key: format!("scene `{}`", source.name),
+                error: Box::new(error),
+            });
+        }
+    };
+    let mut config = config;
+    match kind {
+        StudyKind::Trajectory if quick => {
+            config.run.steps = config.run.steps.min(file.quick.steps.unwrap_or(20));
+        }
+        StudyKind::WorkPrecision => {
+            check_step_fits(ctx, file, &config, axes)?;
+            let w = file.work_precision.as_ref().expect("checked");
+            let stride = (w.horizon / w.samples as f64 / config.run.dt).round() as usize;
+            config.run.steps = stride * w.samples;
+            // Rows at every sample time, and in between as densely as 500 rows allow.
+            config.run.sample_every = (1..=stride)
+                .find(|d| stride.is_multiple_of(*d) && config.run.steps / d <= 500)
+                .unwrap_or(stride);
+        }
+        _ => {}
+    }
+    let method = config.integrator.method;
+    if method.is_explicit() {
+        // An explicit method runs once whatever the implicit-only settings are.
+        for axis in axes {
+            let implicit_only = axis.key == SOLVER_KEY
+                || axis.key.starts_with("integrator.newton")
+                || axis.key.starts_with("integrator.solver");
+            if implicit_only
+                && let Some((_, v)) = combo.iter().find(|(k, _)| *k == axis.key)
+                && *v != axis.values[0]
+            {
+                return Ok(None);
+            }
+        }
+    }
+    let linear_solver = (!method.is_explicit()).then_some(config.integrator.linear_solver);
+    Ok(Some((
+        method,
+        linear_solver,
+        LoadedScene {
+            path: source.path.clone(),
+            config,
+        },
+    )))
+}
+
+/// The scene's table with the assignments (and quick settings) applied, validated.
+fn configure(
+    source: &SceneSource,
+    assignments: &[(&str, &Value, usize)],
+    file: &StudyFile,
+    quick: bool,
+) -> Result<SceneConfig, SceneError> {
+    let mut table = source.table.clone();
+    for (key, value, _) in assignments {
+        scene::set_value(&mut table, key, (*value).clone())?;
+    }
+    if quick {
+        for (key, value) in &file.quick.set {
+            scene::set_value(&mut table, key, value.clone())?;
+        }
+    }
+    scene::from_table(table, source.text.as_deref(), &source.path)
+}
+
+/// A work-precision run's horizon and sample times must be whole numbers of its steps.
+fn check_step_fits(
+    ctx: &Context,
+    file: &StudyFile,
+    config: &SceneConfig,
+    axes: &[Axis],
+) -> Result<(), StudyError> {
+    let w = file.work_precision.as_ref().expect("checked");
+    let dt = config.run.dt;
+    let interval = w.horizon / w.samples as f64;
+    let per_sample = interval / dt;
+    if (per_sample - per_sample.round()).abs() > 1e-6 * per_sample.max(1.0) || per_sample < 0.5 {
+        let line = axes
+            .iter()
+            .find(|a| a.key == "run.dt")
+            .map_or(1, |a| a.line);
+        return Err(StudyError::Invalid {
+            path: ctx.path.to_owned(),
+            line,
+            key: "grid.\"run.dt\"".into(),
+            message: format!(
+                "dt = {dt} s does not divide the sample interval horizon / samples = {interval} s; \
+                 errors are measured at whole steps, so choose dt values that divide it"
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// Build each distinct scene once, so a missing mesh file or a bad mesh is reported before
+/// anything runs.
+fn check_scenes_build(
+    runs: &[RunSpec],
+    scenes: &[SceneSource],
+    ctx: &Context,
+) -> Result<(), StudyError> {
+    let data = DataPaths::from_env();
+    let mut built = BTreeSet::new();
+    for run in runs {
+        if !built.insert(run.physics) {
+            continue;
+        }
+        if let Err(error) = scene::build(&run.loaded, &data, Parallelism::Sequential) {
+            let line = scenes
+                .iter()
+                .find(|s| s.name == run.scene)
+                .map_or(1, |s| s.line);
+            return Err(StudyError::Scene {
+                path: ctx.path.to_owned(),
+                line,
+                key: format!("scene `{}` (run {})", run.scene, run.id),
+                error: Box::new(error),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// A value as it appears in run ids and tables: strings bare, numbers short.
+pub fn value_text(v: &Value) -> String {
+    match v {
+        Value::String(s) => s.clone(),
+        Value::Float(x) => crate::study::format::short(*x),
+        other => other.to_string(),
+    }
+}
+
+fn float(v: &Value) -> f64 {
+    match v {
+        Value::Float(x) => *x,
+        Value::Integer(i) => *i as f64,
+        _ => f64::NAN,
+    }
+}
+
+/// Keep run ids safe as file names.
+fn sanitize(id: &str) -> String {
+    id.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || "-_.=+".contains(c) {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
+/// 64-bit FNV-1a, stable across platforms and versions (unlike `DefaultHasher`).
+pub fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, b| {
+        (h ^ u64::from(*b)).wrapping_mul(0x0000_0100_0000_01b3)
+    })
+}
+
+fn run_hash(config: &SceneConfig, file: &StudyFile, kind: StudyKind, quick: bool) -> String {
+    let settings = match kind {
+        StudyKind::Stability => serde_json::to_value(&file.stability),
+        StudyKind::WorkPrecision => serde_json::to_value(&file.work_precision),
+        _ => Ok(serde_json::Value::Null),
+    }
+    .unwrap_or_default();
+    let quick_settings = if quick {
+        serde_json::to_value(&file.quick).unwrap_or_default()
+    } else {
+        serde_json::Value::Null
+    };
+    let document = serde_json::json!({
+        "version": env!("CARGO_PKG_VERSION"),
+        "kind": kind.name(),
+        "scene": config,
+        "settings": settings,
+        "quick": quick_settings,
+    });
+    format!("{:016x}", fnv1a(document.to_string().as_bytes()))
+}
+
+fn physics_hash(config: &SceneConfig) -> u64 {
+    let mut c = config.clone();
+    c.integrator = Default::default();
+    c.run = RunConfig {
+        dt: 1.0,
+        steps: 1,
+        sample_every: 1,
+        energy_limit: 0.0,
+    };
+    c.display = None;
+    fnv1a(serde_json::to_string(&c).unwrap_or_default().as_bytes())
+}

@@ -1,0 +1,56 @@
+//! Studies: a TOML file naming scenes and a grid of runs becomes `runs.csv`, per-run series,
+//! plots, `meta.json` and `report.md` under `results/<study>/`.
+//!
+//! [`load`] parses and expands the grid and checks every run before anything is written;
+//! [`run`] executes the runs not already complete (resuming an interrupted study), each kind
+//! measured by its own module ([`trajectory`], [`work_precision`], [`stability`]); [`redraw`]
+//! draws the plots again from the CSVs.
+
+pub mod config;
+mod error;
+pub mod format;
+mod load;
+mod machine;
+mod measured;
+pub mod plots;
+mod report;
+mod runner;
+pub mod stability;
+pub mod table;
+pub mod trajectory;
+pub mod work_precision;
+
+pub use config::{StudyFile, StudyKind};
+pub use error::{ResultsError, StudyError};
+pub use load::{RunSpec, Study, fnv1a, load};
+pub use machine::Machine;
+pub use measured::Measured;
+pub use runner::{Meta, RunError, RunOptions, StudyMeta, StudyRun, matches, run};
+
+/// Redraw the plots of a results folder from its `runs.csv`, series files and `meta.json`.
+pub fn redraw(dir: &std::path::Path) -> Result<Vec<plots::Plot>, RedrawError> {
+    let meta_path = dir.join("meta.json");
+    let text = std::fs::read_to_string(&meta_path).map_err(|error| ResultsError::Io {
+        path: meta_path.clone(),
+        error,
+    })?;
+    let meta: Meta = serde_json::from_str(&text).map_err(|e| ResultsError::Malformed {
+        path: meta_path.clone(),
+        message: e.to_string(),
+    })?;
+    let runs_path = dir.join("runs.csv");
+    let runs = table::Table::read(&runs_path)?.ok_or_else(|| ResultsError::Io {
+        path: runs_path,
+        error: std::io::Error::from(std::io::ErrorKind::NotFound),
+    })?;
+    Ok(plots::draw_all(dir, &meta.study, &runs)?)
+}
+
+/// Why plots could not be redrawn.
+#[derive(Debug, thiserror::Error)]
+pub enum RedrawError {
+    #[error(transparent)]
+    Results(#[from] ResultsError),
+    #[error("cannot draw: {0}")]
+    Plot(#[from] crate::plot::PlotError),
+}

@@ -1,0 +1,508 @@
+//! The study's plots, drawn from `runs.csv` and the series files alone, so `softbench plot`
+//! can redraw them: energy and Newton iterations over time, work-precision, largest stable
+//! dt against 2/omega_max, time per step by phase, and sweep metrics against the parameter.
+
+use super::config::StudyKind;
+use super::runner::StudyMeta;
+use super::table::Table;
+use crate::plot::{self, Bar, BarChart, Chart, LineChart, ReferenceLine, Series, StackedBarChart};
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// A drawn plot: `<stem>.png` and `<stem>.svg` in the results folder.
+#[derive(Clone, Debug)]
+pub struct Plot {
+    pub stem: String,
+    pub title: String,
+    /// One sentence on what it shows and how to read it.
+    pub caption: String,
+}
+
+/// Draw every plot of the study into `dir`.
+pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>, plot::PlotError> {
+    let mut plots = Vec::new();
+    let scenes = scenes(runs);
+    let mut emit = |stem: String, caption: &str, chart: Chart| -> Result<(), plot::PlotError> {
+        let title = match &chart {
+            Chart::Line(c) => c.title.clone(),
+            Chart::Bar(c) => c.title.clone(),
+            Chart::Stacked(c) => c.title.clone(),
+        };
+        plot::draw(&chart, &dir.join(&stem))?;
+        plots.push(Plot {
+            stem,
+            title,
+            caption: caption.to_owned(),
+        });
+        Ok(())
+    };
+    if study.study == StudyKind::Sweep {
+        for metric in sweep_metrics(study) {
+            for chart in sweep_charts(study, runs, &metric) {
+                let stem = format!("sweep-{metric}");
+                emit(
+                    stem,
+                    &format!(
+                        "{metric} against {}, one line per method.",
+                        study.sweep_parameter.as_deref().unwrap_or("the parameter")
+                    ),
+                    Chart::Line(chart),
+                )?;
+            }
+        }
+        return Ok(plots);
+    }
+    for scene in &scenes {
+        let rows: Vec<&Vec<String>> = runs
+            .rows
+            .iter()
+            .filter(|r| runs.get(r, "scene") == Some(scene))
+            .collect();
+        let slug = slug(scene);
+        match study.kind {
+            StudyKind::Stability => {
+                emit(
+                    format!("stable-dt-{slug}"),
+                    "Largest stable time step per method (log scale); the line is the explicit \
+                     limit 2/omega_max of the scene at rest.",
+                    Chart::Bar(stable_dt_chart(scene, runs, &rows)),
+                )?;
+            }
+            StudyKind::WorkPrecision => {
+                for (x, x_label, what) in [
+                    ("wall_seconds", "wall time (s)", "time"),
+                    ("cost", "force + Hessian evaluations", "cost"),
+                    ("dt", "time step dt (s)", "dt"),
+                ] {
+                    emit(
+                        format!("work-precision-{what}-{slug}"),
+                        &format!(
+                            "Position error against the reference versus {x_label} (log-log), \
+                             one line per method; unscored and failed runs are left out."
+                        ),
+                        Chart::Line(work_precision_chart(scene, runs, &rows, x, x_label)),
+                    )?;
+                }
+            }
+            _ => {}
+        }
+        let series = load_series(dir, runs, &rows);
+        emit(
+            format!("energy-{slug}"),
+            match study.kind {
+                StudyKind::Stability => {
+                    "Relative energy error over time of each method's trial at its largest \
+                     stable dt (log scale)."
+                }
+                _ => {
+                    "Relative energy error |E(t) - E(0)| / (E_int(0) + |gravity work|) over time (log scale)."
+                }
+            },
+            Chart::Line(energy_chart(scene, &series)),
+        )?;
+        if let Some(chart) = iterations_chart(scene, &series) {
+            emit(
+                format!("iterations-{slug}"),
+                "Newton iterations per step over time, implicit methods.",
+                Chart::Line(chart),
+            )?;
+        }
+        let phase_rows: Vec<&Vec<String>> = if study.kind == StudyKind::WorkPrecision {
+            smallest_dt_rows(runs, &rows)
+        } else {
+            rows.clone()
+        };
+        emit(
+            format!("phases-{slug}"),
+            "Mean wall time per step split by phase (assembly of forces/Hessians, \
+             factorization, solves, contact QPs, everything else).",
+            Chart::Stacked(phase_chart(scene, study.kind, runs, &phase_rows)),
+        )?;
+    }
+    Ok(plots)
+}
+
+/// Scenes in order of first appearance.
+fn scenes(runs: &Table) -> Vec<String> {
+    let mut seen = Vec::new();
+    for r in &runs.rows {
+        if let Some(s) = runs.get(r, "scene")
+            && !seen.iter().any(|x: &String| x == s)
+        {
+            seen.push(s.to_owned());
+        }
+    }
+    seen
+}
+
+fn slug(s: &str) -> String {
+    s.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
+/// "method / solver" plus any other swept parameter except `skip`.
+fn label(runs: &Table, row: &[String], skip: &[&str]) -> String {
+    let mut label = runs.get(row, "method").unwrap_or("?").to_owned();
+    if let Some(solver) = runs
+        .get(row, "linear_solver")
+        .filter(|s| *s != "-" && !s.is_empty())
+    {
+        label.push_str(" / ");
+        label.push_str(solver);
+    }
+    let start = 4;
+    let end = runs
+        .column("dt")
+        .or_else(|| runs.column("status"))
+        .unwrap_or(start);
+    for (name, value) in runs.header.iter().zip(row).take(end).skip(start) {
+        if skip.contains(&name.as_str()) || value.is_empty() {
+            continue;
+        }
+        let short = name.rsplit('.').next().unwrap_or(name);
+        label.push_str(&format!(" {short}={value}"));
+    }
+    label
+}
+
+fn stable_dt_chart(scene: &str, runs: &Table, rows: &[&Vec<String>]) -> BarChart {
+    let theory = rows.iter().find_map(|r| runs.number(r, "dt_theory"));
+    BarChart {
+        title: format!("Largest stable time step: {scene}"),
+        y_label: "largest stable dt (s)".into(),
+        y_log: true,
+        bars: rows
+            .iter()
+            .map(|r| {
+                let value = runs.number(r, "max_stable_dt");
+                let status = runs.get(r, "status").unwrap_or_default();
+                Bar {
+                    label: label(runs, r, &[]),
+                    value,
+                    marker: None,
+                    note: if status.starts_with("stable at") {
+                        Some(">= dt_max".into())
+                    } else if value.is_none() {
+                        Some("no stable dt".into())
+                    } else {
+                        None
+                    },
+                }
+            })
+            .collect(),
+        marker_label: None,
+        reference: theory.map(|t| ReferenceLine {
+            label: format!("2/omega_max = {} s", super::format::short(t)),
+            value: t,
+        }),
+    }
+}
+
+fn work_precision_chart(
+    scene: &str,
+    runs: &Table,
+    rows: &[&Vec<String>],
+    x: &str,
+    x_label: &str,
+) -> LineChart {
+    let mut lines: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
+    for r in rows {
+        let Some(error) = runs.number(r, "error") else {
+            continue;
+        };
+        let xv = if x == "cost" {
+            runs.number(r, "force_evaluations")
+                .zip(runs.number(r, "hessian_evaluations"))
+                .map(|(f, h)| f + h)
+        } else {
+            runs.number(r, x)
+        };
+        if let Some(xv) = xv {
+            lines
+                .entry(label(runs, r, &["run.dt"]))
+                .or_default()
+                .push((xv, error));
+        }
+    }
+    LineChart {
+        title: format!("Work-precision: {scene}"),
+        x_label: x_label.into(),
+        y_label: "relative position error".into(),
+        x_log: true,
+        y_log: true,
+        series: lines
+            .into_iter()
+            .map(|(label, mut points)| {
+                points.sort_by(|a, b| a.0.total_cmp(&b.0));
+                Series { label, points }
+            })
+            .collect(),
+    }
+}
+
+/// A run's series file, with its label.
+struct RunSeries {
+    label: String,
+    table: Table,
+}
+
+fn load_series(dir: &Path, runs: &Table, rows: &[&Vec<String>]) -> Vec<RunSeries> {
+    rows.iter()
+        .filter_map(|r| {
+            let id = runs.get(r, "run_id")?;
+            let path = dir.join("series").join(format!("{id}.csv"));
+            let table = Table::read(&path).ok().flatten()?;
+            let mut label = label(runs, r, &[]);
+            if let Some(dt) = runs.get(r, "dt").or_else(|| runs.get(r, "max_stable_dt"))
+                && !dt.is_empty()
+            {
+                label.push_str(&format!(
+                    " dt={}",
+                    super::format::short(dt.parse().unwrap_or(0.0))
+                ));
+            }
+            Some(RunSeries { label, table })
+        })
+        .collect()
+}
+
+fn energy_chart(scene: &str, series: &[RunSeries]) -> LineChart {
+    LineChart {
+        title: format!("Energy error over time: {scene}"),
+        x_label: "time t (s)".into(),
+        y_label: "|E(t) - E(0)| / (E_int(0) + |gravity work|)".into(),
+        x_log: false,
+        y_log: true,
+        series: series
+            .iter()
+            .map(|s| {
+                let t = &s.table;
+                let cols =
+                    ["t", "total", "kinetic", "elastic", "springs", "gravity"].map(|c| t.column(c));
+                let points = match cols {
+                    [Some(ct), Some(ce), Some(ck), Some(cel), Some(cs), Some(cg)] => {
+                        let num =
+                            |r: &Vec<String>, c: usize| r[c].parse::<f64>().unwrap_or(f64::NAN);
+                        let first = t.rows.first();
+                        first.map_or(Vec::new(), |f| {
+                            let (e0, g0) = (num(f, ce), num(f, cg));
+                            let internal0 = num(f, ck) + num(f, cel) + num(f, cs);
+                            t.rows
+                                .iter()
+                                .skip(1)
+                                .map(|r| {
+                                    let scale = internal0 + (g0 - num(r, cg)).abs();
+                                    let scale = if scale > 0.0 { scale } else { 1.0 };
+                                    (num(r, ct), (num(r, ce) - e0).abs() / scale)
+                                })
+                                .collect()
+                        })
+                    }
+                    _ => Vec::new(),
+                };
+                Series {
+                    label: s.label.clone(),
+                    points,
+                }
+            })
+            .collect(),
+    }
+}
+
+fn iterations_chart(scene: &str, series: &[RunSeries]) -> Option<LineChart> {
+    let lines: Vec<Series> = series
+        .iter()
+        .filter_map(|s| {
+            let t = &s.table;
+            let (ct, ci, cs) = (
+                t.column("t")?,
+                t.column("newton_iterations")?,
+                t.column("steps")?,
+            );
+            let points: Vec<(f64, f64)> = t
+                .rows
+                .iter()
+                .skip(1)
+                .filter_map(|r| {
+                    let steps: f64 = r[cs].parse().ok()?;
+                    (steps > 0.0).then(|| {
+                        (
+                            r[ct].parse().unwrap_or(f64::NAN),
+                            r[ci].parse::<f64>().unwrap_or(f64::NAN) / steps,
+                        )
+                    })
+                })
+                .collect();
+            points.iter().any(|p| p.1 > 0.0).then(|| Series {
+                label: s.label.clone(),
+                points,
+            })
+        })
+        .collect();
+    (!lines.is_empty()).then(|| LineChart {
+        title: format!("Newton iterations per step: {scene}"),
+        x_label: "time t (s)".into(),
+        y_label: "Newton iterations per step".into(),
+        x_log: false,
+        y_log: false,
+        series: lines,
+    })
+}
+
+/// For work-precision: each line's run at its smallest dt.
+fn smallest_dt_rows<'a>(runs: &Table, rows: &[&'a Vec<String>]) -> Vec<&'a Vec<String>> {
+    let mut best: BTreeMap<String, &'a Vec<String>> = BTreeMap::new();
+    for r in rows {
+        let key = label(runs, r, &["run.dt"]);
+        let dt = runs.number(r, "dt").unwrap_or(f64::INFINITY);
+        if best
+            .get(&key)
+            .is_none_or(|b| runs.number(b, "dt").unwrap_or(f64::INFINITY) > dt)
+        {
+            best.insert(key, r);
+        }
+    }
+    rows.iter()
+        .copied()
+        .filter(|r| best.values().any(|b| std::ptr::eq(*b, *r)))
+        .collect()
+}
+
+fn phase_chart(
+    scene: &str,
+    kind: StudyKind,
+    runs: &Table,
+    rows: &[&Vec<String>],
+) -> StackedBarChart {
+    let parts = [
+        "assemble_seconds",
+        "factor_seconds",
+        "solve_seconds",
+        "qp_seconds",
+    ];
+    let names = [
+        "assembly",
+        "factorization",
+        "linear solves",
+        "contact QP",
+        "other",
+    ];
+    let mut values: Vec<Vec<f64>> = vec![Vec::new(); names.len()];
+    let mut categories = Vec::new();
+    for r in rows {
+        let steps = runs.number(r, "steps").unwrap_or(0.0);
+        let wall = runs.number(r, "wall_seconds");
+        let (true, Some(wall)) = (steps > 0.0, wall) else {
+            continue;
+        };
+        let mut label = label(runs, r, &[]);
+        if kind == StudyKind::Stability
+            && let Some(dt) = runs.number(r, "max_stable_dt")
+        {
+            label.push_str(&format!(" dt={}", super::format::short(dt)));
+        } else if let Some(dt) = runs.number(r, "dt") {
+            label.push_str(&format!(" dt={}", super::format::short(dt)));
+        }
+        categories.push(label);
+        let mut rest = wall;
+        for (k, p) in parts.iter().enumerate() {
+            let v = runs.number(r, p).unwrap_or(0.0);
+            rest -= v;
+            values[k].push(v / steps);
+        }
+        values[parts.len()].push(rest.max(0.0) / steps);
+    }
+    StackedBarChart {
+        title: format!("Time per step by phase: {scene}"),
+        y_label: "wall time per step (s)".into(),
+        categories,
+        parts: names
+            .iter()
+            .zip(values)
+            .map(|(n, v)| ((*n).to_owned(), v))
+            .collect(),
+    }
+}
+
+/// The metrics a sweep plots: the configured ones, or the kind's defaults.
+pub fn sweep_metrics(study: &StudyMeta) -> Vec<String> {
+    if !study.sweep_metrics.is_empty() {
+        return study.sweep_metrics.clone();
+    }
+    match study.kind {
+        StudyKind::Stability => vec!["max_stable_dt".into(), "newton_iterations_per_step".into()],
+        StudyKind::WorkPrecision => vec!["error".into(), "wall_seconds".into()],
+        _ => vec!["energy_drift_max".into(), "step_seconds_median".into()],
+    }
+}
+
+fn sweep_charts(study: &StudyMeta, runs: &Table, metric: &str) -> Vec<LineChart> {
+    let Some(parameter) = study.sweep_parameter.as_deref() else {
+        return Vec::new();
+    };
+    let mut lines: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
+    let mut theory: Vec<(f64, f64)> = Vec::new();
+    let several_scenes = scenes(runs).len() > 1;
+    for r in &runs.rows {
+        let (Some(x), Some(y)) = (runs.number(r, parameter), runs.number(r, metric)) else {
+            continue;
+        };
+        let mut key = label(runs, r, &[parameter]);
+        if several_scenes {
+            key = format!("{}: {key}", runs.get(r, "scene").unwrap_or_default());
+        }
+        lines.entry(key).or_default().push((x, y));
+        if metric == "max_stable_dt"
+            && let Some(t) = runs.number(r, "dt_theory")
+            && !theory.iter().any(|p| p.0 == x)
+        {
+            theory.push((x, t));
+        }
+    }
+    let mut series: Vec<Series> = lines
+        .into_iter()
+        .map(|(label, mut points)| {
+            points.sort_by(|a, b| a.0.total_cmp(&b.0));
+            Series { label, points }
+        })
+        .collect();
+    if !theory.is_empty() {
+        theory.sort_by(|a, b| a.0.total_cmp(&b.0));
+        series.push(Series {
+            label: "2/omega_max (explicit limit)".into(),
+            points: theory,
+        });
+    }
+    let wide = |values: &mut dyn Iterator<Item = f64>| {
+        let (lo, hi) = values.fold((f64::INFINITY, 0.0f64), |(lo, hi), v| {
+            (lo.min(v), hi.max(v))
+        });
+        lo > 0.0 && hi / lo > 20.0
+    };
+    let x_log = wide(&mut series.iter().flat_map(|s| s.points.iter().map(|p| p.0)));
+    let y_log = wide(&mut series.iter().flat_map(|s| s.points.iter().map(|p| p.1)));
+    vec![LineChart {
+        title: format!("{metric} against {parameter}"),
+        x_label: parameter.to_owned(),
+        y_label: unit_label(metric),
+        x_log,
+        y_log,
+        series,
+    }]
+}
+
+/// A metric's axis label with its unit.
+fn unit_label(metric: &str) -> String {
+    match metric {
+        "max_stable_dt" | "dt_theory" | "dt" => format!("{metric} (s)"),
+        m if m.ends_with("_seconds") || m.contains("seconds_") => format!("{m} (s)"),
+        m => m.to_owned(),
+    }
+}

@@ -1,0 +1,651 @@
+//! Running a study: skip runs already complete, compute what the runs share (eigenvalues,
+//! reference solutions), run the rest (in parallel with `jobs`), and write every output
+//! atomically as soon as it exists, so an interrupted study resumes where it stopped.
+
+use super::config::StudyKind;
+use super::format::now_utc;
+use super::load::{RunSpec, Study, value_text};
+use super::machine::Machine;
+use super::measured::Measured;
+use super::table::Table;
+use super::work_precision::Reference;
+use super::{report, stability, trajectory, work_precision};
+use crate::integrate::Method;
+use crate::parallel::Parallelism;
+use crate::report::write_atomic;
+use indicatif::{ProgressBar, ProgressStyle};
+use std::collections::{BTreeMap, HashMap};
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+/// How to run a study.
+#[derive(Clone, Debug)]
+pub struct RunOptions {
+    /// The study's results folder (e.g. `results/<study>`).
+    pub dir: PathBuf,
+    /// Only runs whose id matches this pattern (`*` matches anything; otherwise a substring).
+    pub only: Option<String>,
+    /// Runs in parallel.
+    pub jobs: usize,
+    /// Redo runs even when a finished run with the same resolved config exists.
+    pub force: bool,
+    /// Show a progress bar (on a terminal) or a line per run (otherwise).
+    pub progress: bool,
+}
+
+/// Why a study stopped before finishing.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    #[error("{path}: cannot write: {error}")]
+    Io {
+        path: PathBuf,
+        error: std::io::Error,
+    },
+    #[error(transparent)]
+    Results(#[from] super::error::ResultsError),
+    /// A run could not even start (its scene failed to build), or a reference failed.
+    #[error("{0}")]
+    Run(String),
+}
+
+/// What a study invocation did.
+#[derive(Clone, Debug)]
+pub struct StudyRun {
+    pub dir: PathBuf,
+    /// Runs executed now.
+    pub ran: usize,
+    /// Runs reused from a previous invocation.
+    pub reused: usize,
+    /// Runs left out by `--only`.
+    pub skipped: usize,
+    /// Runs whose status is not ok.
+    pub not_ok: Vec<(String, String)>,
+    /// Files written, relative to `dir`.
+    pub files: Vec<String>,
+}
+
+/// The identity columns of every `runs.csv`.
+const IDENTITY: [&str; 4] = ["run_id", "scene", "method", "linear_solver"];
+
+/// The header of the study's `runs.csv`.
+pub fn header(study: &Study) -> Vec<String> {
+    let kind_columns = match study.kind {
+        StudyKind::Stability => stability::COLUMNS,
+        StudyKind::WorkPrecision => work_precision::COLUMNS,
+        _ => trajectory::COLUMNS,
+    };
+    IDENTITY
+        .iter()
+        .map(|s| (*s).to_owned())
+        .chain(parameter_columns(study).into_iter().map(|(_, c)| c))
+        .chain(kind_columns.iter().map(|s| (*s).to_owned()))
+        .chain(["message".to_owned(), "config_hash".to_owned()])
+        .collect()
+}
+
+/// The swept parameters that get a column (the time step has its own `dt` column), with the
+/// index into [`RunSpec::parameters`].
+fn parameter_columns(study: &Study) -> Vec<(usize, String)> {
+    study
+        .parameters
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| !(p.as_str() == "run.dt" && study.kind != StudyKind::Stability))
+        .map(|(i, p)| (i, p.clone()))
+        .collect()
+}
+
+/// Whether a run id matches `--only`.
+pub fn matches(id: &str, pattern: &str) -> bool {
+    if !pattern.contains('*') {
+        return id.contains(pattern);
+    }
+    let parts: Vec<&str> = pattern.split('*').collect();
+    let (first, last) = (parts[0], parts[parts.len() - 1]);
+    if !id.starts_with(first) || id.len() < first.len() + last.len() || !id.ends_with(last) {
+        return false;
+    }
+    let mut rest = &id[first.len()..id.len() - last.len()];
+    for part in &parts[1..parts.len() - 1] {
+        match rest.find(part) {
+            Some(i) => rest = &rest[i + part.len()..],
+            None => return false,
+        }
+    }
+    true
+}
+
+/// Run the study into `options.dir`.
+pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
+    let dir = &options.dir;
+    let io = |path: &Path| {
+        let path = path.to_owned();
+        move |error| RunError::Io { path, error }
+    };
+    std::fs::create_dir_all(dir.join("series")).map_err(io(dir))?;
+    let started = now_utc();
+    let clock = std::time::Instant::now();
+    let header = header(study);
+    let runs_path = dir.join("runs.csv");
+    let hash_col = header.len() - 1;
+
+    // Rows of earlier invocations, by run id.
+    let mut rows: HashMap<String, Vec<String>> = HashMap::new();
+    if let Some(old) = Table::read(&runs_path)? {
+        for row in old.rows {
+            // Rows are reused only when the columns are the same.
+            if old.header == header && row.len() == header.len() {
+                rows.insert(row[0].clone(), row);
+            }
+        }
+    }
+    let selected: Vec<&RunSpec> = study
+        .runs
+        .iter()
+        .filter(|r| options.only.as_deref().is_none_or(|p| matches(&r.id, p)))
+        .collect();
+    let done = |r: &RunSpec| {
+        !options.force
+            && rows.get(&r.id).is_some_and(|row| row[hash_col] == r.hash)
+            && dir.join("series").join(format!("{}.csv", r.id)).exists()
+    };
+    let pending: Vec<&RunSpec> = selected.iter().copied().filter(|r| !done(r)).collect();
+    let reused = selected.len() - pending.len();
+    let machine = Machine::current();
+    write_meta(study, options, &machine, &started, None).map_err(io(&dir.join("meta.json")))?;
+
+    let progress = Progress::new(options.progress, pending.len() as u64);
+    if reused > 0 {
+        progress.line(&format!(
+            "{}: {reused} of {} runs already complete with the same configuration (--force redoes them)",
+            study.file.name,
+            selected.len()
+        ));
+    }
+    let parallelism = if options.jobs > 1 {
+        Parallelism::Sequential
+    } else {
+        Parallelism::Rayon
+    };
+    let shared = Shared::prepare(study, &pending, parallelism, &progress)?;
+
+    // Run, each result written as soon as it arrives.
+    let (sender, receiver) = std::sync::mpsc::channel::<(usize, Result<Measured, String>)>();
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let mut not_ok = Vec::new();
+    let mut failure: Option<RunError> = None;
+    std::thread::scope(|scope| {
+        for _ in 0..options.jobs.max(1).min(pending.len().max(1)) {
+            let sender = sender.clone();
+            let (next, pending, shared, progress) = (&next, &pending, &shared, &progress);
+            scope.spawn(move || {
+                loop {
+                    let i = next.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+                    let Some(spec) = pending.get(i) else { break };
+                    progress.start(&spec.id);
+                    let result = measure(study, spec, shared, parallelism);
+                    progress.finish(&spec.id);
+                    if sender.send((i, result)).is_err() {
+                        break;
+                    }
+                }
+            });
+        }
+        drop(sender);
+        for (i, result) in receiver {
+            let spec = pending[i];
+            let outcome = match result {
+                Ok(m) => record(study, spec, &m, &header, dir).map(|row| (row, m)),
+                Err(message) => Err(RunError::Run(format!("run {}: {message}", spec.id))),
+            };
+            match outcome {
+                Ok((row, m)) => {
+                    progress.line(&format!(
+                        "{} {}: {}",
+                        progress.position(),
+                        spec.id,
+                        summary_line(study.kind, &m)
+                    ));
+                    progress.inc();
+                    rows.insert(spec.id.clone(), row);
+                    let table = ordered(study, &header, &rows);
+                    if let Err(e) = table.write(&runs_path) {
+                        failure.get_or_insert(RunError::Io {
+                            path: runs_path.clone(),
+                            error: e,
+                        });
+                        next.store(usize::MAX / 2, std::sync::atomic::Ordering::SeqCst);
+                    }
+                }
+                Err(e) => {
+                    failure.get_or_insert(e);
+                    // Stop handing out runs; the ones running finish.
+                    next.store(usize::MAX / 2, std::sync::atomic::Ordering::SeqCst);
+                }
+            }
+        }
+    });
+    progress.done();
+    if let Some(e) = failure {
+        return Err(e);
+    }
+    let table = ordered(study, &header, &rows);
+    table.write(&runs_path).map_err(io(&runs_path))?;
+    for row in &table.rows {
+        let status = table.get(row, "status").unwrap_or_default();
+        if status != "ok" && !status.starts_with("stable at") {
+            not_ok.push((row[0].clone(), status.to_owned()));
+        }
+    }
+    let mut files = vec!["runs.csv".to_owned(), "meta.json".to_owned()];
+    let meta = Meta::of(study, options, &machine, &started, Some(clock.elapsed()));
+    let plots = super::plots::draw_all(dir, &meta.study, &table)
+        .map_err(|e| RunError::Run(format!("cannot draw the plots: {e}")))?;
+    report::write(
+        dir,
+        study,
+        &meta,
+        &table,
+        &plots,
+        reused,
+        &shared.references,
+    )
+    .map_err(io(&dir.join("report.md")))?;
+    files.push("report.md".into());
+    files.extend(
+        plots
+            .iter()
+            .flat_map(|p| [format!("{}.png", p.stem), format!("{}.svg", p.stem)]),
+    );
+    write_meta(study, options, &machine, &started, Some(clock.elapsed()))
+        .map_err(io(&dir.join("meta.json")))?;
+    Ok(StudyRun {
+        dir: dir.clone(),
+        ran: pending.len(),
+        reused,
+        skipped: study.runs.len() - selected.len(),
+        not_ok,
+        files,
+    })
+}
+
+/// One line per finished run.
+fn summary_line(kind: StudyKind, m: &Measured) -> String {
+    let number = |name: &str| {
+        m.get(name)
+            .and_then(|s| s.parse::<f64>().ok())
+            .map(super::format::short)
+    };
+    let extra = match kind {
+        StudyKind::Stability => number("max_stable_dt").map(|dt| format!(", max stable dt {dt} s")),
+        StudyKind::WorkPrecision => number("error").map(|e| format!(", error {e}")),
+        _ => number("energy_drift_max").map(|d| format!(", energy drift {d}")),
+    };
+    format!("{}{}", m.status, extra.unwrap_or_default())
+}
+
+/// What runs share, computed once before they start: the highest mode of each scene (for
+/// stability studies and the default reference method) and the reference solutions.
+struct Shared {
+    omega: Mutex<HashMap<u64, Option<f64>>>,
+    /// Reference solution by physics.
+    references: BTreeMap<u64, (String, Reference)>,
+}
+
+impl Shared {
+    fn prepare(
+        study: &Study,
+        pending: &[&RunSpec],
+        parallelism: Parallelism,
+        progress: &Progress,
+    ) -> Result<Self, RunError> {
+        let mut omega = HashMap::new();
+        let needs_omega = study.kind == StudyKind::Stability
+            || (study.kind == StudyKind::WorkPrecision
+                && study
+                    .file
+                    .work_precision
+                    .as_ref()
+                    .is_some_and(|w| w.reference.method.is_none()));
+        for spec in pending {
+            if needs_omega && !omega.contains_key(&spec.physics) {
+                progress.start(&format!("highest mode of {}", spec.scene));
+                let value = super::measured::build(spec, parallelism)
+                    .map_err(|e| e.to_string())
+                    .and_then(|mut scene| stability::explicit_limit(&mut scene))
+                    .map(|m| m.omega)
+                    .ok();
+                omega.insert(spec.physics, value);
+            }
+        }
+        let mut references = BTreeMap::new();
+        if let Some(w) = study.file.work_precision.as_ref()
+            && study.kind == StudyKind::WorkPrecision
+        {
+            for spec in pending {
+                if references.contains_key(&spec.physics) {
+                    continue;
+                }
+                let smallest = study
+                    .runs
+                    .iter()
+                    .filter(|r| r.physics == spec.physics)
+                    .map(|r| r.loaded.config.run.dt)
+                    .fold(f64::INFINITY, f64::min);
+                let dt = w.reference.dt.unwrap_or(smallest / w.reference.dt_factor);
+                let method = w.reference.method.unwrap_or_else(|| {
+                    // RK4 where it is stable at dt (its limit is 2.83 / omega_max), else the
+                    // second-order implicit midpoint rule.
+                    match omega.get(&spec.physics).copied().flatten() {
+                        Some(w) if dt < 2.5 / w => Method::Rk4,
+                        _ => Method::ImplicitMidpoint,
+                    }
+                });
+                progress.start(&format!(
+                    "reference for {}: {} at dt = {dt:e} s and dt/2",
+                    spec.scene,
+                    method.name()
+                ));
+                let reference = work_precision::reference(spec, w, method, dt, parallelism)
+                    .map_err(|m| RunError::Run(format!("scene {}: {m}", spec.scene)))?;
+                progress.line(&format!(
+                    "reference for {}: {} at dt = {:e} s, {:.3e} from the one at twice its step ({:.1} s)",
+                    spec.scene,
+                    method.name(),
+                    reference.dt,
+                    reference.difference,
+                    reference.wall_seconds
+                ));
+                references.insert(spec.physics, (spec.scene.clone(), reference));
+            }
+        }
+        Ok(Self {
+            omega: Mutex::new(omega),
+            references,
+        })
+    }
+}
+
+fn measure(
+    study: &Study,
+    spec: &RunSpec,
+    shared: &Shared,
+    parallelism: Parallelism,
+) -> Result<Measured, String> {
+    match study.kind {
+        StudyKind::Stability => {
+            let omega = shared
+                .omega
+                .lock()
+                .map_or(None, |m| m.get(&spec.physics).copied().flatten());
+            let settings = study.file.stability.as_ref().expect("checked at load");
+            stability::measure(spec, settings, omega, parallelism)
+        }
+        StudyKind::WorkPrecision => {
+            let settings = study.file.work_precision.as_ref().expect("checked at load");
+            let (_, reference) = shared
+                .references
+                .get(&spec.physics)
+                .ok_or("no reference solution")?;
+            work_precision::measure(spec, settings, reference, parallelism)
+        }
+        _ => trajectory::measure(spec, parallelism),
+    }
+}
+
+/// Write a finished run's series files and return its `runs.csv` row.
+fn record(
+    study: &Study,
+    spec: &RunSpec,
+    m: &Measured,
+    header: &[String],
+    dir: &Path,
+) -> Result<Vec<String>, RunError> {
+    let series = dir.join("series").join(format!("{}.csv", spec.id));
+    write_atomic(&series, |w| {
+        let mut csv = csv::Writer::from_writer(w);
+        if m.series.is_empty() {
+            csv.write_record(["step"])?;
+        }
+        for row in &m.series {
+            csv.serialize(row)?;
+        }
+        csv.flush()
+    })
+    .map_err(|error| RunError::Io {
+        path: series.clone(),
+        error,
+    })?;
+    if let Some((trial_header, trials)) = &m.trials {
+        let path = dir.join("series").join(format!("{}-trials.csv", spec.id));
+        Table {
+            header: trial_header.iter().map(|s| (*s).to_owned()).collect(),
+            rows: trials.clone(),
+        }
+        .write(&path)
+        .map_err(|error| RunError::Io { path, error })?;
+    }
+    let params: HashMap<String, String> = parameter_columns(study)
+        .into_iter()
+        .map(|(i, name)| {
+            (
+                name,
+                spec.parameters[i]
+                    .as_ref()
+                    .map_or(String::new(), value_text),
+            )
+        })
+        .collect();
+    let row = header
+        .iter()
+        .map(|column| match column.as_str() {
+            "run_id" => spec.id.clone(),
+            "scene" => spec.scene.clone(),
+            "method" => spec.method.name().to_owned(),
+            "linear_solver" => spec
+                .linear_solver
+                .map_or("-".to_owned(), |s| s.name().to_owned()),
+            "status" => m.status.clone(),
+            "message" => m.message.clone(),
+            "config_hash" => spec.hash.clone(),
+            other => params
+                .get(other)
+                .cloned()
+                .or_else(|| m.get(other).map(str::to_owned))
+                .unwrap_or_default(),
+        })
+        .collect();
+    Ok(row)
+}
+
+/// The rows present, in the study's run order.
+fn ordered(study: &Study, header: &[String], rows: &HashMap<String, Vec<String>>) -> Table {
+    let mut table = Table::new(header.to_vec());
+    table.rows = study
+        .runs
+        .iter()
+        .filter_map(|r| rows.get(&r.id).cloned())
+        .collect();
+    table
+}
+
+/// `meta.json`: what ran, where, when.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct Meta {
+    pub study: StudyMeta,
+    pub machine: Machine,
+    pub started: String,
+    pub finished: Option<String>,
+    pub wall_seconds: Option<f64>,
+    pub command: Vec<String>,
+    /// The study file and every run's resolved scene configuration.
+    pub config: serde_json::Value,
+}
+
+/// The parts of a study the plots and report need.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct StudyMeta {
+    pub name: String,
+    pub kind: StudyKind,
+    /// The study file's `study` (differs from `kind` for sweeps).
+    pub study: StudyKind,
+    pub description: Option<String>,
+    pub file: PathBuf,
+    pub quick: bool,
+    /// The swept parameter of a sweep, and the metrics to plot against it.
+    pub sweep_parameter: Option<String>,
+    pub sweep_metrics: Vec<String>,
+    pub parameters: Vec<String>,
+}
+
+impl Meta {
+    fn of(
+        study: &Study,
+        options: &RunOptions,
+        machine: &Machine,
+        started: &str,
+        elapsed: Option<std::time::Duration>,
+    ) -> Self {
+        let runs: serde_json::Map<String, serde_json::Value> = study
+            .runs
+            .iter()
+            .map(|r| {
+                (
+                    r.id.clone(),
+                    serde_json::json!({
+                        "scene_file": r.loaded.path,
+                        "config_hash": r.hash,
+                        "scene": r.loaded.config,
+                    }),
+                )
+            })
+            .collect();
+        let sweep = study.file.sweep.as_ref();
+        Self {
+            study: StudyMeta {
+                name: study.file.name.clone(),
+                kind: study.kind,
+                study: study.file.study,
+                description: study.file.description.clone(),
+                file: study.path.clone(),
+                quick: study.quick,
+                sweep_parameter: sweep.map(|s| s.parameter.clone()),
+                sweep_metrics: sweep.map(|s| s.metrics.clone()).unwrap_or_default(),
+                parameters: parameter_columns(study)
+                    .into_iter()
+                    .map(|(_, c)| c)
+                    .collect(),
+            },
+            machine: machine.clone(),
+            started: started.to_owned(),
+            finished: elapsed.map(|_| now_utc()),
+            wall_seconds: elapsed.map(|d| d.as_secs_f64()),
+            command: std::env::args().collect(),
+            config: serde_json::json!({
+                "jobs": options.jobs,
+                "only": options.only,
+                "stability": study.file.stability,
+                "work_precision": study.file.work_precision,
+                "sweep": study.file.sweep,
+                "quick": study.quick.then_some(&study.file.quick),
+                "runs": runs,
+            }),
+        }
+    }
+}
+
+fn write_meta(
+    study: &Study,
+    options: &RunOptions,
+    machine: &Machine,
+    started: &str,
+    elapsed: Option<std::time::Duration>,
+) -> std::io::Result<()> {
+    let meta = Meta::of(study, options, machine, started, elapsed);
+    write_atomic(&options.dir.join("meta.json"), |w| {
+        serde_json::to_writer_pretty(&mut *w, &meta)?;
+        writeln!(w)
+    })
+}
+
+/// The progress bar (on a terminal) or one line per finished run (otherwise).
+struct Progress {
+    bar: Option<ProgressBar>,
+    enabled: bool,
+    running: Mutex<Vec<String>>,
+    finished: std::sync::atomic::AtomicU64,
+    total: u64,
+}
+
+impl Progress {
+    fn new(enabled: bool, runs: u64) -> Self {
+        let bar = (enabled && std::io::stderr().is_terminal()).then(|| {
+            let bar = ProgressBar::new(runs);
+            bar.set_style(
+                ProgressStyle::with_template(
+                    "{bar:30.cyan/blue} {pos}/{len} runs, {elapsed} elapsed, eta {eta}  {msg}",
+                )
+                .expect("valid template"),
+            );
+            bar.enable_steady_tick(std::time::Duration::from_millis(250));
+            bar
+        });
+        Self {
+            bar,
+            enabled,
+            running: Mutex::new(Vec::new()),
+            finished: Default::default(),
+            total: runs,
+        }
+    }
+
+    fn start(&self, what: &str) {
+        if let Ok(mut running) = self.running.lock() {
+            running.push(what.to_owned());
+            if let Some(bar) = &self.bar {
+                bar.set_message(running.join(", "));
+            }
+        }
+    }
+
+    fn finish(&self, what: &str) {
+        if let Ok(mut running) = self.running.lock() {
+            running.retain(|r| r != what);
+            if let Some(bar) = &self.bar {
+                bar.set_message(running.join(", "));
+            }
+        }
+    }
+
+    fn line(&self, text: &str) {
+        if let Ok(mut running) = self.running.lock() {
+            // Shared-work messages ("reference for …") are done once a line reports them.
+            running.retain(|r| !r.starts_with("reference for") && !r.starts_with("highest mode"));
+        }
+        match &self.bar {
+            Some(bar) => bar.println(text),
+            None if self.enabled => eprintln!("{text}"),
+            None => {}
+        }
+    }
+
+    fn position(&self) -> String {
+        let done = self.finished.load(std::sync::atomic::Ordering::SeqCst);
+        format!("[{}/{}]", done + 1, self.total)
+    }
+
+    fn inc(&self) {
+        self.finished
+            .fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+        if let Some(bar) = &self.bar {
+            bar.inc(1);
+        }
+    }
+
+    fn done(&self) {
+        if let Some(bar) = &self.bar {
+            bar.finish_and_clear();
+        }
+    }
+}

@@ -1,0 +1,111 @@
+//! Trajectory runs: run the scene as configured and summarize energy and momentum drift,
+//! time per step and evaluation counts.
+
+use super::format::cell;
+use super::load::RunSpec;
+use super::measured::{Measured, build, run_rows, status_of, summary_cells};
+use crate::experiment::Sample;
+use crate::parallel::Parallelism;
+
+/// Columns of a trajectory study's `runs.csv` after the run's identity.
+pub const COLUMNS: &[&str] = &[
+    "dt",
+    "status",
+    "energy_drift_max",
+    "energy_drift_final",
+    "momentum_drift",
+    "angular_momentum_drift",
+    "step_seconds_median",
+    "step_seconds_p95",
+    "steps",
+    "final_time",
+    "wall_seconds",
+    "force_evaluations",
+    "hessian_evaluations",
+    "factorizations",
+    "linear_iterations",
+    "newton_iterations",
+    "newton_iterations_per_step",
+    "assemble_seconds",
+    "factor_seconds",
+    "solve_seconds",
+    "qp_seconds",
+];
+
+/// Run one trajectory.
+pub fn measure(spec: &RunSpec, parallelism: Parallelism) -> Result<Measured, String> {
+    let mut scene = build(spec, parallelism).map_err(|e| e.to_string())?;
+    let run = scene.config.run;
+    let (summary, rows) = run_rows(&mut scene, &run);
+    let (status, message) = status_of(&summary.outcome);
+    let mut m = Measured {
+        status,
+        message,
+        cells: summary_cells(&summary),
+        ..Measured::default()
+    };
+    m.set("dt", cell(Some(run.dt)));
+    let conserved = Conservation::of(&scene);
+    let (p, l) = momentum_drift(&rows, &conserved);
+    m.set("momentum_drift", cell(p));
+    m.set("angular_momentum_drift", cell(l));
+    m.series = rows;
+    Ok(m)
+}
+
+/// Which momenta a scene conserves, and the force that changes linear momentum.
+pub struct Conservation {
+    /// No fixed vertices and no obstacles: linear momentum changes only by gravity.
+    pub linear: bool,
+    /// Additionally no gravity: angular momentum about the origin is conserved.
+    pub angular: bool,
+    /// Total gravity force (N).
+    pub gravity_force: [f64; 3],
+}
+
+impl Conservation {
+    /// For a built scene.
+    pub fn of(scene: &crate::scene::Scene) -> Self {
+        let model = &scene.model;
+        let free = model.dofs().num_free() == model.dofs().num_vertices();
+        let linear = free && scene.contact.is_none() && model.vertex_potentials().is_empty();
+        let mass: f64 = model.vertex_masses().iter().sum();
+        let g = model.gravity().map_or([0.0; 3], |g| [g.x, g.y, g.z]);
+        Self {
+            linear,
+            angular: linear && g == [0.0; 3],
+            gravity_force: g.map(|g| g * mass),
+        }
+    }
+}
+
+/// Largest deviation of linear momentum from `p(0) + t F_gravity` (kg m/s) and of angular
+/// momentum from its initial value (kg m^2/s), over the rows; `None` where the scene does not
+/// conserve it (fixed vertices, obstacles, drags).
+pub fn momentum_drift(rows: &[Sample], c: &Conservation) -> (Option<f64>, Option<f64>) {
+    let Some(first) = rows.first() else {
+        return (None, None);
+    };
+    let p0 = [first.momentum_x, first.momentum_y, first.momentum_z];
+    let l0 = [
+        first.angular_momentum_x,
+        first.angular_momentum_y,
+        first.angular_momentum_z,
+    ];
+    let norm = |v: [f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    let mut p_drift = 0.0f64;
+    let mut l_drift = 0.0f64;
+    for r in rows {
+        let dt = r.t - first.t;
+        let p = [r.momentum_x, r.momentum_y, r.momentum_z];
+        let expected = [0, 1, 2].map(|k| p0[k] + dt * c.gravity_force[k]);
+        p_drift = p_drift.max(norm([0, 1, 2].map(|k| p[k] - expected[k])));
+        let l = [
+            r.angular_momentum_x,
+            r.angular_momentum_y,
+            r.angular_momentum_z,
+        ];
+        l_drift = l_drift.max(norm([0, 1, 2].map(|k| l[k] - l0[k])));
+    }
+    (c.linear.then_some(p_drift), c.angular.then_some(l_drift))
+}

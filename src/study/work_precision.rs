@@ -1,0 +1,271 @@
+//! Work-precision runs: the error of a run against a reference solution at fixed sample
+//! times, next to its wall time and hardware-independent cost.
+//!
+//! The position error at a sample time is `|x - x_ref|` over the free DOFs, relative to the
+//! reference's largest displacement `max_k |x_ref(t_k) - X|` from the rest positions X (so the
+//! error is relative to how far the body moves, not to where it happens to sit), and a run's
+//! error is the largest over the sample times. The energy error is
+//! `|E - E_ref|` over the largest kinetic + stored energy of the reference. The reference is
+//! computed twice, at its step and at half of it; their difference is the reference's own
+//! accuracy, and errors below `floor_factor` times it are not scored.
+
+use super::config::WorkPrecisionSettings;
+use super::format::cell;
+use super::load::RunSpec;
+use super::measured::{Measured, build, status_of, summary_cells};
+use crate::experiment::{self, Energies, Observer, RunSummary, Sample};
+use crate::integrate::{Method, State};
+use crate::model::Model;
+use crate::parallel::Parallelism;
+use crate::scene::{RunConfig, Scene};
+
+/// Columns of a work-precision study's `runs.csv` after the run's identity.
+pub const COLUMNS: &[&str] = &[
+    "dt",
+    "status",
+    "error",
+    "energy_error",
+    "wall_seconds",
+    "force_evaluations",
+    "hessian_evaluations",
+    "factorizations",
+    "linear_iterations",
+    "newton_iterations",
+    "substeps",
+    "scored",
+    "error_unscored",
+    "reference_method",
+    "reference_dt",
+    "reference_difference",
+    "step_seconds_median",
+    "step_seconds_p95",
+    "steps",
+    "energy_drift_max",
+    "assemble_seconds",
+    "factor_seconds",
+    "solve_seconds",
+    "qp_seconds",
+];
+
+/// The state at each sample time.
+#[derive(Clone, Debug)]
+struct Snapshots {
+    q: Vec<Vec<f64>>,
+    energies: Vec<Energies>,
+}
+
+/// A reference solution at the sample times, and how well it is resolved.
+#[derive(Clone, Debug)]
+pub struct Reference {
+    pub method: Method,
+    pub dt: f64,
+    snapshots: Snapshots,
+    rest: Vec<f64>,
+    /// Position error of the reference at `dt` against the one at `dt / 2`.
+    pub difference: f64,
+    pub energy_difference: f64,
+    /// Wall time of both reference runs (s).
+    pub wall_seconds: f64,
+}
+
+/// Records rows, and the state and energies every `stride` steps.
+struct SampleObserver {
+    stride: usize,
+    rows: Vec<Sample>,
+    snapshots: Snapshots,
+}
+
+impl Observer for SampleObserver {
+    fn sample(&mut self, sample: &Sample) -> std::io::Result<()> {
+        self.rows.push(sample.clone());
+        Ok(())
+    }
+
+    fn after_step(&mut self, step: usize, _: &Model, state: &State) -> std::io::Result<()> {
+        if step > 0 && step.is_multiple_of(self.stride) {
+            self.snapshots.q.push(state.q.clone());
+        }
+        Ok(())
+    }
+}
+
+/// Run `scene` and keep the state at every multiple of `stride` steps.
+fn sampled_run(
+    scene: &mut Scene,
+    run: &RunConfig,
+    stride: usize,
+) -> (RunSummary, Vec<Sample>, Snapshots) {
+    let mut integrator = scene.integrator();
+    let mut state = scene.initial.clone();
+    let mut observer = SampleObserver {
+        stride,
+        rows: Vec::new(),
+        snapshots: Snapshots {
+            q: Vec::new(),
+            energies: Vec::new(),
+        },
+    };
+    let summary = experiment::run(
+        &mut scene.model,
+        integrator.as_mut(),
+        &mut state,
+        run,
+        &mut observer,
+    )
+    .expect("keeping rows in memory cannot fail");
+    // Rows exist at every sample time (sample_every divides the stride): their energies are
+    // the sample energies.
+    observer.snapshots.energies = observer
+        .rows
+        .iter()
+        .filter(|r| r.step > 0 && r.step % stride == 0)
+        .map(|r| Energies {
+            kinetic: r.kinetic,
+            elastic: r.elastic,
+            springs: r.springs,
+            gravity: r.gravity,
+            external: r.external,
+        })
+        .collect();
+    (summary, observer.rows, observer.snapshots)
+}
+
+/// Largest relative position error and energy error of `run` against `reference` over the
+/// sample times both reached; `None` if `run` reached none.
+fn errors(run: &Snapshots, reference: &Snapshots, rest: &[f64]) -> Option<(f64, f64)> {
+    let n = run.q.len().min(reference.q.len());
+    if n == 0 || run.q.len() < reference.q.len() {
+        return None;
+    }
+    let energy_scale = reference
+        .energies
+        .iter()
+        .map(Energies::internal)
+        .fold(0.0f64, f64::max)
+        .max(f64::MIN_POSITIVE);
+    let distance = |a: &[f64], b: &[f64]| {
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| (x - y) * (x - y))
+            .sum::<f64>()
+            .sqrt()
+    };
+    // Relative to the largest displacement of the reference, so an early sample time with
+    // a tiny displacement does not dominate.
+    let displacement = reference
+        .q
+        .iter()
+        .map(|r| distance(r, rest))
+        .fold(0.0f64, f64::max)
+        .max(f64::MIN_POSITIVE);
+    let mut position = 0.0f64;
+    let mut energy = 0.0f64;
+    for k in 0..n {
+        position = position.max(distance(&run.q[k], &reference.q[k]) / displacement);
+        if let (Some(e), Some(er)) = (run.energies.get(k), reference.energies.get(k)) {
+            energy = energy.max((e.total() - er.total()).abs() / energy_scale);
+        }
+    }
+    Some((position, energy))
+}
+
+/// Steps between sample times at `dt`.
+fn stride(settings: &WorkPrecisionSettings, dt: f64) -> usize {
+    ((settings.horizon / settings.samples as f64 / dt).round() as usize).max(1)
+}
+
+/// Compute the reference for the physics of `template` (any run of it): `method` at `dt` and
+/// at `dt / 2`.
+pub fn reference(
+    template: &RunSpec,
+    settings: &WorkPrecisionSettings,
+    method: Method,
+    dt: f64,
+    parallelism: Parallelism,
+) -> Result<Reference, String> {
+    let solve = |dt: f64| -> Result<(Snapshots, f64, Vec<f64>), String> {
+        let mut spec = template.clone();
+        let integrator = &mut spec.loaded.config.integrator;
+        integrator.method = method;
+        integrator.newton.tolerance = settings.reference.newton_tolerance;
+        integrator.newton.max_iterations = integrator.newton.max_iterations.max(50);
+        let mut scene = build(&spec, parallelism).map_err(|e| e.to_string())?;
+        let stride = stride(settings, dt);
+        let run = RunConfig {
+            dt,
+            steps: stride * settings.samples,
+            sample_every: stride,
+            energy_limit: 0.0,
+        };
+        let (summary, _, snapshots) = sampled_run(&mut scene, &run, stride);
+        if let experiment::Outcome::Failed { .. } = summary.outcome {
+            let (status, message) = status_of(&summary.outcome);
+            return Err(format!(
+                "the reference ({} at dt = {dt:e} s) {status}: {message}; choose another \
+                 [work-precision.reference] method or dt",
+                method.name()
+            ));
+        }
+        Ok((
+            snapshots,
+            summary.totals.times.total,
+            scene.initial.q.clone(),
+        ))
+    };
+    let (coarse, t1, rest) = solve(dt)?;
+    let (fine, t2, _) = solve(dt / 2.0)?;
+    let (difference, energy_difference) =
+        errors(&coarse, &fine, &rest).ok_or("the reference reached no sample time")?;
+    Ok(Reference {
+        method,
+        dt: dt / 2.0,
+        snapshots: fine,
+        rest,
+        difference,
+        energy_difference,
+        wall_seconds: t1 + t2,
+    })
+}
+
+/// Run one work-precision run and score it against `reference`.
+pub fn measure(
+    spec: &RunSpec,
+    settings: &WorkPrecisionSettings,
+    reference: &Reference,
+    parallelism: Parallelism,
+) -> Result<Measured, String> {
+    let mut scene = build(spec, parallelism).map_err(|e| e.to_string())?;
+    let run = scene.config.run;
+    let (summary, rows, snapshots) = sampled_run(&mut scene, &run, stride(settings, run.dt));
+    let (status, message) = status_of(&summary.outcome);
+    let mut m = Measured {
+        status,
+        message,
+        cells: summary_cells(&summary),
+        series: rows,
+        ..Measured::default()
+    };
+    m.set("dt", cell(Some(run.dt)));
+    m.set("reference_method", reference.method.name().to_owned());
+    m.set("reference_dt", cell(Some(reference.dt)));
+    m.set("reference_difference", cell(Some(reference.difference)));
+    let floor = settings.reference.floor_factor * reference.difference;
+    match errors(&snapshots, &reference.snapshots, &reference.rest) {
+        Some((error, energy)) if summary.outcome == experiment::Outcome::Completed => {
+            let scored = error > floor;
+            m.set("scored", if scored { "yes" } else { "no" }.into());
+            m.set("error", cell(scored.then_some(error)));
+            m.set("error_unscored", cell((!scored).then_some(error)));
+            m.set("energy_error", cell(Some(energy)));
+            if !scored {
+                m.message = format!(
+                    "error {error:.3e} is below {} x the reference's own difference {:.3e}: \
+                     not scored",
+                    settings.reference.floor_factor, reference.difference
+                );
+            }
+        }
+        _ => m.set("scored", "no".into()),
+    }
+    Ok(m)
+}

@@ -1,0 +1,201 @@
+//! A bad study file: exit code 2, a message naming the file, line and key, nothing written.
+
+mod common;
+
+use common::{TempDir, softbench};
+
+/// A scene that needs no data, next to the study.
+const SCENE: &str = r#"
+[mesh]
+generate = { box = [2, 1, 1], size = [1.0, 0.5, 0.5] }
+[material]
+model = "stable-neo-hookean"
+youngs_modulus = 1e4
+poisson_ratio = 0.3
+density = 100.0
+[fixed]
+rule = { axis = "x", side = "min", tolerance = 1e-6 }
+[run]
+dt = 0.01
+steps = 5
+"#;
+
+const GOOD: &str = r#"name = "bad"
+study = "trajectory"
+scenes = ["beam.toml"]
+
+[grid]
+"integrator.method" = ["rk4", "backward-euler"]
+"#;
+
+/// Run `study` (written next to the beam scene) and check exit code 2, that stderr contains
+/// every one of `expect`, and that no results folder was created.
+fn assert_rejected(study: &str, expect: &[&str]) {
+    let tmp = TempDir::new("study-bad");
+    tmp.write("beam.toml", SCENE);
+    let path = tmp.write("study.toml", study);
+    let out = tmp.path().join("results");
+    let o = softbench(&[
+        "run",
+        path.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "stderr: {err}");
+    for e in expect {
+        assert!(err.contains(e), "expected `{e}` in: {err}");
+    }
+    assert!(!out.exists(), "something was written for a bad study");
+}
+
+#[test]
+fn the_good_study_runs() {
+    let tmp = TempDir::new("study-good");
+    tmp.write("beam.toml", SCENE);
+    let path = tmp.write("study.toml", GOOD);
+    let out = tmp.path().join("results");
+    let o = softbench(&[
+        "run",
+        path.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(out.join("bad/runs.csv").is_file());
+}
+
+#[test]
+fn unknown_key() {
+    let s = GOOD.replace(
+        "study = \"trajectory\"",
+        "study = \"trajectory\"\nhorizon = 3",
+    );
+    assert_rejected(&s, &["study.toml", "line 3", "unknown field `horizon`"]);
+}
+
+#[test]
+fn wrong_type() {
+    let s = GOOD.replace("scenes = [\"beam.toml\"]", "scenes = \"beam.toml\"");
+    assert_rejected(&s, &["study.toml", "line 3", "scenes"]);
+}
+
+#[test]
+fn unknown_study_kind() {
+    let s = GOOD.replace("\"trajectory\"", "\"trajectories\"");
+    assert_rejected(&s, &["study.toml", "line 2", "trajectory"]);
+}
+
+#[test]
+fn unknown_method_suggests_the_closest() {
+    let s = GOOD.replace("\"rk4\", ", "\"rk5\", ");
+    assert_rejected(
+        &s,
+        &[
+            "study.toml:6",
+            "integrator.method",
+            "rk5",
+            "did you mean `rk4`?",
+        ],
+    );
+}
+
+#[test]
+fn unknown_grid_key() {
+    let s = format!("{GOOD}\"material.youngs_modulu\" = [1e4, 1e5]\n");
+    assert_rejected(
+        &s,
+        &["study.toml:7", "material.youngs_modulu", "youngs_modulus"],
+    );
+}
+
+#[test]
+fn empty_grid_list_and_empty_grid() {
+    let s = format!("{GOOD}\"run.steps\" = []\n");
+    assert_rejected(&s, &["study.toml:7", "run.steps", "empty"]);
+    let s = GOOD.replace(
+        "\"integrator.method\" = [\"rk4\", \"backward-euler\"]\n",
+        "",
+    );
+    assert_rejected(&s, &["study.toml", "grid", "empty"]);
+}
+
+#[test]
+fn non_positive_dt() {
+    let s = format!("{GOOD}\"run.dt\" = [0.01, -0.001]\n");
+    assert_rejected(&s, &["study.toml:7", "run.dt", "positive"]);
+    let s = GOOD.replace("[grid]", "[set]\n\"run.dt\" = 0.0\n\n[grid]");
+    assert_rejected(&s, &["study.toml:6", "run.dt", "positive"]);
+}
+
+#[test]
+fn missing_mesh_file() {
+    let s = GOOD.replace("beam.toml", "missing_mesh.toml");
+    let tmp = TempDir::new("study-bad-mesh");
+    tmp.write(
+        "missing_mesh.toml",
+        &SCENE.replace(
+            "generate = { box = [2, 1, 1], size = [1.0, 0.5, 0.5] }",
+            "file = \"no_such.mesh\"",
+        ),
+    );
+    let path = tmp.write("study.toml", &s);
+    let out = tmp.path().join("results");
+    let o = softbench(&[
+        "run",
+        path.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    for e in ["study.toml:3", "missing_mesh.toml", "no_such.mesh"] {
+        assert!(err.contains(e), "expected `{e}` in: {err}");
+    }
+    assert!(!out.exists());
+}
+
+#[test]
+fn missing_scene_file() {
+    let s = GOOD.replace("beam.toml", "nowhere.toml");
+    assert_rejected(&s, &["study.toml:3", "nowhere.toml", "cannot read"]);
+}
+
+#[test]
+fn stability_without_settings_and_bad_bracket() {
+    let s = GOOD.replace("\"trajectory\"", "\"stability\"");
+    assert_rejected(&s, &["study.toml", "stability", "dt_min"]);
+    let s = format!(
+        "{}\n[stability]\ndt_min = 0.1\ndt_max = 0.01\nhorizon = 1.0\n",
+        GOOD.replace("\"trajectory\"", "\"stability\"")
+    );
+    assert_rejected(&s, &["study.toml:10", "stability.dt_max", "dt_min"]);
+}
+
+#[test]
+fn work_precision_dt_must_divide_the_sample_interval() {
+    let s = format!(
+        "{}\"run.dt\" = [0.01, 0.003]\n\n[work-precision]\nhorizon = 0.04\nsamples = 2\n",
+        GOOD.replace("\"trajectory\"", "\"work-precision\"")
+    );
+    assert_rejected(&s, &["study.toml:7", "run.dt", "0.003", "divide"]);
+}
+
+#[test]
+fn only_pattern_matching_nothing() {
+    let tmp = TempDir::new("study-only");
+    tmp.write("beam.toml", SCENE);
+    let path = tmp.write("study.toml", GOOD);
+    let out = tmp.path().join("results");
+    let o = softbench(&[
+        "run",
+        path.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--only",
+        "dopri",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("beam-rk4"));
+    assert!(!out.exists());
+}

@@ -1,0 +1,327 @@
+//! `softbench run`: every shipped study in quick mode produces every output file; resuming
+//! skips finished runs (also after an interruption); `--force` and a changed config redo them.
+
+mod common;
+
+use common::{TempDir, softbench};
+use softbench::study::table::Table;
+use std::path::{Path, PathBuf};
+
+fn study(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("experiments")
+        .join(name)
+}
+
+fn stderr(out: &std::process::Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// Whether a study's scenes need the reference meshes (and `SOFTBENCH_DATA` is unset).
+fn needs_missing_data(name: &str) -> bool {
+    let text = std::fs::read_to_string(study(name)).unwrap();
+    let needs = text.contains("armadillo") || text.contains("bunny");
+    needs && common::reference_mesh("arma_6.node").is_none()
+}
+
+/// Every file the issue lists, checked for one results folder.
+fn assert_complete(dir: &Path, required_columns: &[&str]) -> Table {
+    let runs = Table::read(&dir.join("runs.csv"))
+        .unwrap()
+        .expect("runs.csv");
+    for c in required_columns {
+        assert!(
+            runs.column(c).is_some(),
+            "runs.csv lacks column {c}: {:?}",
+            runs.header
+        );
+    }
+    assert!(!runs.rows.is_empty());
+    for row in &runs.rows {
+        let id = &row[0];
+        let series = dir.join("series").join(format!("{id}.csv"));
+        assert!(series.is_file(), "missing {}", series.display());
+        let status = runs.get(row, "status").unwrap();
+        assert!(!status.is_empty(), "{id}: empty status");
+    }
+    let meta: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("meta.json")).unwrap()).unwrap();
+    for key in [
+        "softbench_version",
+        "git_commit",
+        "rustc",
+        "cpu",
+        "cores",
+        "os",
+    ] {
+        assert!(
+            !meta["machine"][key].is_null(),
+            "meta.json lacks machine.{key}"
+        );
+    }
+    assert!(meta["finished"].is_string() && meta["started"].is_string());
+    assert!(meta["config"]["runs"].as_object().unwrap().len() >= runs.rows.len());
+    let report = std::fs::read_to_string(dir.join("report.md")).unwrap();
+    let mut plots = 0;
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        let name = path.file_name().unwrap().to_string_lossy().into_owned();
+        assert!(!name.ends_with(".partial"), "left behind: {name}");
+        if let Some(stem) = name.strip_suffix(".png") {
+            plots += 1;
+            let png = std::fs::read(&path).unwrap();
+            assert!(png.starts_with(b"\x89PNG"), "{name} is not a PNG");
+            let svg = std::fs::read_to_string(dir.join(format!("{stem}.svg"))).unwrap();
+            assert!(svg.contains("<svg"), "{stem}.svg is not an SVG");
+            assert!(
+                report.contains(&format!("({stem}.png)")),
+                "report.md does not embed {stem}"
+            );
+        }
+    }
+    assert!(plots >= 2, "only {plots} plots in {}", dir.display());
+    for row in &runs.rows {
+        assert!(report.contains(runs.get(row, "method").unwrap()));
+    }
+    runs
+}
+
+fn run_quick(name: &str, out: &Path) -> std::process::Output {
+    let o = softbench(&[
+        "run",
+        study(name).to_str().unwrap(),
+        "--quick",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{name}: {}", stderr(&o));
+    o
+}
+
+const IDENTITY: [&str; 4] = ["run_id", "scene", "method", "linear_solver"];
+
+#[test]
+fn quickstart_quick_writes_every_output() {
+    let tmp = TempDir::new("study-quickstart");
+    run_quick("quickstart.toml", tmp.path());
+    let dir = tmp.path().join("quickstart");
+    let mut columns = IDENTITY.to_vec();
+    columns.extend([
+        "dt",
+        "status",
+        "energy_drift_max",
+        "energy_drift_final",
+        "momentum_drift",
+        "step_seconds_median",
+        "step_seconds_p95",
+    ]);
+    let runs = assert_complete(&dir, &columns);
+    // Explicit methods get no linear solver and are not repeated per solver.
+    for row in &runs.rows {
+        let method = runs.get(row, "method").unwrap();
+        let solver = runs.get(row, "linear_solver").unwrap();
+        let explicit = ["symplectic-euler", "rk4"].contains(&method);
+        assert_eq!(solver == "-", explicit, "{method} / {solver}");
+    }
+    assert_eq!(runs.rows.len(), 12);
+}
+
+#[test]
+fn energy_drift_quick_writes_every_output() {
+    let tmp = TempDir::new("study-drift");
+    run_quick("energy_drift.toml", tmp.path());
+    let mut columns = IDENTITY.to_vec();
+    columns.extend(["dt", "status", "energy_drift_max", "momentum_drift"]);
+    let runs = assert_complete(&tmp.path().join("energy_drift"), &columns);
+    // Free bodies: every method that finished conserves linear momentum to round-off.
+    for row in &runs.rows {
+        if runs.get(row, "status") == Some("ok") {
+            let drift = runs
+                .number(row, "momentum_drift")
+                .expect("free body: momentum reported");
+            assert!(drift < 1e-9, "{}: momentum drift {drift}", row[0]);
+        }
+    }
+}
+
+#[test]
+fn stiffness_sweep_quick_writes_every_output() {
+    let tmp = TempDir::new("study-sweep");
+    run_quick("stiffness_sweep.toml", tmp.path());
+    let mut columns = IDENTITY.to_vec();
+    columns.extend([
+        "material.youngs_modulus",
+        "status",
+        "max_stable_dt",
+        "omega_max",
+        "dt_theory",
+    ]);
+    let dir = tmp.path().join("stiffness_sweep");
+    assert_complete(&dir, &columns);
+    assert!(dir.join("sweep-max_stable_dt.png").is_file());
+}
+
+#[test]
+fn armadillo_stability_quick_writes_every_output() {
+    if needs_missing_data("armadillo_stability.toml") {
+        return;
+    }
+    let tmp = TempDir::new("study-arma");
+    run_quick("armadillo_stability.toml", tmp.path());
+    let mut columns = IDENTITY.to_vec();
+    columns.extend(["status", "max_stable_dt", "omega_max", "dt_theory"]);
+    let runs = assert_complete(&tmp.path().join("armadillo_stability"), &columns);
+    // The explicit limit of the course armadillo is a few microseconds.
+    let theory = runs.number(&runs.rows[0], "dt_theory").unwrap();
+    assert!((1e-7..1e-4).contains(&theory), "2/omega_max = {theory}");
+}
+
+#[test]
+fn work_precision_quick_writes_every_output() {
+    if needs_missing_data("work_precision.toml") {
+        return;
+    }
+    let tmp = TempDir::new("study-wp");
+    run_quick("work_precision.toml", tmp.path());
+    let mut columns = IDENTITY.to_vec();
+    columns.extend([
+        "dt",
+        "status",
+        "error",
+        "wall_seconds",
+        "force_evaluations",
+        "hessian_evaluations",
+        "factorizations",
+        "linear_iterations",
+    ]);
+    assert_complete(&tmp.path().join("work_precision"), &columns);
+}
+
+/// Modification times of the series files, by name.
+fn series_times(dir: &Path) -> Vec<(String, std::time::SystemTime)> {
+    let mut v: Vec<_> = std::fs::read_dir(dir.join("series"))
+        .unwrap()
+        .map(|e| {
+            let e = e.unwrap();
+            (
+                e.file_name().to_string_lossy().into_owned(),
+                e.metadata().unwrap().modified().unwrap(),
+            )
+        })
+        .collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn rerunning_skips_finished_runs_and_force_redoes_them() {
+    let tmp = TempDir::new("study-resume");
+    let out = tmp.path().to_str().unwrap().to_owned();
+    let file = study("quickstart.toml");
+    let args = ["run", file.to_str().unwrap(), "--quick", "--out", &out];
+    run_quick("quickstart.toml", tmp.path());
+    let dir = tmp.path().join("quickstart");
+    let before = series_times(&dir);
+    let table_before = Table::read(&dir.join("runs.csv")).unwrap().unwrap();
+
+    let again = softbench(&args);
+    assert!(again.status.success());
+    assert!(
+        stderr(&again).contains("12 of 12 runs already complete"),
+        "{}",
+        stderr(&again)
+    );
+    assert_eq!(series_times(&dir), before, "a finished run was redone");
+    assert_eq!(
+        Table::read(&dir.join("runs.csv")).unwrap().unwrap(),
+        table_before
+    );
+
+    // --only with --force redoes just the matching runs.
+    let mut forced = args.to_vec();
+    forced.extend(["--force", "--only", "soft_beam-rk4"]);
+    let o = softbench(&forced);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let after = series_times(&dir);
+    let changed: Vec<&String> = after
+        .iter()
+        .zip(&before)
+        .filter(|(a, b)| a.1 != b.1)
+        .map(|(a, _)| &a.0)
+        .collect();
+    assert_eq!(changed, vec!["soft_beam-rk4.csv"]);
+
+    // A changed configuration is not "already complete".
+    let changed_study = std::fs::read_to_string(&file)
+        .unwrap()
+        .replace("\"run.sample_every\" = 5", "\"run.sample_every\" = 10")
+        .replace(
+            "\"scenes/",
+            &format!("\"{}/", file.parent().unwrap().join("scenes").display()),
+        );
+    let copy = tmp.write("quickstart.toml", &changed_study);
+    let o = softbench(&["run", copy.to_str().unwrap(), "--quick", "--out", &out]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("already complete"), "{}", stderr(&o));
+}
+
+#[test]
+fn an_interrupted_study_resumes_where_it_stopped() {
+    let tmp = TempDir::new("study-interrupt");
+    let out = tmp.path().to_str().unwrap().to_owned();
+    let file = study("energy_drift.toml");
+    let args = ["run", file.to_str().unwrap(), "--quick", "--out", &out];
+    let dir = tmp.path().join("energy_drift");
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_softbench"))
+        .args(args)
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    // Interrupt as soon as the first runs are recorded.
+    let start = std::time::Instant::now();
+    let mut finished_early = false;
+    loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            assert!(status.success());
+            finished_early = true;
+            break;
+        }
+        let rows = Table::read(&dir.join("runs.csv"))
+            .ok()
+            .flatten()
+            .map_or(0, |t| t.rows.len());
+        if rows >= 2 {
+            child.kill().unwrap();
+            child.wait().unwrap();
+            break;
+        }
+        assert!(
+            start.elapsed().as_secs() < 300,
+            "the study never recorded a run"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let recorded = Table::read(&dir.join("runs.csv")).unwrap().unwrap();
+    // Whatever was interrupted left no partial file that a reader could mistake for output.
+    assert!(recorded.rows.len() >= 2);
+
+    let o = softbench(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let total = Table::read(&dir.join("runs.csv")).unwrap().unwrap();
+    assert_eq!(total.rows.len(), 32);
+    let message = format!("{} of 32 runs already complete", recorded.rows.len());
+    if finished_early {
+        assert!(stderr(&o).contains("32 of 32 runs already complete"));
+    } else {
+        assert!(
+            stderr(&o).contains(&message),
+            "expected `{message}` in {}",
+            stderr(&o)
+        );
+    }
+    // Rows recorded before the interruption are kept as they were.
+    for row in &recorded.rows {
+        assert!(total.rows.contains(row), "row of {} changed", row[0]);
+    }
+    assert_complete(&dir, &IDENTITY);
+}
