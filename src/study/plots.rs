@@ -490,7 +490,7 @@ fn sweep_charts(study: &StudyMeta, runs: &Table, metric: &str) -> Vec<LineChart>
     let y_log = wide(&mut series.iter().flat_map(|s| s.points.iter().map(|p| p.1)));
     vec![LineChart {
         title: format!("{metric} against {parameter}"),
-        x_label: parameter.to_owned(),
+        x_label: unit_label(parameter),
         y_label: unit_label(metric),
         x_log,
         y_log,
@@ -500,8 +500,12 @@ fn sweep_charts(study: &StudyMeta, runs: &Table, metric: &str) -> Vec<LineChart>
 
 /// A metric's axis label with its unit.
 fn unit_label(metric: &str) -> String {
-    match metric {
-        "max_stable_dt" | "dt_theory" | "dt" => format!("{metric} (s)"),
+    let last = metric.rsplit('.').next().unwrap_or(metric);
+    match last {
+        "max_stable_dt" | "dt_theory" | "dt" | "horizon" => format!("{metric} (s)"),
+        "youngs_modulus" | "mu" | "lambda" | "c" | "d" => format!("{metric} (Pa)"),
+        "density" => format!("{metric} (kg/m^3)"),
+        "stiffness" => format!("{metric} (N/m)"),
         m if m.ends_with("_seconds") || m.contains("seconds_") => format!("{m} (s)"),
         m => m.to_owned(),
     }
