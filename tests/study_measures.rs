@@ -102,6 +102,49 @@ relative_precision = 1e-3
     assert!((theory * omega / 2.0 - 1.0).abs() < 1e-8);
 }
 
+/// Run a one-method stability study of the particle with `bracket` (TOML lines) and return
+/// its row.
+fn particle_stability(bracket: &str) -> (Table, Vec<String>) {
+    let tmp = TempDir::new("study-widen");
+    tmp.write("particle.mesh", PARTICLE_MESH);
+    tmp.write("particle.toml", &particle_scene());
+    let study = tmp.write(
+        "study.toml",
+        &format!(
+            "name = \"widen\"\nstudy = \"stability\"\nscenes = [\"particle.toml\"]\n\
+             [grid]\n\"integrator.method\" = [\"symplectic-euler\"]\n\
+             [stability]\nhorizon = 20.0\nmax_steps = 4000\nenergy_factor = 1e4\n\
+             relative_precision = 1e-3\n{bracket}\n"
+        ),
+    );
+    let out = tmp.path().join("results");
+    let o = softbench(&[
+        "run",
+        study.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let runs = Table::read(&out.join("widen/runs.csv")).unwrap().unwrap();
+    let row = runs.rows[0].clone();
+    (runs, row)
+}
+
+#[test]
+fn an_unstable_lower_bound_widens_the_bracket_downward() {
+    let limit = 2.0 / particle_omega();
+    // dt_min = 0.1 is above the limit (0.0367 s): the search widens to 0.01 and finds it.
+    let (runs, row) = particle_stability("dt_min = 0.1\ndt_max = 1.0\ndt_floor = 1e-3");
+    assert_eq!(runs.get(&row, "status"), Some("ok"));
+    let found = runs.number(&row, "max_stable_dt").unwrap();
+    assert!((found / limit - 1.0).abs() < 0.01, "{found} vs {limit}");
+    // With the floor above the limit, no stable dt exists in range, and the report says so.
+    let (runs, row) = particle_stability("dt_min = 0.1\ndt_max = 1.0\ndt_floor = 0.05");
+    assert_eq!(runs.get(&row, "status"), Some("no stable dt in [0.05, 1]"));
+    assert_eq!(runs.get(&row, "max_stable_dt"), Some(""));
+    assert!(!runs.get(&row, "unstable_cause").unwrap().is_empty());
+}
+
 #[test]
 fn work_precision_errors_shrink_at_the_method_order() {
     let tmp = TempDir::new("study-wp-order");

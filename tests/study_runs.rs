@@ -124,6 +124,85 @@ fn quickstart_quick_writes_every_output() {
         assert_eq!(solver == "-", explicit, "{method} / {solver}");
     }
     assert_eq!(runs.rows.len(), 12);
+
+    // `softbench plot` redraws every plot from the CSV files alone.
+    let mut removed = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "png" || e == "svg") {
+            std::fs::remove_file(&path).unwrap();
+            removed += 1;
+        }
+    }
+    assert!(removed >= 4);
+    let o = softbench(&["plot", dir.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_complete(&dir, &IDENTITY);
+}
+
+#[test]
+fn parallel_jobs_give_the_same_numbers() {
+    let tmp = TempDir::new("study-jobs");
+    let file = study("quickstart.toml");
+    let mut tables = Vec::new();
+    for jobs in ["1", "2"] {
+        let out = tmp.path().join(format!("jobs{jobs}"));
+        let o = softbench(&[
+            "run",
+            file.to_str().unwrap(),
+            "--quick",
+            "--jobs",
+            jobs,
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        tables.push(
+            Table::read(&out.join("quickstart/runs.csv"))
+                .unwrap()
+                .unwrap(),
+        );
+    }
+    // Everything but wall times is bitwise the same, in the same order.
+    let deterministic = [
+        "run_id",
+        "status",
+        "energy_drift_max",
+        "energy_drift_final",
+        "steps",
+        "force_evaluations",
+        "newton_iterations",
+        "config_hash",
+    ];
+    for c in deterministic {
+        let column = |t: &Table| {
+            t.rows
+                .iter()
+                .map(|r| t.get(r, c).unwrap().to_owned())
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(column(&tables[0]), column(&tables[1]), "column {c}");
+    }
+}
+
+#[test]
+fn list_names_scenes_and_studies() {
+    let o = softbench(&["list"]);
+    assert!(o.status.success());
+    let text = String::from_utf8_lossy(&o.stdout);
+    for expected in [
+        "integrators",
+        "backward-euler",
+        "linear solvers",
+        "materials",
+        "scenes",
+        "soft_beam",
+        "studies",
+        "quickstart",
+        "armadillo_stability",
+    ] {
+        assert!(text.contains(expected), "`{expected}` missing from: {text}");
+    }
 }
 
 #[test]

@@ -406,7 +406,8 @@ fn list() -> anyhow::Result<ExitCode> {
         }
         writeln!(out, "{title}:")?;
         for (path, line) in files {
-            writeln!(out, "  {:26} {line}", path.display())?;
+            let stem = path.file_stem().unwrap_or_default().to_string_lossy();
+            writeln!(out, "  {stem:26} {line}")?;
         }
     }
     Ok(ExitCode::SUCCESS)

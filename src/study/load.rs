@@ -3,10 +3,13 @@
 
 use super::config::{StudyFile, StudyKind, line_of};
 use super::error::StudyError;
+use super::grid::{Axis, grid_axes, method_entries, product};
+use super::identity::{float, physics_hash, run_hash, sanitize, value_text};
+use super::settings::check_settings;
 use crate::data::DataPaths;
 use crate::integrate::Method;
 use crate::parallel::Parallelism;
-use crate::scene::{self, LoadedScene, RunConfig, SceneConfig, SceneError};
+use crate::scene::{self, LoadedScene, SceneConfig, SceneError};
 use crate::solve::LinearSolverKind;
 use std::collections::{BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
@@ -62,15 +65,7 @@ struct SceneSource {
     line: usize,
 }
 
-/// One axis of the grid: a dotted key and its values.
-#[derive(Clone, Debug)]
-struct Axis {
-    key: String,
-    values: Vec<Value>,
-    line: usize,
-}
-
-const METHOD_KEY: &str = "integrator.method";
+pub(super) const METHOD_KEY: &str = "integrator.method";
 const SOLVER_KEY: &str = "integrator.linear_solver";
 
 /// Read, expand and check a study. `quick` applies its `[quick]` settings.
@@ -97,15 +92,20 @@ pub fn load(path: &Path, quick: bool) -> Result<Study, StudyError> {
     }
     let file = file;
     let scenes = scene_sources(&file, &ctx)?;
-    let mut axes = grid_axes(&file, &ctx)?;
+    let axes = grid_axes(&file, &ctx)?;
+    let mut method_axes = method_entries(&file, &ctx, &axes)?;
     if quick && kind == StudyKind::WorkPrecision {
+        // The largest steps of each ladder (the global one and each method's own).
         let keep = file.quick.dts.unwrap_or(2).max(1);
-        for axis in axes.iter_mut().filter(|a| a.key == "run.dt") {
+        for axis in method_axes
+            .iter_mut()
+            .flatten()
+            .filter(|a| a.key == "run.dt")
+        {
             axis.values.sort_by(|a, b| float(b).total_cmp(&float(a)));
             axis.values.truncate(keep);
         }
     }
-    let method_axes = method_entries(&file, &ctx, &axes)?;
     let mut parameters: Vec<String> = Vec::new();
     let mut distinct: HashMap<String, BTreeSet<String>> = HashMap::new();
     for entry in &method_axes {
@@ -177,13 +177,13 @@ pub fn load(path: &Path, quick: bool) -> Result<Study, StudyError> {
 }
 
 /// The study file and its text, for error messages.
-struct Context<'a> {
-    path: &'a Path,
-    text: &'a str,
+pub(super) struct Context<'a> {
+    pub path: &'a Path,
+    pub text: &'a str,
 }
 
 impl Context<'_> {
-    fn invalid(&self, at: usize, key: &str, message: impl Into<String>) -> StudyError {
+    pub fn invalid(&self, at: usize, key: &str, message: impl Into<String>) -> StudyError {
         StudyError::Invalid {
             path: self.path.to_owned(),
             line: line_of(self.text, at),
@@ -194,7 +194,7 @@ impl Context<'_> {
 
     /// The line of the first `key` (optionally quoted) at the start of a line, for keys
     /// whose span the parser does not keep.
-    fn line_of_key(&self, key: &str) -> usize {
+    pub fn line_of_key(&self, key: &str) -> usize {
         let quoted = format!("\"{key}\"");
         self.text
             .lines()
@@ -208,161 +208,6 @@ impl Context<'_> {
             })
             .map_or(1, |i| i + 1)
     }
-}
-
-/// The measured kind, after checking the kind's settings are present and sane.
-fn check_settings(file: &StudyFile, ctx: &Context) -> Result<StudyKind, StudyError> {
-    if file.name.trim().is_empty()
-        || file
-            .name
-            .chars()
-            .any(|c| !(c.is_ascii_alphanumeric() || "-_.".contains(c)))
-    {
-        return Err(ctx.invalid(
-            0,
-            "name",
-            format!(
-                "`{}` must be a non-empty folder name of letters, digits, '-', '_' or '.'",
-                file.name
-            ),
-        ));
-    }
-    let kind = match (&file.study, &file.sweep) {
-        (StudyKind::Sweep, Some(sweep)) => {
-            if sweep.kind == StudyKind::Sweep {
-                return Err(ctx.invalid(
-                    0,
-                    "sweep.kind",
-                    "must be trajectory, work-precision or stability",
-                ));
-            }
-            if !file.grid.contains_key(&sweep.parameter)
-                && !file
-                    .methods
-                    .iter()
-                    .any(|m| m.get_ref().contains_key(&sweep.parameter))
-            {
-                return Err(StudyError::Invalid {
-                    path: ctx.path.to_owned(),
-                    line: ctx.line_of_key("parameter"),
-                    key: "sweep.parameter".into(),
-                    message: format!(
-                        "`{}` is not a key of [grid]; the swept parameter must be one",
-                        sweep.parameter
-                    ),
-                });
-            }
-            sweep.kind
-        }
-        (StudyKind::Sweep, None) => {
-            return Err(ctx.invalid(
-                0,
-                "sweep",
-                "a sweep study needs a [sweep] table with `kind` and `parameter`",
-            ));
-        }
-        (kind, _) => *kind,
-    };
-    let line = |key: &str| ctx.line_of_key(key);
-    let bad = |key: &str, message: String| StudyError::Invalid {
-        path: ctx.path.to_owned(),
-        line: line(key.rsplit('.').next().unwrap_or(key)),
-        key: key.to_owned(),
-        message,
-    };
-    match kind {
-        StudyKind::Stability => {
-            let Some(s) = &file.stability else {
-                return Err(ctx.invalid(
-                    0,
-                    "stability",
-                    "a stability study needs a [stability] table with dt_min, dt_max and horizon",
-                ));
-            };
-            let positive = |x: f64| x.is_finite() && x > 0.0;
-            if !positive(s.dt_min) {
-                return Err(bad(
-                    "stability.dt_min",
-                    format!("must be > 0 s (got {})", s.dt_min),
-                ));
-            }
-            if !(positive(s.dt_max) && s.dt_max > s.dt_min) {
-                return Err(bad(
-                    "stability.dt_max",
-                    format!("must be > dt_min = {} s (got {})", s.dt_min, s.dt_max),
-                ));
-            }
-            if !positive(s.horizon) {
-                return Err(bad(
-                    "stability.horizon",
-                    format!("must be > 0 s (got {})", s.horizon),
-                ));
-            }
-            if !(s.energy_factor.is_finite() && s.energy_factor > 1.0) {
-                return Err(bad(
-                    "stability.energy_factor",
-                    format!("must be > 1 (got {})", s.energy_factor),
-                ));
-            }
-            if !(s.relative_precision > 0.0 && s.relative_precision < 1.0) {
-                return Err(bad(
-                    "stability.relative_precision",
-                    format!("must be in (0, 1) (got {})", s.relative_precision),
-                ));
-            }
-            if !(positive(s.floor()) && s.floor() <= s.dt_min) {
-                return Err(bad(
-                    "stability.dt_floor",
-                    format!("must be in (0, dt_min] (got {})", s.floor()),
-                ));
-            }
-            if s.max_steps == 0 {
-                return Err(bad("stability.max_steps", "must be at least 1".into()));
-            }
-        }
-        StudyKind::WorkPrecision => {
-            let Some(w) = &file.work_precision else {
-                return Err(ctx.invalid(
-                    0,
-                    "work-precision",
-                    "a work-precision study needs a [work-precision] table with `horizon`",
-                ));
-            };
-            if !(w.horizon.is_finite() && w.horizon > 0.0) {
-                return Err(bad(
-                    "work-precision.horizon",
-                    format!("must be > 0 s (got {})", w.horizon),
-                ));
-            }
-            if w.samples == 0 {
-                return Err(bad("work-precision.samples", "must be at least 1".into()));
-            }
-            let r = &w.reference;
-            if !(r.dt_factor.is_finite() && r.dt_factor >= 1.0) {
-                return Err(bad(
-                    "work-precision.reference.dt_factor",
-                    format!("must be >= 1 (got {})", r.dt_factor),
-                ));
-            }
-            if r.dt.is_some_and(|dt| !(dt.is_finite() && dt > 0.0)) {
-                return Err(bad("work-precision.reference.dt", "must be > 0 s".into()));
-            }
-            if !file.grid.contains_key("run.dt")
-                && !file
-                    .methods
-                    .iter()
-                    .any(|m| m.get_ref().contains_key("run.dt"))
-            {
-                return Err(ctx.invalid(
-                    0,
-                    "grid",
-                    "a work-precision study sweeps the time step: add \"run.dt\" = [..] to [grid]",
-                ));
-            }
-        }
-        StudyKind::Trajectory | StudyKind::Sweep => {}
-    }
-    Ok(kind)
 }
 
 /// The scenes the study names, read and parsed (not yet validated: the grid may complete them).
@@ -441,122 +286,6 @@ fn scene_sources(file: &StudyFile, ctx: &Context) -> Result<Vec<SceneSource>, St
         sources.push(source);
     }
     Ok(sources)
-}
-
-/// The `[grid]` axes in file order.
-fn grid_axes(file: &StudyFile, ctx: &Context) -> Result<Vec<Axis>, StudyError> {
-    let mut axes = Vec::new();
-    for (key, value) in &file.grid {
-        axes.push(axis(key, value.get_ref(), value.span().start, ctx, true)?);
-    }
-    if axes.is_empty() && file.methods.is_empty() {
-        return Err(ctx.invalid(
-            0,
-            "grid",
-            "the grid is empty: give at least one key with a list of values, e.g. \
-             \"integrator.method\" = [\"rk4\", \"backward-euler\"]",
-        ));
-    }
-    axes.sort_by_key(|a| a.line);
-    Ok(axes)
-}
-
-/// One axis from a grid entry; `list_only` refuses single values (as in `[grid]`).
-fn axis(
-    key: &str,
-    value: &Value,
-    at: usize,
-    ctx: &Context,
-    list_only: bool,
-) -> Result<Axis, StudyError> {
-    let values = match value {
-        Value::Array(values) => values.clone(),
-        other if !list_only => vec![other.clone()],
-        other => {
-            return Err(ctx.invalid(
-                at,
-                &format!("grid.\"{key}\""),
-                format!("expected a list of values, found {}", other.type_str()),
-            ));
-        }
-    };
-    if values.is_empty() {
-        return Err(ctx.invalid(
-            at,
-            &format!("grid.\"{key}\""),
-            "the list is empty: give at least one value",
-        ));
-    }
-    Ok(Axis {
-        key: key.to_owned(),
-        values,
-        line: line_of(ctx.text, at),
-    })
-}
-
-/// The axes of each method entry: the grid with the entry's own options on top. Without
-/// `[[methods]]`, the grid alone.
-fn method_entries(
-    file: &StudyFile,
-    ctx: &Context,
-    grid: &[Axis],
-) -> Result<Vec<Vec<Axis>>, StudyError> {
-    if file.methods.is_empty() {
-        return Ok(vec![grid.to_vec()]);
-    }
-    if let Some(axis) = grid.iter().find(|a| a.key == METHOD_KEY) {
-        return Err(StudyError::Invalid {
-            path: ctx.path.to_owned(),
-            line: axis.line,
-            key: format!("grid.\"{METHOD_KEY}\""),
-            message: "give the methods either in [grid] or as [[methods]], not both".into(),
-        });
-    }
-    let mut entries = Vec::new();
-    for (i, entry) in file.methods.iter().enumerate() {
-        let at = entry.span().start;
-        let table = entry.get_ref();
-        let Some(method) = table.get("method") else {
-            return Err(ctx.invalid(
-                at,
-                &format!("methods[{i}]"),
-                "each [[methods]] entry needs `method = \"...\"`",
-            ));
-        };
-        let mut axes: Vec<Axis> = grid.to_vec();
-        let line = line_of(ctx.text, at);
-        axes.push(Axis {
-            key: METHOD_KEY.into(),
-            values: vec![method.clone()],
-            line,
-        });
-        for (key, value) in table.iter().filter(|(k, _)| *k != "method") {
-            let mut a = axis(key, value, at, ctx, false)?;
-            a.line = line;
-            axes.retain(|b| b.key != a.key);
-            axes.push(a);
-        }
-        entries.push(axes);
-    }
-    Ok(entries)
-}
-
-/// Every combination of the axes' values.
-fn product(axes: &[Axis]) -> Vec<Vec<(String, Value)>> {
-    let mut combos: Vec<Vec<(String, Value)>> = vec![Vec::new()];
-    for axis in axes {
-        combos = combos
-            .into_iter()
-            .flat_map(|c| {
-                axis.values.iter().map(move |v| {
-                    let mut c = c.clone();
-                    c.push((axis.key.clone(), v.clone()));
-                    c
-                })
-            })
-            .collect();
-    }
-    combos
 }
 
 type ResolvedRun = (Method, Option<LinearSolverKind>, LoadedScene);
@@ -723,76 +452,4 @@ fn check_scenes_build(
         }
     }
     Ok(())
-}
-
-/// A value as it appears in run ids and tables: strings bare, numbers short.
-pub fn value_text(v: &Value) -> String {
-    match v {
-        Value::String(s) => s.clone(),
-        Value::Float(x) => crate::study::format::short(*x),
-        other => other.to_string(),
-    }
-}
-
-fn float(v: &Value) -> f64 {
-    match v {
-        Value::Float(x) => *x,
-        Value::Integer(i) => *i as f64,
-        _ => f64::NAN,
-    }
-}
-
-/// Keep run ids safe as file names.
-fn sanitize(id: &str) -> String {
-    id.chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || "-_.=+".contains(c) {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect()
-}
-
-/// 64-bit FNV-1a, stable across platforms and versions (unlike `DefaultHasher`).
-pub fn fnv1a(bytes: &[u8]) -> u64 {
-    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, b| {
-        (h ^ u64::from(*b)).wrapping_mul(0x0000_0100_0000_01b3)
-    })
-}
-
-fn run_hash(config: &SceneConfig, file: &StudyFile, kind: StudyKind, quick: bool) -> String {
-    let settings = match kind {
-        StudyKind::Stability => serde_json::to_value(&file.stability),
-        StudyKind::WorkPrecision => serde_json::to_value(&file.work_precision),
-        _ => Ok(serde_json::Value::Null),
-    }
-    .unwrap_or_default();
-    let quick_settings = if quick {
-        serde_json::to_value(&file.quick).unwrap_or_default()
-    } else {
-        serde_json::Value::Null
-    };
-    let document = serde_json::json!({
-        "version": env!("CARGO_PKG_VERSION"),
-        "kind": kind.name(),
-        "scene": config,
-        "settings": settings,
-        "quick": quick_settings,
-    });
-    format!("{:016x}", fnv1a(document.to_string().as_bytes()))
-}
-
-fn physics_hash(config: &SceneConfig) -> u64 {
-    let mut c = config.clone();
-    c.integrator = Default::default();
-    c.run = RunConfig {
-        dt: 1.0,
-        steps: 1,
-        sample_every: 1,
-        energy_limit: 0.0,
-    };
-    c.display = None;
-    fnv1a(serde_json::to_string(&c).unwrap_or_default().as_bytes())
 }

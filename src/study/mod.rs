@@ -9,12 +9,17 @@
 pub mod config;
 mod error;
 pub mod format;
+mod grid;
+mod identity;
 mod load;
 mod machine;
 mod measured;
+mod meta;
 pub mod plots;
+mod progress;
 mod report;
 mod runner;
+mod settings;
 pub mod stability;
 pub mod table;
 pub mod trajectory;
@@ -22,10 +27,12 @@ pub mod work_precision;
 
 pub use config::{StudyFile, StudyKind};
 pub use error::{ResultsError, StudyError};
-pub use load::{RunSpec, Study, fnv1a, load};
+pub use identity::{fnv1a, value_text};
+pub use load::{RunSpec, Study, load};
 pub use machine::Machine;
 pub use measured::Measured;
-pub use runner::{Meta, RunError, RunOptions, StudyMeta, StudyRun, matches, run};
+pub use meta::{Meta, StudyMeta};
+pub use runner::{RunError, RunOptions, StudyRun, matches, run};
 
 /// Redraw the plots of a results folder from its `runs.csv`, series files and `meta.json`.
 pub fn redraw(dir: &std::path::Path) -> Result<Vec<plots::Plot>, RedrawError> {

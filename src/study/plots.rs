@@ -3,7 +3,7 @@
 //! dt against 2/omega_max, time per step by phase, and sweep metrics against the parameter.
 
 use super::config::StudyKind;
-use super::runner::StudyMeta;
+use super::meta::StudyMeta;
 use super::table::Table;
 use crate::plot::{self, Bar, BarChart, Chart, LineChart, ReferenceLine, Series, StackedBarChart};
 use std::collections::BTreeMap;
@@ -122,6 +122,9 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
     Ok(plots)
 }
 
+/// Parameters that set a run's accuracy: the points along one work-precision line.
+const ACCURACY_KNOBS: [&str; 2] = ["run.dt", "integrator.adaptive.tolerance"];
+
 /// Scenes in order of first appearance.
 fn scenes(runs: &Table) -> Vec<String> {
     let mut seen = Vec::new();
@@ -226,7 +229,7 @@ fn work_precision_chart(
         };
         if let Some(xv) = xv {
             lines
-                .entry(label(runs, r, &["run.dt"]))
+                .entry(label(runs, r, &ACCURACY_KNOBS))
                 .or_default()
                 .push((xv, error));
         }
@@ -360,7 +363,7 @@ fn iterations_chart(scene: &str, series: &[RunSeries]) -> Option<LineChart> {
 fn smallest_dt_rows<'a>(runs: &Table, rows: &[&'a Vec<String>]) -> Vec<&'a Vec<String>> {
     let mut best: BTreeMap<String, &'a Vec<String>> = BTreeMap::new();
     for r in rows {
-        let key = label(runs, r, &["run.dt"]);
+        let key = label(runs, r, &ACCURACY_KNOBS);
         let dt = runs.number(r, "dt").unwrap_or(f64::INFINITY);
         if best
             .get(&key)

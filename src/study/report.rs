@@ -4,8 +4,8 @@
 use super::config::StudyKind;
 use super::format::short;
 use super::load::Study;
+use super::meta::Meta;
 use super::plots::Plot;
-use super::runner::Meta;
 use super::table::Table;
 use super::work_precision::Reference;
 use crate::report::write_atomic;
@@ -233,6 +233,11 @@ fn settings(out: &mut String, study: &Study) {
 fn orders(out: &mut String, runs: &Table) {
     let mut lines: BTreeMap<(String, String), Vec<(f64, f64)>> = BTreeMap::new();
     for r in &runs.rows {
+        // Adaptive methods choose their own steps: dt is only their output interval.
+        let method = runs.get(r, "method").unwrap_or_default();
+        if method.starts_with("adaptive-") || method == "dopri5" {
+            continue;
+        }
         if let (Some(dt), Some(e)) = (runs.number(r, "dt"), runs.number(r, "error")) {
             let key = (
                 runs.get(r, "scene").unwrap_or_default().to_owned(),
@@ -263,7 +268,7 @@ fn orders(out: &mut String, runs: &Table) {
         let _ = writeln!(
             out,
             "Observed order (slope of log error against log dt between the two smallest scored \
-             steps):\n\n| scene | method | order |\n|---|---|---|\n{text}"
+             steps; adaptive methods, whose dt is only an output interval, are left out):\n\n| scene | method | order |\n|---|---|---|\n{text}"
         );
     }
 }

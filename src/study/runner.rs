@@ -4,18 +4,19 @@
 
 use super::config::StudyKind;
 use super::format::now_utc;
-use super::load::{RunSpec, Study, value_text};
+use super::identity::value_text;
+use super::load::{RunSpec, Study};
 use super::machine::Machine;
 use super::measured::Measured;
+use super::meta::{Meta, write_meta};
+use super::progress::Progress;
 use super::table::Table;
 use super::work_precision::Reference;
 use super::{report, stability, trajectory, work_precision};
 use crate::integrate::Method;
 use crate::parallel::Parallelism;
 use crate::report::write_atomic;
-use indicatif::{ProgressBar, ProgressStyle};
 use std::collections::{BTreeMap, HashMap};
-use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
@@ -86,7 +87,7 @@ pub fn header(study: &Study) -> Vec<String> {
 
 /// The swept parameters that get a column (the time step has its own `dt` column), with the
 /// index into [`RunSpec::parameters`].
-fn parameter_columns(study: &Study) -> Vec<(usize, String)> {
+pub(super) fn parameter_columns(study: &Study) -> Vec<(usize, String)> {
     study
         .parameters
         .iter()
@@ -468,184 +469,4 @@ fn ordered(study: &Study, header: &[String], rows: &HashMap<String, Vec<String>>
         .filter_map(|r| rows.get(&r.id).cloned())
         .collect();
     table
-}
-
-/// `meta.json`: what ran, where, when.
-#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
-pub struct Meta {
-    pub study: StudyMeta,
-    pub machine: Machine,
-    pub started: String,
-    pub finished: Option<String>,
-    pub wall_seconds: Option<f64>,
-    pub command: Vec<String>,
-    /// The study file and every run's resolved scene configuration.
-    pub config: serde_json::Value,
-}
-
-/// The parts of a study the plots and report need.
-#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
-pub struct StudyMeta {
-    pub name: String,
-    pub kind: StudyKind,
-    /// The study file's `study` (differs from `kind` for sweeps).
-    pub study: StudyKind,
-    pub description: Option<String>,
-    pub file: PathBuf,
-    pub quick: bool,
-    /// The swept parameter of a sweep, and the metrics to plot against it.
-    pub sweep_parameter: Option<String>,
-    pub sweep_metrics: Vec<String>,
-    pub parameters: Vec<String>,
-}
-
-impl Meta {
-    fn of(
-        study: &Study,
-        options: &RunOptions,
-        machine: &Machine,
-        started: &str,
-        elapsed: Option<std::time::Duration>,
-    ) -> Self {
-        let runs: serde_json::Map<String, serde_json::Value> = study
-            .runs
-            .iter()
-            .map(|r| {
-                (
-                    r.id.clone(),
-                    serde_json::json!({
-                        "scene_file": r.loaded.path,
-                        "config_hash": r.hash,
-                        "scene": r.loaded.config,
-                    }),
-                )
-            })
-            .collect();
-        let sweep = study.file.sweep.as_ref();
-        Self {
-            study: StudyMeta {
-                name: study.file.name.clone(),
-                kind: study.kind,
-                study: study.file.study,
-                description: study.file.description.clone(),
-                file: study.path.clone(),
-                quick: study.quick,
-                sweep_parameter: sweep.map(|s| s.parameter.clone()),
-                sweep_metrics: sweep.map(|s| s.metrics.clone()).unwrap_or_default(),
-                parameters: parameter_columns(study)
-                    .into_iter()
-                    .map(|(_, c)| c)
-                    .collect(),
-            },
-            machine: machine.clone(),
-            started: started.to_owned(),
-            finished: elapsed.map(|_| now_utc()),
-            wall_seconds: elapsed.map(|d| d.as_secs_f64()),
-            command: std::env::args().collect(),
-            config: serde_json::json!({
-                "jobs": options.jobs,
-                "only": options.only,
-                "stability": study.file.stability,
-                "work_precision": study.file.work_precision,
-                "sweep": study.file.sweep,
-                "quick": study.quick.then_some(&study.file.quick),
-                "runs": runs,
-            }),
-        }
-    }
-}
-
-fn write_meta(
-    study: &Study,
-    options: &RunOptions,
-    machine: &Machine,
-    started: &str,
-    elapsed: Option<std::time::Duration>,
-) -> std::io::Result<()> {
-    let meta = Meta::of(study, options, machine, started, elapsed);
-    write_atomic(&options.dir.join("meta.json"), |w| {
-        serde_json::to_writer_pretty(&mut *w, &meta)?;
-        writeln!(w)
-    })
-}
-
-/// The progress bar (on a terminal) or one line per finished run (otherwise).
-struct Progress {
-    bar: Option<ProgressBar>,
-    enabled: bool,
-    running: Mutex<Vec<String>>,
-    finished: std::sync::atomic::AtomicU64,
-    total: u64,
-}
-
-impl Progress {
-    fn new(enabled: bool, runs: u64) -> Self {
-        let bar = (enabled && std::io::stderr().is_terminal()).then(|| {
-            let bar = ProgressBar::new(runs);
-            bar.set_style(
-                ProgressStyle::with_template(
-                    "{bar:30.cyan/blue} {pos}/{len} runs, {elapsed} elapsed, eta {eta}  {msg}",
-                )
-                .expect("valid template"),
-            );
-            bar.enable_steady_tick(std::time::Duration::from_millis(250));
-            bar
-        });
-        Self {
-            bar,
-            enabled,
-            running: Mutex::new(Vec::new()),
-            finished: Default::default(),
-            total: runs,
-        }
-    }
-
-    fn start(&self, what: &str) {
-        if let Ok(mut running) = self.running.lock() {
-            running.push(what.to_owned());
-            if let Some(bar) = &self.bar {
-                bar.set_message(running.join(", "));
-            }
-        }
-    }
-
-    fn finish(&self, what: &str) {
-        if let Ok(mut running) = self.running.lock() {
-            running.retain(|r| r != what);
-            if let Some(bar) = &self.bar {
-                bar.set_message(running.join(", "));
-            }
-        }
-    }
-
-    fn line(&self, text: &str) {
-        if let Ok(mut running) = self.running.lock() {
-            // Shared-work messages ("reference for …") are done once a line reports them.
-            running.retain(|r| !r.starts_with("reference for") && !r.starts_with("highest mode"));
-        }
-        match &self.bar {
-            Some(bar) => bar.println(text),
-            None if self.enabled => eprintln!("{text}"),
-            None => {}
-        }
-    }
-
-    fn position(&self) -> String {
-        let done = self.finished.load(std::sync::atomic::Ordering::SeqCst);
-        format!("[{}/{}]", done + 1, self.total)
-    }
-
-    fn inc(&self) {
-        self.finished
-            .fetch_add(1, std::sync::atomic::Ordering::SeqCst);
-        if let Some(bar) = &self.bar {
-            bar.inc(1);
-        }
-    }
-
-    fn done(&self) {
-        if let Some(bar) = &self.bar {
-            bar.finish_and_clear();
-        }
-    }
 }

@@ -97,37 +97,41 @@ pub fn measure(
         stable
     };
 
+    // Bisect in log dt with `lo` presumed stable; `lo` is tried only if no trial above it is
+    // stable (a trial at dt_min is the most expensive one), and if it fails the bracket
+    // widens downward to the floor.
     let (mut lo, mut hi) = (settings.dt_min, settings.dt_max);
+    let floor = settings.floor();
     let (status, bracket): (String, Option<(f64, Option<f64>)>) =
         if try_dt(&mut scene, hi, &mut trials) {
             (format!("stable at dt_max={}", short(hi)), Some((hi, None)))
         } else {
-            let mut stable = try_dt(&mut scene, lo, &mut trials);
-            let floor = settings.floor();
-            while !stable && lo > floor * (1.0 + 1e-12) {
-                hi = lo;
-                lo = (lo / 10.0).max(floor);
-                stable = try_dt(&mut scene, lo, &mut trials);
-            }
-            if !stable {
-                (
-                    format!(
-                        "no stable dt in [{}, {}]",
-                        short(floor),
-                        short(settings.dt_max)
-                    ),
-                    None,
-                )
-            } else {
+            loop {
+                let mut verified = false;
                 while hi / lo - 1.0 > settings.relative_precision {
                     let mid = (lo * hi).sqrt();
                     if try_dt(&mut scene, mid, &mut trials) {
                         lo = mid;
+                        verified = true;
                     } else {
                         hi = mid;
                     }
                 }
-                ("ok".to_owned(), Some((lo, Some(hi))))
+                if verified || try_dt(&mut scene, lo, &mut trials) {
+                    break ("ok".to_owned(), Some((lo, Some(hi))));
+                }
+                if lo <= floor * (1.0 + 1e-12) {
+                    break (
+                        format!(
+                            "no stable dt in [{}, {}]",
+                            short(floor),
+                            short(settings.dt_max)
+                        ),
+                        None,
+                    );
+                }
+                hi = lo;
+                lo = (lo / 10.0).max(floor);
             }
         };
 

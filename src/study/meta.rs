@@ -1,0 +1,109 @@
+//! `meta.json`: the study, the machine and build, when it ran, and every run's resolved
+//! configuration.
+
+use super::config::StudyKind;
+use super::format::now_utc;
+use super::load::Study;
+use super::machine::Machine;
+use super::runner::{RunOptions, parameter_columns};
+use crate::report::write_atomic;
+use std::path::PathBuf;
+
+/// `meta.json`: what ran, where, when.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct Meta {
+    pub study: StudyMeta,
+    pub machine: Machine,
+    pub started: String,
+    pub finished: Option<String>,
+    pub wall_seconds: Option<f64>,
+    pub command: Vec<String>,
+    /// The study file and every run's resolved scene configuration.
+    pub config: serde_json::Value,
+}
+
+/// The parts of a study the plots and report need.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct StudyMeta {
+    pub name: String,
+    pub kind: StudyKind,
+    /// The study file's `study` (differs from `kind` for sweeps).
+    pub study: StudyKind,
+    pub description: Option<String>,
+    pub file: PathBuf,
+    pub quick: bool,
+    /// The swept parameter of a sweep, and the metrics to plot against it.
+    pub sweep_parameter: Option<String>,
+    pub sweep_metrics: Vec<String>,
+    pub parameters: Vec<String>,
+}
+
+impl Meta {
+    pub(super) fn of(
+        study: &Study,
+        options: &RunOptions,
+        machine: &Machine,
+        started: &str,
+        elapsed: Option<std::time::Duration>,
+    ) -> Self {
+        let runs: serde_json::Map<String, serde_json::Value> = study
+            .runs
+            .iter()
+            .map(|r| {
+                (
+                    r.id.clone(),
+                    serde_json::json!({
+                        "scene_file": r.loaded.path,
+                        "config_hash": r.hash,
+                        "scene": r.loaded.config,
+                    }),
+                )
+            })
+            .collect();
+        let sweep = study.file.sweep.as_ref();
+        Self {
+            study: StudyMeta {
+                name: study.file.name.clone(),
+                kind: study.kind,
+                study: study.file.study,
+                description: study.file.description.clone(),
+                file: study.path.clone(),
+                quick: study.quick,
+                sweep_parameter: sweep.map(|s| s.parameter.clone()),
+                sweep_metrics: sweep.map(|s| s.metrics.clone()).unwrap_or_default(),
+                parameters: parameter_columns(study)
+                    .into_iter()
+                    .map(|(_, c)| c)
+                    .collect(),
+            },
+            machine: machine.clone(),
+            started: started.to_owned(),
+            finished: elapsed.map(|_| now_utc()),
+            wall_seconds: elapsed.map(|d| d.as_secs_f64()),
+            command: std::env::args().collect(),
+            config: serde_json::json!({
+                "jobs": options.jobs,
+                "only": options.only,
+                "stability": study.file.stability,
+                "work_precision": study.file.work_precision,
+                "sweep": study.file.sweep,
+                "quick": study.quick.then_some(&study.file.quick),
+                "runs": runs,
+            }),
+        }
+    }
+}
+
+pub(super) fn write_meta(
+    study: &Study,
+    options: &RunOptions,
+    machine: &Machine,
+    started: &str,
+    elapsed: Option<std::time::Duration>,
+) -> std::io::Result<()> {
+    let meta = Meta::of(study, options, machine, started, elapsed);
+    write_atomic(&options.dir.join("meta.json"), |w| {
+        serde_json::to_writer_pretty(&mut *w, &meta)?;
+        writeln!(w)
+    })
+}
