@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::{TempDir, softbench};
+use common::{TempDir, run_study, run_study_ok};
 
 /// A scene that needs no data, next to the study.
 const SCENE: &str = r#"
@@ -35,12 +35,7 @@ fn assert_rejected(study: &str, expect: &[&str]) {
     tmp.write("beam.toml", SCENE);
     let path = tmp.write("study.toml", study);
     let out = tmp.path().join("results");
-    let o = softbench(&[
-        "run",
-        path.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let o = run_study(&path, &out, &[]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "stderr: {err}");
     for e in expect {
@@ -55,13 +50,7 @@ fn the_good_study_runs() {
     tmp.write("beam.toml", SCENE);
     let path = tmp.write("study.toml", GOOD);
     let out = tmp.path().join("results");
-    let o = softbench(&[
-        "run",
-        path.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    run_study_ok(&path, &out, &[]);
     assert!(out.join("bad/runs.csv").is_file());
 }
 
@@ -141,12 +130,7 @@ fn missing_mesh_file() {
     );
     let path = tmp.write("study.toml", &s);
     let out = tmp.path().join("results");
-    let o = softbench(&[
-        "run",
-        path.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let o = run_study(&path, &out, &[]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{err}");
     for e in ["study.toml:3", "missing_mesh.toml", "no_such.mesh"] {
@@ -187,14 +171,7 @@ fn only_pattern_matching_nothing() {
     tmp.write("beam.toml", SCENE);
     let path = tmp.write("study.toml", GOOD);
     let out = tmp.path().join("results");
-    let o = softbench(&[
-        "run",
-        path.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--only",
-        "dopri",
-    ]);
+    let o = run_study(&path, &out, &["--only", "dopri"]);
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("beam-rk4"));
     assert!(!out.exists());

@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{TempDir, softbench};
+use common::{TempDir, run_study_ok};
 use nalgebra::{Matrix3, Vector3};
 use softbench::study::table::Table;
 
@@ -69,13 +69,7 @@ relative_precision = 1e-3
 "#,
     );
     let out = tmp.path().join("results");
-    let o = softbench(&[
-        "run",
-        study.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    run_study_ok(&study, &out, &[]);
     let runs = Table::read(&out.join("spring/runs.csv")).unwrap().unwrap();
     let omega = particle_omega();
     for (row, method, limit) in [
@@ -118,13 +112,7 @@ fn particle_stability(bracket: &str) -> (Table, Vec<String>) {
         ),
     );
     let out = tmp.path().join("results");
-    let o = softbench(&[
-        "run",
-        study.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    run_study_ok(&study, &out, &[]);
     let runs = Table::read(&out.join("widen/runs.csv")).unwrap().unwrap();
     let row = runs.rows[0].clone();
     (runs, row)
@@ -186,13 +174,7 @@ reference = { method = "rk4", dt_factor = 8 }
 "#,
     );
     let out = tmp.path().join("results");
-    let o = softbench(&[
-        "run",
-        study.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    run_study_ok(&study, &out, &[]);
     let runs = Table::read(&out.join("order/runs.csv")).unwrap().unwrap();
     for (method, order) in [
         ("midpoint", 2.0),

@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{TempDir, softbench};
+use common::{TempDir, run_study_ok, softbench};
 use softbench::study::table::Table;
 use std::path::{Path, PathBuf};
 
@@ -87,15 +87,7 @@ fn assert_complete(dir: &Path, required_columns: &[&str]) -> Table {
 }
 
 fn run_quick(name: &str, out: &Path) -> std::process::Output {
-    let o = softbench(&[
-        "run",
-        study(name).to_str().unwrap(),
-        "--quick",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{name}: {}", stderr(&o));
-    o
+    run_study_ok(&study(name), out, &["--quick"])
 }
 
 const IDENTITY: [&str; 4] = ["run_id", "scene", "method", "linear_solver"];
@@ -147,16 +139,7 @@ fn parallel_jobs_give_the_same_numbers() {
     let mut tables = Vec::new();
     for jobs in ["1", "2"] {
         let out = tmp.path().join(format!("jobs{jobs}"));
-        let o = softbench(&[
-            "run",
-            file.to_str().unwrap(),
-            "--quick",
-            "--jobs",
-            jobs,
-            "--out",
-            out.to_str().unwrap(),
-        ]);
-        assert!(o.status.success(), "{}", stderr(&o));
+        run_study_ok(&file, &out, &["--quick", "--jobs", jobs]);
         tables.push(
             Table::read(&out.join("quickstart/runs.csv"))
                 .unwrap()

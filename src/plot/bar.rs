@@ -7,10 +7,9 @@ use plotters::element::DashedPathElement;
 use plotters::prelude::*;
 
 use super::axis::{Axis, Scale};
-use super::category::{self, Labels};
-use super::frame::{Frame, Layout};
+use super::category;
 use super::legend::{Entry, Glyph, Rows};
-use super::style::{HEIGHT, INK, PALETTE};
+use super::style::{INK, PALETTE};
 use super::{BarChart, PlotError, draw_err, no_data};
 
 /// Bar width as a fraction of its slot.
@@ -65,19 +64,8 @@ pub fn draw<DB: DrawingBackend>(
     };
     let (legend_area, frame_area) = body.split_vertically(band);
 
-    let mut layout = Layout::numeric(&y, None, "")?;
-    let slot_w = layout.plot_width(w) / n as u32;
     let names: Vec<&str> = chart.bars.iter().map(|b| b.label.as_str()).collect();
-    let labels = Labels::new(&names, slot_w, HEIGHT * 3 / 10)?;
-    layout.bottom = labels.height;
-    let frame = Frame::draw(
-        &frame_area,
-        Axis::slots(n),
-        y,
-        ("", &chart.y_label),
-        layout,
-        false,
-    )?;
+    let (frame, labels, _) = category::slot_frame(&frame_area, &names, y, &chart.y_label)?;
     let (left, _, right, _) = frame.rect();
     let (lx, ly) = legend_area.get_base_pixel();
     legend.draw(root, (lx + 20, ly + 2))?;
@@ -99,7 +87,7 @@ pub fn draw<DB: DrawingBackend>(
             }
             None => {
                 let note = bar.note.as_deref().unwrap_or(DEFAULT_NOTE);
-                category::draw_note(root, &frame, i, slot_w, note)?;
+                category::draw_note(root, &frame, i, labels.slot_w, note)?;
             }
         }
     }

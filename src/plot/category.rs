@@ -14,6 +14,29 @@ const GAP: i32 = 10;
 /// Most lines of a horizontal label.
 const MAX_LINES: usize = 3;
 
+/// The frame of a chart with one slot per category: the y axis, `names.len()` slots, and the
+/// category labels laid out (not yet drawn) under them.
+pub fn slot_frame<'a, DB: DrawingBackend>(
+    area: &'a DrawingArea<DB, Shift>,
+    names: &[&str],
+    y: super::axis::Axis,
+    y_label: &str,
+) -> Result<(Frame<'a, DB>, Labels, super::frame::Layout), PlotError> {
+    let mut layout = super::frame::Layout::numeric(&y, None, "")?;
+    let slot_w = layout.plot_width(area.dim_in_pixel().0) / names.len().max(1) as u32;
+    let labels = Labels::new(names, slot_w, style::HEIGHT * 3 / 10)?;
+    layout.bottom = labels.height;
+    let frame = Frame::draw(
+        area,
+        super::axis::Axis::slots(names.len()),
+        y,
+        ("", y_label),
+        layout,
+        false,
+    )?;
+    Ok((frame, labels, layout))
+}
+
 /// Category labels laid out for slots of a given width.
 pub struct Labels {
     lines: Vec<Vec<String>>,
@@ -21,6 +44,8 @@ pub struct Labels {
     line_h: i32,
     /// Height in pixels the labels need under the axis.
     pub height: u32,
+    /// Width of a slot in pixels.
+    pub slot_w: u32,
 }
 
 impl Labels {
@@ -42,6 +67,7 @@ impl Labels {
                 lines: horizontal,
                 rotated: false,
                 line_h: line_h as i32,
+                slot_w,
                 height: GAP as u32 + n * line_h,
             });
         }
@@ -60,6 +86,7 @@ impl Labels {
             lines,
             rotated: true,
             line_h: line_h as i32,
+            slot_w,
             height: GAP as u32 + longest + 4,
         })
     }

@@ -5,10 +5,9 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use super::axis::{Axis, Scale};
-use super::category::Labels;
-use super::frame::{Frame, Layout};
+use super::category;
 use super::legend::{Column, Entry, Glyph};
-use super::style::{HEIGHT, PALETTE};
+use super::style::PALETTE;
 use super::{PlotError, StackedBarChart, draw_err, no_data};
 
 /// Bar width as a fraction of its slot.
@@ -54,19 +53,8 @@ pub fn draw<DB: DrawingBackend>(
     let (w, _) = body.dim_in_pixel();
     let (frame_area, _) = body.split_horizontally(w.saturating_sub(legend.width + 16));
 
-    let mut layout = Layout::numeric(&y, None, "")?;
-    let slot_w = layout.plot_width(frame_area.dim_in_pixel().0) / n as u32;
     let names: Vec<&str> = chart.categories.iter().map(String::as_str).collect();
-    let labels = Labels::new(&names, slot_w, HEIGHT * 3 / 10)?;
-    layout.bottom = labels.height;
-    let frame = Frame::draw(
-        &frame_area,
-        Axis::slots(n),
-        y,
-        ("", &chart.y_label),
-        layout,
-        false,
-    )?;
+    let (frame, labels, layout) = category::slot_frame(&frame_area, &names, y, &chart.y_label)?;
     let (_, top, right, _) = frame.rect();
     legend.draw(root, (right + layout.right as i32 + 6, top))?;
     labels.draw(root, &frame)?;

@@ -26,6 +26,8 @@ pub struct Study {
     pub kind: StudyKind,
     /// Whether `--quick` shortened it.
     pub quick: bool,
+    /// The study file as written.
+    pub text: String,
     /// Swept scene keys other than the method and linear solver: the parameter columns.
     pub parameters: Vec<String>,
     /// The runs, in grid order.
@@ -171,6 +173,7 @@ pub fn load(path: &Path, quick: bool) -> Result<Study, StudyError> {
         file,
         kind,
         quick,
+        text: text.clone(),
         parameters,
         runs,
     })

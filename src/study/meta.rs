@@ -18,7 +18,8 @@ pub struct Meta {
     pub finished: Option<String>,
     pub wall_seconds: Option<f64>,
     pub command: Vec<String>,
-    /// The study file and every run's resolved scene configuration.
+    /// The study file (as written and as resolved: its settings) and every run's resolved
+    /// scene configuration.
     pub config: serde_json::Value,
 }
 
@@ -82,6 +83,7 @@ impl Meta {
             wall_seconds: elapsed.map(|d| d.as_secs_f64()),
             command: std::env::args().collect(),
             config: serde_json::json!({
+                "study_file": study.text,
                 "jobs": options.jobs,
                 "only": options.only,
                 "stability": study.file.stability,

@@ -40,10 +40,16 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
         for metric in sweep_metrics(study) {
             for chart in sweep_charts(study, runs, &metric) {
                 let stem = format!("sweep-{metric}");
+                let note = if metric == "max_stable_dt" {
+                    " A line at the top of the axis is stable over the whole bracket (up to \
+                     dt_max)."
+                } else {
+                    ""
+                };
                 emit(
                     stem,
                     &format!(
-                        "{metric} against {}, one line per method.",
+                        "{metric} against {}, one line per method.{note}",
                         study.sweep_parameter.as_deref().unwrap_or("the parameter")
                     ),
                     Chart::Line(chart),
@@ -471,6 +477,8 @@ fn sweep_charts(study: &StudyMeta, runs: &Table, metric: &str) -> Vec<LineChart>
     }
     let mut series: Vec<Series> = lines
         .into_iter()
+        // A metric that is zero throughout (Newton iterations of explicit methods) is noise.
+        .filter(|(_, points)| points.iter().any(|p| p.1 != 0.0))
         .map(|(label, mut points)| {
             points.sort_by(|a, b| a.0.total_cmp(&b.0));
             Series { label, points }

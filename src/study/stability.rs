@@ -97,41 +97,47 @@ pub fn measure(
         stable
     };
 
-    // Bisect in log dt with `lo` presumed stable; `lo` is tried only if no trial above it is
-    // stable (a trial at dt_min is the most expensive one), and if it fails the bracket
-    // widens downward to the floor.
+    // Bisect in log dt with `lo` presumed stable: a trial at dt_min is the most expensive one
+    // (an implicit method over the whole horizon at the smallest step), so `lo` is tried only
+    // once the bracket has closed in on it (within 4x) without a stable trial above it. If it
+    // fails, the bracket widens downward by 10x steps to the floor.
     let (mut lo, mut hi) = (settings.dt_min, settings.dt_max);
     let floor = settings.floor();
+    let none_in_range = || {
+        format!(
+            "no stable dt in [{}, {}]",
+            short(floor),
+            short(settings.dt_max)
+        )
+    };
     let (status, bracket): (String, Option<(f64, Option<f64>)>) =
         if try_dt(&mut scene, hi, &mut trials) {
             (format!("stable at dt_max={}", short(hi)), Some((hi, None)))
         } else {
+            let mut verified = false;
             loop {
-                let mut verified = false;
-                while hi / lo - 1.0 > settings.relative_precision {
-                    let mid = (lo * hi).sqrt();
-                    if try_dt(&mut scene, mid, &mut trials) {
-                        lo = mid;
+                let closed = hi / lo - 1.0 <= settings.relative_precision;
+                if !verified && (closed || hi / lo <= 4.0) {
+                    if try_dt(&mut scene, lo, &mut trials) {
                         verified = true;
+                    } else if lo <= floor * (1.0 + 1e-12) {
+                        break (none_in_range(), None);
                     } else {
-                        hi = mid;
+                        hi = lo;
+                        lo = (lo / 10.0).max(floor);
                     }
+                    continue;
                 }
-                if verified || try_dt(&mut scene, lo, &mut trials) {
+                if closed {
                     break ("ok".to_owned(), Some((lo, Some(hi))));
                 }
-                if lo <= floor * (1.0 + 1e-12) {
-                    break (
-                        format!(
-                            "no stable dt in [{}, {}]",
-                            short(floor),
-                            short(settings.dt_max)
-                        ),
-                        None,
-                    );
+                let mid = (lo * hi).sqrt();
+                if try_dt(&mut scene, mid, &mut trials) {
+                    lo = mid;
+                    verified = true;
+                } else {
+                    hi = mid;
                 }
-                hi = lo;
-                lo = (lo / 10.0).max(floor);
             }
         };
 

@@ -89,6 +89,30 @@ pub fn softbench(args: &[&str]) -> std::process::Output {
         .expect("cannot run softbench")
 }
 
+/// `softbench run <study> --out <out> [extra...]`.
+pub fn run_study(study: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
+    let mut args = vec![
+        "run",
+        study.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    softbench(&args)
+}
+
+/// [`run_study`], asserting that it succeeded.
+pub fn run_study_ok(study: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
+    let o = run_study(study, out, extra);
+    assert!(
+        o.status.success(),
+        "softbench run {} failed: {}",
+        study.display(),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    o
+}
+
 /// A shipped scene file, `experiments/scenes/<name>`.
 pub fn scene(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
