@@ -55,6 +55,44 @@ fn the_good_study_runs() {
 }
 
 #[test]
+fn inline_scenes_and_per_method_options_run() {
+    let tmp = TempDir::new("study-inline");
+    // The same beam, inline, with a name; one method with its own option ladder.
+    let inline: String = SCENE
+        .replace("[mesh]", "[scenes.mesh]")
+        .replace("[material]", "[scenes.material]")
+        .replace("[fixed]", "[scenes.fixed]")
+        .replace("[run]", "[scenes.run]");
+    let study = format!(
+        "name = \"inline\"\nstudy = \"trajectory\"\n\n\
+         [[methods]]\nmethod = \"adaptive-rk4\"\n\"integrator.adaptive.tolerance\" = [1e-3, 1e-5]\n\n\
+         [[methods]]\nmethod = \"backward-euler\"\n\n\
+         [[scenes]]\nname = \"inline_beam\"\n{inline}"
+    );
+    let path = tmp.write("study.toml", &study);
+    let out = tmp.path().join("results");
+    run_study_ok(&path, &out, &[]);
+    let runs = softbench::study::table::Table::read(&out.join("inline/runs.csv"))
+        .unwrap()
+        .unwrap();
+    let ids: Vec<&str> = runs.rows.iter().map(|r| r[0].as_str()).collect();
+    assert_eq!(
+        ids,
+        [
+            "inline_beam-adaptive-rk4-tolerance=0.001",
+            "inline_beam-adaptive-rk4-tolerance=1e-5",
+            "inline_beam-backward-euler-cholesky",
+        ]
+    );
+    let tolerance: Vec<&str> = runs
+        .rows
+        .iter()
+        .map(|r| runs.get(r, "integrator.adaptive.tolerance").unwrap())
+        .collect();
+    assert_eq!(tolerance, ["0.001", "1e-5", ""]);
+}
+
+#[test]
 fn unknown_key() {
     let s = GOOD.replace(
         "study = \"trajectory\"",

@@ -9,6 +9,9 @@ use super::legend::{Column, Entry, Glyph};
 use super::style::{self, LINE_WIDTH};
 use super::{LineChart, PlotError, draw_err, no_data};
 
+/// Most markers drawn on one series.
+const MAX_MARKERS: usize = 24;
+
 /// Draw `chart` into `body` (the image below the title); `root` is the whole image, used for
 /// drawing in absolute pixels.
 pub fn draw<DB: DrawingBackend>(
@@ -85,8 +88,14 @@ pub fn draw<DB: DrawingBackend>(
             ))
             .map_err(draw_err)?;
         }
-        for &c in runs.iter().flatten() {
-            style::draw_marker(root, c, marker, color)?;
+        // Dense series (time histories) get a marker on every k-th point only, so the markers
+        // identify the line without burying it.
+        let n = runs.iter().map(Vec::len).sum::<usize>();
+        let every = n.div_ceil(MAX_MARKERS).max(1);
+        for (k, &c) in runs.iter().flatten().enumerate() {
+            if k.is_multiple_of(every) || k + 1 == n {
+                style::draw_marker(root, c, marker, color)?;
+            }
         }
     }
     Ok(())

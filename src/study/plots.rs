@@ -92,26 +92,38 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
             }
             _ => {}
         }
-        let series = load_series(dir, runs, &rows);
-        emit(
-            format!("energy-{slug}"),
-            match study.kind {
-                StudyKind::Stability => {
-                    "Relative energy error over time of each method's trial at its largest \
-                     stable dt (log scale)."
+        // Time histories: one chart per time step when a trajectory study sweeps it (a chart
+        // of every run would be unreadable); none for work-precision, whose runs differ only
+        // in accuracy.
+        if study.kind != StudyKind::WorkPrecision {
+            for (suffix, group) in by_time_step(study.kind, runs, &rows) {
+                let series = load_series(dir, runs, &group);
+                let title = match suffix.strip_prefix('-') {
+                    Some(dt) => format!("{scene}, {dt}"),
+                    None => scene.clone(),
+                };
+                emit(
+                    format!("energy-{slug}{suffix}"),
+                    match study.kind {
+                        StudyKind::Stability => {
+                            "Relative energy error over time of each method's trial at its largest \
+                             stable dt (log scale)."
+                        }
+                        _ => {
+                            "Relative energy error |E(t) - E(0)| / (E_int(0) + |gravity work|) \
+                             over time (log scale)."
+                        }
+                    },
+                    Chart::Line(energy_chart(&title, &series)),
+                )?;
+                if let Some(chart) = iterations_chart(&title, &series) {
+                    emit(
+                        format!("iterations-{slug}{suffix}"),
+                        "Newton iterations per step over time, implicit methods.",
+                        Chart::Line(chart),
+                    )?;
                 }
-                _ => {
-                    "Relative energy error |E(t) - E(0)| / (E_int(0) + |gravity work|) over time (log scale)."
-                }
-            },
-            Chart::Line(energy_chart(scene, &series)),
-        )?;
-        if let Some(chart) = iterations_chart(scene, &series) {
-            emit(
-                format!("iterations-{slug}"),
-                "Newton iterations per step over time, implicit methods.",
-                Chart::Line(chart),
-            )?;
+            }
         }
         let phase_rows: Vec<&Vec<String>> = if study.kind == StudyKind::WorkPrecision {
             smallest_dt_rows(runs, &rows)
@@ -363,6 +375,36 @@ fn iterations_chart(scene: &str, series: &[RunSeries]) -> Option<LineChart> {
         y_log: false,
         series: lines,
     })
+}
+
+/// The rows of a scene grouped by time step when a trajectory study has several (with a stem
+/// suffix `-dt=…`), else all in one group.
+fn by_time_step<'a>(
+    kind: StudyKind,
+    runs: &Table,
+    rows: &[&'a Vec<String>],
+) -> Vec<(String, Vec<&'a Vec<String>>)> {
+    let mut groups: Vec<(String, Vec<&'a Vec<String>>)> = Vec::new();
+    for r in rows {
+        let dt = match kind {
+            StudyKind::Trajectory => runs.get(r, "dt").unwrap_or_default(),
+            _ => "",
+        };
+        match groups.iter_mut().find(|(d, _)| d == dt) {
+            Some((_, g)) => g.push(r),
+            None => groups.push((dt.to_owned(), vec![r])),
+        }
+    }
+    if groups.len() <= 1 {
+        return vec![(String::new(), rows.to_vec())];
+    }
+    groups
+        .into_iter()
+        .map(|(dt, g)| {
+            let dt = dt.parse().map_or(dt.clone(), super::format::short);
+            (format!("-dt={dt}"), g)
+        })
+        .collect()
 }
 
 /// For work-precision: each line's run at its smallest dt.
