@@ -70,7 +70,8 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
                 emit(
                     format!("stable-dt-{slug}"),
                     "Largest stable time step per method (log scale); the line is the explicit \
-                     limit 2/omega_max of the scene at rest.",
+                     limit 2/omega_max of the scene at rest. Bars marked >= dt_max were stable \
+                     over the whole bracket.",
                     Chart::Bar(stable_dt_chart(scene, runs, &rows)),
                 )?;
             }
@@ -204,13 +205,16 @@ fn stable_dt_chart(scene: &str, runs: &Table, rows: &[&Vec<String>]) -> BarChart
             .map(|r| {
                 let value = runs.number(r, "max_stable_dt");
                 let status = runs.get(r, "status").unwrap_or_default();
+                let mut label = label(runs, r, &[]);
+                if status.starts_with("stable at") {
+                    // The bar is the top of the bracket, not a limit that was found.
+                    label.push_str(" (>= dt_max)");
+                }
                 Bar {
-                    label: label(runs, r, &[]),
+                    label,
                     value,
                     marker: None,
-                    note: if status.starts_with("stable at") {
-                        Some(">= dt_max".into())
-                    } else if value.is_none() {
+                    note: if value.is_none() {
                         Some("no stable dt".into())
                     } else {
                         None
