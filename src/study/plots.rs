@@ -56,6 +56,7 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
                 )?;
             }
         }
+        remove_stale(dir, &plots);
         return Ok(plots);
     }
     for scene in &scenes {
@@ -138,11 +139,28 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
             Chart::Stacked(phase_chart(scene, study.kind, runs, &phase_rows)),
         )?;
     }
+    remove_stale(dir, &plots);
     Ok(plots)
 }
 
 /// Parameters that set a run's accuracy: the points along one work-precision line.
 const ACCURACY_KNOBS: [&str; 2] = ["run.dt", "integrator.adaptive.tolerance"];
+
+/// Remove plots of an earlier invocation that this one did not draw (a scene or time step
+/// no longer in the study), so the folder holds exactly what report.md shows.
+fn remove_stale(dir: &Path, drawn: &[Plot]) {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let path = entry.path();
+        let is_plot = path.extension().is_some_and(|e| e == "png" || e == "svg");
+        let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned());
+        if is_plot && stem.is_some_and(|s| !drawn.iter().any(|p| p.stem == s)) {
+            let _ = std::fs::remove_file(&path);
+        }
+    }
+}
 
 /// Scenes in order of first appearance.
 fn scenes(runs: &Table) -> Vec<String> {
