@@ -11,8 +11,8 @@ use softbench::material::{LameParameters, MaterialModel};
 use softbench::mesh::TetMesh;
 use softbench::mesh::generate::box_mesh;
 use softbench::model::{
-    AxisRule, Damping, FixedSelection, InvertedTets, MassKind, MassMatrix, Model, ModelSpec, Side,
-    SpectrumError, SpectrumSettings, Spring, highest_mode,
+    Damping, FixedSelection, InvertedTets, MassKind, MassMatrix, Model, ModelSpec, SpectrumError,
+    SpectrumSettings, Spring, highest_mode,
 };
 use softbench::parallel::Parallelism;
 use softbench::rng::Rng;
@@ -65,14 +65,7 @@ fn rubber_box(cells: [usize; 3], clamped: bool, mass_kind: MassKind) -> Model {
     let mut spec = ModelSpec::elastic(box_mesh(cells, size), material, 1000.0);
     spec.mass_kind = mass_kind;
     if clamped {
-        spec.fixed = FixedSelection {
-            rules: vec![AxisRule {
-                axis: 0,
-                side: Side::Min,
-                tolerance: 1e-9,
-            }],
-            ..Default::default()
-        };
+        spec.fixed = common::bodies::clamped_at_min_x();
     }
     Model::new(spec).unwrap()
 }

@@ -13,14 +13,7 @@ pub fn block(clamped: bool, gravity: bool) -> Model {
     let material = MaterialModel::from_name("stable-neo-hookean", lame).unwrap();
     let mut spec = ModelSpec::elastic(box_mesh([2, 1, 1], [0.2, 0.1, 0.1]), material, 1000.0);
     if clamped {
-        spec.fixed = FixedSelection {
-            rules: vec![AxisRule {
-                axis: 0,
-                side: Side::Min,
-                tolerance: 1e-9,
-            }],
-            ..Default::default()
-        };
+        spec.fixed = clamped_at_min_x();
     }
     if gravity {
         spec.gravity = Some(Vector3::new(0.0, -9.81, 0.0));
@@ -155,4 +148,16 @@ pub fn block_with_moving_anchor() -> Model {
         angular_speed: 40.0,
     }));
     model
+}
+
+/// The vertices at the smallest x fixed (a cantilever's clamp).
+pub fn clamped_at_min_x() -> FixedSelection {
+    FixedSelection {
+        rules: vec![AxisRule {
+            axis: 0,
+            side: Side::Min,
+            tolerance: 1e-9,
+        }],
+        ..Default::default()
+    }
 }
