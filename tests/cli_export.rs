@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{scene, softbench};
+use common::{scene, simulate, softbench};
 
 use common::TempDir;
 use std::path::Path;
@@ -37,18 +37,11 @@ fn times(out: &Path) -> Vec<(usize, f64)> {
 fn export_vtu_every_5_writes_frames_0_5_10_and_the_last_step_12() {
     let dir = TempDir::new("cli-export-vtu");
     let out = dir.path().join("out");
-    let result = softbench(&[
-        "simulate",
-        scene("cantilever.toml").to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--set",
-        "run.steps=12",
-        "--export",
-        "vtu",
-        "--every",
-        "5",
-    ]);
+    let result = simulate(
+        &scene("cantilever.toml"),
+        &out,
+        &["--set", "run.steps=12", "--export", "vtu", "--every", "5"],
+    );
     let stderr = String::from_utf8_lossy(&result.stderr);
     assert_eq!(result.status.code(), Some(0), "{stderr}");
     let frames = out.join("frames");
@@ -96,18 +89,11 @@ fn export_vtu_every_5_writes_frames_0_5_10_and_the_last_step_12() {
 fn export_obj_writes_the_boundary_surface_at_step_0_and_the_last_step() {
     let dir = TempDir::new("cli-export-obj");
     let out = dir.path().join("out");
-    let result = softbench(&[
-        "simulate",
-        scene("cantilever.toml").to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--set",
-        "run.steps=3",
-        "--export",
-        "obj",
-        "--every",
-        "10",
-    ]);
+    let result = simulate(
+        &scene("cantilever.toml"),
+        &out,
+        &["--set", "run.steps=3", "--export", "obj", "--every", "10"],
+    );
     assert_eq!(result.status.code(), Some(0));
     let frames = out.join("frames");
     assert_eq!(listing(&frames), ["frame_00000.obj", "frame_00003.obj"]);
@@ -134,18 +120,11 @@ fn export_obj_with_a_display_section_writes_the_skinned_armadillo() {
         "the shipped scene names its display mesh"
     );
     let out = dir.path().join("out");
-    let result = softbench(&[
-        "simulate",
-        scene_file.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--set",
-        "run.steps=4",
-        "--export",
-        "obj",
-        "--every",
-        "2",
-    ]);
+    let result = simulate(
+        &scene_file,
+        &out,
+        &["--set", "run.steps=4", "--export", "obj", "--every", "2"],
+    );
     let stderr = String::from_utf8_lossy(&result.stderr);
     assert_eq!(result.status.code(), Some(0), "{stderr}");
     let frames = out.join("frames");
@@ -176,14 +155,7 @@ fn export_obj_with_a_display_section_writes_the_skinned_armadillo() {
 fn a_bad_export_format_is_bad_input_and_nothing_is_written() {
     let dir = TempDir::new("cli-export-bad");
     let out = dir.path().join("out");
-    let result = softbench(&[
-        "simulate",
-        scene("cantilever.toml").to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--export",
-        "vtk",
-    ]);
+    let result = simulate(&scene("cantilever.toml"), &out, &["--export", "vtk"]);
     assert_eq!(result.status.code(), Some(2));
     let stderr = String::from_utf8_lossy(&result.stderr);
     assert!(
@@ -227,14 +199,7 @@ fn a_missing_display_mesh_is_bad_input_when_exporting_obj() {
         &format!("{text}\n[display]\nfile = \"no-such-display.obj\"\n"),
     );
     let out = dir.path().join("out");
-    let result = softbench(&[
-        "simulate",
-        scene_file.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--export",
-        "obj",
-    ]);
+    let result = simulate(&scene_file, &out, &["--export", "obj"]);
     let stderr = String::from_utf8_lossy(&result.stderr);
     assert_eq!(result.status.code(), Some(2), "{stderr}");
     assert!(

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{scene, softbench};
+use common::{scene, simulate, softbench};
 
 use common::TempDir;
 use std::path::Path;
@@ -138,16 +138,16 @@ fn explicit_methods_blow_up_on_the_armadillo_at_the_course_step_and_say_why() {
     }
     let dir = TempDir::new("simulate-blowup");
     let out = dir.path().join("out");
-    let result = softbench(&[
-        "simulate",
-        scene("armadillo.toml").to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--set",
-        "integrator.method=symplectic-euler",
-        "--set",
-        "run.steps=50",
-    ]);
+    let result = simulate(
+        &scene("armadillo.toml"),
+        &out,
+        &[
+            "--set",
+            "integrator.method=symplectic-euler",
+            "--set",
+            "run.steps=50",
+        ],
+    );
     assert_eq!(result.status.code(), Some(1));
     let stderr = String::from_utf8_lossy(&result.stderr);
     assert!(stderr.contains("failed at step"), "{stderr}");
@@ -157,14 +157,11 @@ fn explicit_methods_blow_up_on_the_armadillo_at_the_course_step_and_say_why() {
 fn unknown_method_is_bad_input_with_a_suggestion_and_nothing_is_written() {
     let dir = TempDir::new("simulate-bad-method");
     let out = dir.path().join("out");
-    let result = softbench(&[
-        "simulate",
-        scene("cantilever.toml").to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--set",
-        "integrator.method=rk5",
-    ]);
+    let result = simulate(
+        &scene("cantilever.toml"),
+        &out,
+        &["--set", "integrator.method=rk5"],
+    );
     assert_eq!(result.status.code(), Some(2));
     let stderr = String::from_utf8_lossy(&result.stderr);
     assert!(
@@ -182,12 +179,7 @@ fn unknown_key_names_the_file_and_line_and_the_valid_keys() {
         "[mesh]\ngenerate = { box = [1, 1, 1], size = [1.0, 1.0, 1.0] }\n\n[run]\ndt = 0.01\nstep = 10\n",
     );
     let out = dir.path().join("out");
-    let result = softbench(&[
-        "simulate",
-        file.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let result = simulate(&file, &out, &[]);
     assert_eq!(result.status.code(), Some(2));
     let stderr = String::from_utf8_lossy(&result.stderr);
     assert!(
@@ -221,12 +213,7 @@ fn invalid_values_and_missing_meshes_are_bad_input() {
     for (i, (text, needle)) in cases.iter().enumerate() {
         let file = dir.write(&format!("scene{i}.toml"), text);
         let out = dir.path().join(format!("out{i}"));
-        let result = softbench(&[
-            "simulate",
-            file.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-        ]);
+        let result = simulate(&file, &out, &[]);
         let stderr = String::from_utf8_lossy(&result.stderr);
         assert_eq!(result.status.code(), Some(2), "case {i}: {stderr}");
         assert!(
@@ -241,20 +228,20 @@ fn invalid_values_and_missing_meshes_are_bad_input() {
 fn set_overrides_reach_the_run() {
     let dir = TempDir::new("simulate-set");
     let out = dir.path().join("out");
-    let result = softbench(&[
-        "simulate",
-        scene("cantilever.toml").to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--set",
-        "integrator.method=implicit-midpoint",
-        "--set",
-        "run.dt=5e-3",
-        "--set",
-        "run.steps=4",
-        "--set",
-        "run.sample_every=2",
-    ]);
+    let result = simulate(
+        &scene("cantilever.toml"),
+        &out,
+        &[
+            "--set",
+            "integrator.method=implicit-midpoint",
+            "--set",
+            "run.dt=5e-3",
+            "--set",
+            "run.steps=4",
+            "--set",
+            "run.sample_every=2",
+        ],
+    );
     assert_eq!(
         result.status.code(),
         Some(0),
@@ -336,14 +323,7 @@ fn every_shipped_scene_runs_a_few_steps() {
     for path in scenes {
         let name = path.file_stem().unwrap().to_string_lossy().into_owned();
         let out = dir.path().join(&name);
-        let result = softbench(&[
-            "simulate",
-            path.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-            "--set",
-            "run.steps=3",
-        ]);
+        let result = simulate(&path, &out, &["--set", "run.steps=3"]);
         let stderr = String::from_utf8_lossy(&result.stderr);
         if !data_set && result.status.code() == Some(2) && stderr.contains("SOFTBENCH_DATA") {
             use std::io::Write;
@@ -361,16 +341,16 @@ fn every_shipped_scene_runs_a_few_steps() {
 fn constrained_contact_with_damping_is_refused_not_silently_undamped() {
     let dir = TempDir::new("simulate-constrained-damping");
     let out = dir.path().join("out");
-    let result = softbench(&[
-        "simulate",
-        scene("ball-drop.toml").to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--set",
-        "contact.response=constrained",
-        "--set",
-        "damping.strain_rate={ phi = 1.0, psi = 1.0 }",
-    ]);
+    let result = simulate(
+        &scene("ball-drop.toml"),
+        &out,
+        &[
+            "--set",
+            "contact.response=constrained",
+            "--set",
+            "damping.strain_rate={ phi = 1.0, psi = 1.0 }",
+        ],
+    );
     let stderr = String::from_utf8_lossy(&result.stderr);
     assert_eq!(result.status.code(), Some(2), "{stderr}");
     assert!(

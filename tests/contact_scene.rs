@@ -4,13 +4,12 @@
 
 mod common;
 
-use common::TempDir;
+use common::{TempDir, simulate};
 use softbench::contact::{ContactResponse, ObstacleKind, query_count};
 use softbench::data::DataPaths;
 use softbench::parallel::Parallelism;
 use softbench::scene::{self, LoadedScene, Scene, SceneError};
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 const BODY: &str = r#"
 [mesh]
@@ -259,13 +258,6 @@ fn scene_without_obstacles_runs_no_contact_code() {
     }
 }
 
-fn softbench(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_softbench"))
-        .args(args)
-        .output()
-        .expect("cannot run softbench")
-}
-
 /// The shipped ball-drop scene with each response (a coarser ball, starting on the ground;
 /// projection and velocity-flip at 0.1 ms, which they need): exit 0, the contact columns at the
 /// end of each row, contacts reported, QPs only for the constrained response.
@@ -280,22 +272,22 @@ fn simulate_ball_drop_reports_contacts_with_every_response() {
             ContactResponse::Projection | ContactResponse::VelocityFlip => "run.dt=1e-4",
             _ => "run.dt=5e-3",
         };
-        let result = softbench(&[
-            "simulate",
-            scene.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-            "--set",
-            &set_response,
-            "--set",
-            "mesh.generate.ball=2",
-            "--set",
-            "mesh.generate.origin=[0.0, 0.1, 0.0]",
-            "--set",
-            "run.steps=20",
-            "--set",
-            dt,
-        ]);
+        let result = simulate(
+            &scene,
+            &out,
+            &[
+                "--set",
+                &set_response,
+                "--set",
+                "mesh.generate.ball=2",
+                "--set",
+                "mesh.generate.origin=[0.0, 0.1, 0.0]",
+                "--set",
+                "run.steps=20",
+                "--set",
+                dt,
+            ],
+        );
         let stderr = String::from_utf8_lossy(&result.stderr);
         assert_eq!(result.status.code(), Some(0), "{response}: {stderr}");
         let csv = std::fs::read_to_string(out.join("trajectory.csv")).unwrap();

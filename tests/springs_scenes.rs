@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{scene, softbench};
+use common::{scene, simulate};
 
 use common::TempDir;
 use softbench::scene::{self, SceneError};
@@ -12,7 +12,7 @@ use std::path::Path;
 
 /// Run a shipped scene for `steps` steps with `extra` overrides; return the exit code, the
 /// summary and stderr.
-fn simulate(
+fn run_scene(
     name: &str,
     steps: usize,
     extra: &[&str],
@@ -20,19 +20,11 @@ fn simulate(
 ) -> (i32, serde_json::Value, String) {
     let out = dir.path().join(format!("{name}-{}", extra.join("-")));
     let steps = format!("run.steps={steps}");
-    let file = scene(name);
-    let mut args = vec![
-        "simulate",
-        file.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--set",
-        &steps,
-    ];
+    let mut args = vec!["--set", steps.as_str()];
     for e in extra {
         args.extend(["--set", e]);
     }
-    let result = softbench(&args);
+    let result = simulate(&scene(name), &out, &args);
     let stderr = String::from_utf8_lossy(&result.stderr).into_owned();
     let code = result.status.code().expect("killed by a signal");
     let summary = std::fs::read_to_string(out.join("summary.json"))
@@ -51,7 +43,7 @@ fn the_jello_scenes_run_a_few_steps_and_fall() {
             "implicit-midpoint",
         ] {
             let set = format!("integrator.method={method}");
-            let (code, summary, stderr) = simulate(name, 5, &[&set], &dir);
+            let (code, summary, stderr) = run_scene(name, 5, &[&set], &dir);
             assert_eq!(code, 0, "{name} {method}: {stderr}");
             let s = &summary["summary"];
             assert_eq!(s["steps_completed"], 5, "{name} {method}");
@@ -95,7 +87,7 @@ fn the_spring_bunny_runs_with_the_course_parameters() {
         return;
     }
     let dir = TempDir::new("springs-bunny");
-    let (code, summary, stderr) = simulate("spring_bunny.toml", 5, &[], &dir);
+    let (code, summary, stderr) = run_scene("spring_bunny.toml", 5, &[], &dir);
     assert_eq!(code, 0, "{stderr}");
     let s = &summary["summary"];
     assert_eq!(s["method"], "linearly-implicit-euler");
@@ -113,7 +105,7 @@ fn the_dragged_armadillo_runs_with_backward_euler_and_linearly_implicit_euler_ex
         return;
     }
     let dir = TempDir::new("springs-armadillo");
-    let (code, summary, stderr) = simulate("armadillo_drag.toml", 5, &[], &dir);
+    let (code, summary, stderr) = run_scene("armadillo_drag.toml", 5, &[], &dir);
     assert_eq!(code, 0, "{stderr}");
     let e = &summary["summary"]["final_energy"];
     assert!(
@@ -125,7 +117,7 @@ fn the_dragged_armadillo_runs_with_backward_euler_and_linearly_implicit_euler_ex
         "the drag springs are stretched: {e}"
     );
     // The scene's comment says so: the one-step yank inverts a tet at step 2.
-    let (code, summary, stderr) = simulate(
+    let (code, summary, stderr) = run_scene(
         "armadillo_drag.toml",
         5,
         &["integrator.method=linearly-implicit-euler"],
@@ -270,12 +262,7 @@ fn a_drag_on_fixed_vertices_only_is_an_error_at_build() {
         ),
     );
     let out = dir.path().join("out");
-    let result = softbench(&[
-        "simulate",
-        file.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let result = simulate(&file, &out, &[]);
     let stderr = String::from_utf8_lossy(&result.stderr);
     assert_eq!(result.status.code(), Some(2), "{stderr}");
     assert!(

@@ -318,9 +318,7 @@ fn resolve_run(
         Err(error) => {
             // Find the assignment at fault: the first that fails on its own.
             for (key, value, line) in &assignments {
-                if configure(source, &[(key, value, *line)], file, false).is_err() {
-                    let e = configure(source, &[(key, value, *line)], file, false)
-                        .expect_err("failed just above");
+                if let Err(e) = configure(source, &[(key, value, *line)], file, false) {
                     return Err(StudyError::Scene {
                         path: ctx.path.to_owned(),
                         line: *line,

@@ -21,8 +21,8 @@ pub struct Measured {
     pub cells: Vec<(&'static str, String)>,
     /// The per-step series for `series/<run-id>.csv`.
     pub series: Vec<Sample>,
-    /// Extra rows for `series/<run-id>-trials.csv` (stability trials), with their header.
-    pub trials: Option<(Vec<&'static str>, Vec<Vec<String>>)>,
+    /// The table of `series/<run-id>-trials.csv` (stability trials).
+    pub trials: Option<super::table::Table>,
 }
 
 impl Measured {
@@ -41,6 +41,12 @@ impl Measured {
             .find(|(n, _)| *n == name)
             .map(|(_, v)| v.as_str())
     }
+}
+
+/// Whether a status cell means the run ended as it should: `ok`, or stable over the whole
+/// stability bracket.
+pub fn is_clean(status: &str) -> bool {
+    status == "ok" || status.starts_with("stable at")
 }
 
 /// Causes that mean the method lost stability (rather than a solver giving up).

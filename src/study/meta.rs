@@ -96,16 +96,12 @@ impl Meta {
     }
 }
 
-pub(super) fn write_meta(
-    study: &Study,
-    options: &RunOptions,
-    machine: &Machine,
-    started: &str,
-    elapsed: Option<std::time::Duration>,
-) -> std::io::Result<()> {
-    let meta = Meta::of(study, options, machine, started, elapsed);
-    write_atomic(&options.dir.join("meta.json"), |w| {
-        serde_json::to_writer_pretty(&mut *w, &meta)?;
-        writeln!(w)
-    })
+impl Meta {
+    /// Write `meta.json` into `dir` (atomically).
+    pub(super) fn write(&self, dir: &std::path::Path) -> std::io::Result<()> {
+        write_atomic(&dir.join("meta.json"), |w| {
+            serde_json::to_writer_pretty(&mut *w, self)?;
+            writeln!(w)
+        })
+    }
 }

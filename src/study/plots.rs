@@ -22,12 +22,10 @@ pub struct Plot {
 pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>, plot::PlotError> {
     let mut plots = Vec::new();
     let scenes = scenes(runs);
+    // The swept parameters' columns, which distinguish runs of one method in labels.
+    let params = &study.parameters;
     let mut emit = |stem: String, caption: &str, chart: Chart| -> Result<(), plot::PlotError> {
-        let title = match &chart {
-            Chart::Line(c) => c.title.clone(),
-            Chart::Bar(c) => c.title.clone(),
-            Chart::Stacked(c) => c.title.clone(),
-        };
+        let title = chart.title().to_owned();
         plot::draw(&chart, &dir.join(&stem))?;
         plots.push(Plot {
             stem,
@@ -73,7 +71,7 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
                     "Largest stable time step per method (log scale); the line is the explicit \
                      limit 2/omega_max of the scene at rest. Bars marked >= dt_max were stable \
                      over the whole bracket.",
-                    Chart::Bar(stable_dt_chart(scene, runs, &rows)),
+                    Chart::Bar(stable_dt_chart(scene, runs, params, &rows)),
                 )?;
             }
             StudyKind::WorkPrecision => {
@@ -88,7 +86,7 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
                             "Position error against the reference versus {x_label} (log-log), \
                              one line per method; unscored and failed runs are left out."
                         ),
-                        Chart::Line(work_precision_chart(scene, runs, &rows, x, x_label)),
+                        Chart::Line(work_precision_chart(scene, runs, params, &rows, x, x_label)),
                     )?;
                 }
             }
@@ -99,7 +97,7 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
         // in accuracy.
         if study.kind != StudyKind::WorkPrecision {
             for (suffix, group) in by_time_step(study.kind, runs, &rows) {
-                let series = load_series(dir, runs, &group);
+                let series = load_series(dir, runs, params, &group);
                 let title = match suffix.strip_prefix('-') {
                     Some(dt) => format!("{scene}, {dt}"),
                     None => scene.clone(),
@@ -128,7 +126,7 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
             }
         }
         let phase_rows: Vec<&Vec<String>> = if study.kind == StudyKind::WorkPrecision {
-            smallest_dt_rows(runs, &rows)
+            smallest_dt_rows(runs, params, &rows)
         } else {
             rows.clone()
         };
@@ -136,7 +134,7 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
             format!("phases-{slug}"),
             "Mean wall time per step split by phase (assembly of forces/Hessians, \
              factorization, solves, contact QPs, everything else).",
-            Chart::Stacked(phase_chart(scene, study.kind, runs, &phase_rows)),
+            Chart::Stacked(phase_chart(scene, study.kind, runs, params, &phase_rows)),
         )?;
     }
     remove_stale(dir, &plots);
@@ -188,7 +186,7 @@ fn slug(s: &str) -> String {
 }
 
 /// "method / solver" plus any other swept parameter except `skip`.
-fn label(runs: &Table, row: &[String], skip: &[&str]) -> String {
+fn label(runs: &Table, params: &[String], row: &[String], skip: &[&str]) -> String {
     let mut label = runs.get(row, "method").unwrap_or("?").to_owned();
     if let Some(solver) = runs
         .get(row, "linear_solver")
@@ -197,22 +195,21 @@ fn label(runs: &Table, row: &[String], skip: &[&str]) -> String {
         label.push_str(" / ");
         label.push_str(solver);
     }
-    let start = 4;
-    let end = runs
-        .column("dt")
-        .or_else(|| runs.column("status"))
-        .unwrap_or(start);
-    for (name, value) in runs.header.iter().zip(row).take(end).skip(start) {
-        if skip.contains(&name.as_str()) || value.is_empty() {
-            continue;
+    for name in params.iter().filter(|p| !skip.contains(&p.as_str())) {
+        if let Some(value) = runs.get(row, name).filter(|v| !v.is_empty()) {
+            let short = name.rsplit('.').next().unwrap_or(name);
+            label.push_str(&format!(" {short}={value}"));
         }
-        let short = name.rsplit('.').next().unwrap_or(name);
-        label.push_str(&format!(" {short}={value}"));
     }
     label
 }
 
-fn stable_dt_chart(scene: &str, runs: &Table, rows: &[&Vec<String>]) -> BarChart {
+fn stable_dt_chart(
+    scene: &str,
+    runs: &Table,
+    params: &[String],
+    rows: &[&Vec<String>],
+) -> BarChart {
     let theory = rows.iter().find_map(|r| runs.number(r, "dt_theory"));
     BarChart {
         title: format!("Largest stable time step: {scene}"),
@@ -223,7 +220,7 @@ fn stable_dt_chart(scene: &str, runs: &Table, rows: &[&Vec<String>]) -> BarChart
             .map(|r| {
                 let value = runs.number(r, "max_stable_dt");
                 let status = runs.get(r, "status").unwrap_or_default();
-                let mut label = label(runs, r, &[]);
+                let mut label = label(runs, params, r, &[]);
                 if status.starts_with("stable at") {
                     // The bar is the top of the bracket, not a limit that was found.
                     label.push_str(" (>= dt_max)");
@@ -251,6 +248,7 @@ fn stable_dt_chart(scene: &str, runs: &Table, rows: &[&Vec<String>]) -> BarChart
 fn work_precision_chart(
     scene: &str,
     runs: &Table,
+    params: &[String],
     rows: &[&Vec<String>],
     x: &str,
     x_label: &str,
@@ -269,7 +267,7 @@ fn work_precision_chart(
         };
         if let Some(xv) = xv {
             lines
-                .entry(label(runs, r, &ACCURACY_KNOBS))
+                .entry(label(runs, params, r, &ACCURACY_KNOBS))
                 .or_default()
                 .push((xv, error));
         }
@@ -296,13 +294,18 @@ struct RunSeries {
     table: Table,
 }
 
-fn load_series(dir: &Path, runs: &Table, rows: &[&Vec<String>]) -> Vec<RunSeries> {
+fn load_series(
+    dir: &Path,
+    runs: &Table,
+    params: &[String],
+    rows: &[&Vec<String>],
+) -> Vec<RunSeries> {
     rows.iter()
         .filter_map(|r| {
             let id = runs.get(r, "run_id")?;
             let path = dir.join("series").join(format!("{id}.csv"));
             let table = Table::read(&path).ok().flatten()?;
-            let mut label = label(runs, r, &[]);
+            let mut label = label(runs, params, r, &[]);
             if let Some(dt) = runs.get(r, "dt").or_else(|| runs.get(r, "max_stable_dt"))
                 && !dt.is_empty()
             {
@@ -430,10 +433,14 @@ fn by_time_step<'a>(
 }
 
 /// For work-precision: each line's run at its smallest dt.
-fn smallest_dt_rows<'a>(runs: &Table, rows: &[&'a Vec<String>]) -> Vec<&'a Vec<String>> {
+fn smallest_dt_rows<'a>(
+    runs: &Table,
+    params: &[String],
+    rows: &[&'a Vec<String>],
+) -> Vec<&'a Vec<String>> {
     let mut best: BTreeMap<String, &'a Vec<String>> = BTreeMap::new();
     for r in rows {
-        let key = label(runs, r, &ACCURACY_KNOBS);
+        let key = label(runs, params, r, &ACCURACY_KNOBS);
         let dt = runs.number(r, "dt").unwrap_or(f64::INFINITY);
         if best
             .get(&key)
@@ -452,6 +459,7 @@ fn phase_chart(
     scene: &str,
     kind: StudyKind,
     runs: &Table,
+    params: &[String],
     rows: &[&Vec<String>],
 ) -> StackedBarChart {
     let parts = [
@@ -475,7 +483,7 @@ fn phase_chart(
         let (true, Some(wall)) = (steps > 0.0, wall) else {
             continue;
         };
-        let mut label = label(runs, r, &[]);
+        let mut label = label(runs, params, r, &[]);
         if kind == StudyKind::Stability
             && let Some(dt) = runs.number(r, "max_stable_dt")
         {
@@ -520,6 +528,7 @@ fn sweep_charts(study: &StudyMeta, runs: &Table, metric: &str) -> Vec<LineChart>
     let Some(parameter) = study.sweep_parameter.as_deref() else {
         return Vec::new();
     };
+    let params = &study.parameters;
     let mut lines: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
     let mut theory: Vec<(f64, f64)> = Vec::new();
     let several_scenes = scenes(runs).len() > 1;
@@ -527,7 +536,7 @@ fn sweep_charts(study: &StudyMeta, runs: &Table, metric: &str) -> Vec<LineChart>
         let (Some(x), Some(y)) = (runs.number(r, parameter), runs.number(r, metric)) else {
             continue;
         };
-        let mut key = label(runs, r, &[parameter]);
+        let mut key = label(runs, params, r, &[parameter]);
         if several_scenes {
             key = format!("{}: {key}", runs.get(r, "scene").unwrap_or_default());
         }

@@ -54,10 +54,6 @@ impl Progress {
     }
 
     pub(super) fn line(&self, text: &str) {
-        if let Ok(mut running) = self.running.lock() {
-            // Shared-work messages ("reference for …") are done once a line reports them.
-            running.retain(|r| !r.starts_with("reference for") && !r.starts_with("highest mode"));
-        }
         match &self.bar {
             Some(bar) => bar.println(text),
             None if self.enabled => eprintln!("{text}"),

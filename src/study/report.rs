@@ -183,7 +183,7 @@ fn render(
         let status = runs.get(row, "status").unwrap_or_default();
         let message = runs.get(row, "message").unwrap_or_default();
         let unstable_cause = runs.get(row, "unstable_cause").unwrap_or_default();
-        let bad = status != "ok" && !status.starts_with("stable at");
+        let bad = !super::measured::is_clean(status);
         let unscored = runs.get(row, "scored") == Some("no") && status == "ok";
         if bad || unscored {
             any = true;

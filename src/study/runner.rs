@@ -7,8 +7,8 @@ use super::format::now_utc;
 use super::identity::value_text;
 use super::load::{RunSpec, Study};
 use super::machine::Machine;
-use super::measured::Measured;
-use super::meta::{Meta, write_meta};
+use super::measured::{Measured, is_clean};
+use super::meta::Meta;
 use super::progress::Progress;
 use super::table::Table;
 use super::work_precision::Reference;
@@ -18,7 +18,6 @@ use crate::parallel::Parallelism;
 use crate::report::write_atomic;
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
 
 /// How to run a study.
 #[derive(Clone, Debug)]
@@ -62,8 +61,6 @@ pub struct StudyRun {
     pub skipped: usize,
     /// Runs whose status is not ok.
     pub not_ok: Vec<(String, String)>,
-    /// Files written, relative to `dir`.
-    pub files: Vec<String>,
 }
 
 /// The identity columns of every `runs.csv`.
@@ -154,7 +151,9 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
     let pending: Vec<&RunSpec> = selected.iter().copied().filter(|r| !done(r)).collect();
     let reused = selected.len() - pending.len();
     let machine = Machine::current();
-    write_meta(study, options, &machine, &started, None).map_err(io(&dir.join("meta.json")))?;
+    Meta::of(study, options, &machine, &started, None)
+        .write(dir)
+        .map_err(io(&dir.join("meta.json")))?;
 
     let progress = Progress::new(options.progress, pending.len() as u64);
     if reused > 0 {
@@ -235,11 +234,10 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
     table.write(&runs_path).map_err(io(&runs_path))?;
     for row in &table.rows {
         let status = table.get(row, "status").unwrap_or_default();
-        if status != "ok" && !status.starts_with("stable at") {
+        if !is_clean(status) {
             not_ok.push((row[0].clone(), status.to_owned()));
         }
     }
-    let mut files = vec!["runs.csv".to_owned(), "meta.json".to_owned()];
     let meta = Meta::of(study, options, &machine, &started, Some(clock.elapsed()));
     let plots = super::plots::draw_all(dir, &meta.study, &table)
         .map_err(|e| RunError::Run(format!("cannot draw the plots: {e}")))?;
@@ -253,21 +251,13 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
         &shared.references,
     )
     .map_err(io(&dir.join("report.md")))?;
-    files.push("report.md".into());
-    files.extend(
-        plots
-            .iter()
-            .flat_map(|p| [format!("{}.png", p.stem), format!("{}.svg", p.stem)]),
-    );
-    write_meta(study, options, &machine, &started, Some(clock.elapsed()))
-        .map_err(io(&dir.join("meta.json")))?;
+    meta.write(dir).map_err(io(&dir.join("meta.json")))?;
     Ok(StudyRun {
         dir: dir.clone(),
         ran: pending.len(),
         reused,
         skipped: study.runs.len() - selected.len(),
         not_ok,
-        files,
     })
 }
 
@@ -289,7 +279,7 @@ fn summary_line(kind: StudyKind, m: &Measured) -> String {
 /// What runs share, computed once before they start: the highest mode of each scene (for
 /// stability studies and the default reference method) and the reference solutions.
 struct Shared {
-    omega: Mutex<HashMap<u64, Option<f64>>>,
+    omega: HashMap<u64, Option<f64>>,
     /// Reference solution by physics.
     references: BTreeMap<u64, (String, Reference)>,
 }
@@ -311,12 +301,14 @@ impl Shared {
                     .is_some_and(|w| w.reference.method.is_none()));
         for spec in pending {
             if needs_omega && !omega.contains_key(&spec.physics) {
-                progress.start(&format!("highest mode of {}", spec.scene));
+                let task = format!("highest mode of {}", spec.scene);
+                progress.start(&task);
                 let value = super::measured::build(spec, parallelism)
                     .map_err(|e| e.to_string())
                     .and_then(|mut scene| stability::explicit_limit(&mut scene))
                     .map(|m| m.omega)
                     .ok();
+                progress.finish(&task);
                 omega.insert(spec.physics, value);
             }
         }
@@ -343,13 +335,15 @@ impl Shared {
                         _ => Method::ImplicitMidpoint,
                     }
                 });
-                progress.start(&format!(
+                let task = format!(
                     "reference for {}: {} at dt = {dt:e} s and dt/2",
                     spec.scene,
                     method.name()
-                ));
+                );
+                progress.start(&task);
                 let reference = work_precision::reference(spec, w, method, dt, parallelism)
                     .map_err(|m| RunError::Run(format!("scene {}: {m}", spec.scene)))?;
+                progress.finish(&task);
                 progress.line(&format!(
                     "reference for {}: {} at dt = {:e} s, {:.3e} from the one at twice its step ({:.1} s)",
                     spec.scene,
@@ -361,10 +355,7 @@ impl Shared {
                 references.insert(spec.physics, (spec.scene.clone(), reference));
             }
         }
-        Ok(Self {
-            omega: Mutex::new(omega),
-            references,
-        })
+        Ok(Self { omega, references })
     }
 }
 
@@ -376,10 +367,7 @@ fn measure(
 ) -> Result<Measured, String> {
     match study.kind {
         StudyKind::Stability => {
-            let omega = shared
-                .omega
-                .lock()
-                .map_or(None, |m| m.get(&spec.physics).copied().flatten());
+            let omega = shared.omega.get(&spec.physics).copied().flatten();
             let settings = study.file.stability.as_ref().expect("checked at load");
             stability::measure(spec, settings, omega, parallelism)
         }
@@ -418,14 +406,11 @@ fn record(
         path: series.clone(),
         error,
     })?;
-    if let Some((trial_header, trials)) = &m.trials {
+    if let Some(trials) = &m.trials {
         let path = dir.join("series").join(format!("{}-trials.csv", spec.id));
-        Table {
-            header: trial_header.iter().map(|s| (*s).to_owned()).collect(),
-            rows: trials.clone(),
-        }
-        .write(&path)
-        .map_err(|error| RunError::Io { path, error })?;
+        trials
+            .write(&path)
+            .map_err(|error| RunError::Io { path, error })?;
     }
     let params: HashMap<String, String> = parameter_columns(study)
         .into_iter()

@@ -12,6 +12,7 @@ use super::config::StabilitySettings;
 use super::format::{cell, short};
 use super::load::RunSpec;
 use super::measured::{Measured, build, run_rows, status_of, summary_cells};
+use super::table::Table;
 use crate::experiment::{Outcome, RunSummary, Sample};
 use crate::model::{HighestMode, SpectrumSettings, highest_mode};
 use crate::parallel::Parallelism;
@@ -174,9 +175,10 @@ pub fn measure(
     m.set("trials", trials.len().to_string());
     let total: f64 = trials.iter().map(|t| t.summary.totals.times.total).sum();
     m.set("trials_wall_seconds", cell(Some(total)));
-    m.trials = Some((
-        vec!["dt", "steps", "horizon", "stable", "status", "message"],
-        trials
+    let header = ["dt", "steps", "horizon", "stable", "status", "message"];
+    m.trials = Some(Table {
+        header: header.map(str::to_owned).to_vec(),
+        rows: trials
             .iter()
             .map(|t| {
                 let (status, message) = status_of(&t.summary.outcome);
@@ -190,6 +192,6 @@ pub fn measure(
                 ]
             })
             .collect(),
-    ));
+    });
     Ok(m)
 }

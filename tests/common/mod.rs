@@ -89,6 +89,18 @@ pub fn softbench(args: &[&str]) -> std::process::Output {
         .expect("cannot run softbench")
 }
 
+/// `softbench simulate <scene> --out <out> [extra...]`.
+pub fn simulate(scene: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
+    let mut args = vec![
+        "simulate",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    softbench(&args)
+}
+
 /// `softbench run <study> --out <out> [extra...]`.
 pub fn run_study(study: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
     let mut args = vec![
