@@ -123,14 +123,24 @@ fn an_unstable_lower_bound_widens_the_bracket_downward() {
     let limit = 2.0 / particle_omega();
     // dt_min = 0.1 is above the limit (0.0367 s): the search widens to 0.01 and finds it.
     let (runs, row) = particle_stability("dt_min = 0.1\ndt_max = 1.0\ndt_floor = 1e-3");
-    assert_eq!(runs.get(&row, "status"), Some("ok"));
+    assert_eq!(runs.get(&row, "stability"), Some("limit-found"));
     let found = runs.number(&row, "max_stable_dt").unwrap();
     assert!((found / limit - 1.0).abs() < 0.01, "{found} vs {limit}");
-    // With the floor above the limit, no stable dt exists in range, and the report says so.
+    // With the floor above the limit, every step in range gains energy, and the row says so
+    // with the range and the growth rate.
     let (runs, row) = particle_stability("dt_min = 0.1\ndt_max = 1.0\ndt_floor = 0.05");
-    assert_eq!(runs.get(&row, "status"), Some("no stable dt in [0.05, 1]"));
+    assert_eq!(runs.get(&row, "stability"), Some("unstable-at-every-dt"));
+    assert_eq!(runs.get(&row, "outcome"), Some("unstable"));
     assert_eq!(runs.get(&row, "max_stable_dt"), Some(""));
-    assert!(!runs.get(&row, "unstable_cause").unwrap().is_empty());
+    assert_eq!(runs.number(&row, "lowest_dt"), Some(0.05));
+    assert!(runs.number(&row, "energy_growth_rate").unwrap() > 0.0);
+    assert!(
+        runs.get(&row, "message")
+            .unwrap()
+            .starts_with("unstable-at-every-dt in [0.05, 1] s"),
+        "{:?}",
+        runs.get(&row, "message")
+    );
 }
 
 #[test]

@@ -41,8 +41,11 @@ fn assert_complete(dir: &Path, required_columns: &[&str]) -> Table {
         let id = &row[0];
         let series = dir.join("series").join(format!("{id}.csv"));
         assert!(series.is_file(), "missing {}", series.display());
-        let status = runs.get(row, "status").unwrap();
-        assert!(!status.is_empty(), "{id}: empty status");
+        let outcome = runs.get(row, "outcome").unwrap();
+        assert!(
+            softbench::experiment::OutcomeKind::from_name(outcome).is_some(),
+            "{id}: outcome `{outcome}` is not in the vocabulary"
+        );
     }
     let meta: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("meta.json")).unwrap()).unwrap();
@@ -100,7 +103,8 @@ fn quickstart_quick_writes_every_output() {
     let mut columns = IDENTITY.to_vec();
     columns.extend([
         "dt",
-        "status",
+        "outcome",
+        "newton_unconverged_steps",
         "energy_drift_max",
         "energy_drift_final",
         "momentum_drift",
@@ -149,7 +153,7 @@ fn parallel_jobs_give_the_same_numbers() {
     // Everything but wall times is bitwise the same, in the same order.
     let deterministic = [
         "run_id",
-        "status",
+        "outcome",
         "energy_drift_max",
         "energy_drift_final",
         "steps",
@@ -193,11 +197,11 @@ fn energy_drift_quick_writes_every_output() {
     let tmp = TempDir::new("study-drift");
     run_quick("energy_drift.toml", tmp.path());
     let mut columns = IDENTITY.to_vec();
-    columns.extend(["dt", "status", "energy_drift_max", "momentum_drift"]);
+    columns.extend(["dt", "outcome", "energy_drift_max", "momentum_drift"]);
     let runs = assert_complete(&tmp.path().join("energy_drift"), &columns);
     // Free bodies: every method that finished conserves linear momentum to round-off.
     for row in &runs.rows {
-        if runs.get(row, "status") == Some("ok") {
+        if runs.get(row, "outcome") == Some("completed") {
             let drift = runs
                 .number(row, "momentum_drift")
                 .expect("free body: momentum reported");
@@ -213,7 +217,8 @@ fn stiffness_sweep_quick_writes_every_output() {
     let mut columns = IDENTITY.to_vec();
     columns.extend([
         "material.youngs_modulus",
-        "status",
+        "stability",
+        "outcome",
         "max_stable_dt",
         "omega_max",
         "dt_theory",
@@ -231,7 +236,19 @@ fn armadillo_stability_quick_writes_every_output() {
     let tmp = TempDir::new("study-arma");
     run_quick("armadillo_stability.toml", tmp.path());
     let mut columns = IDENTITY.to_vec();
-    columns.extend(["status", "max_stable_dt", "omega_max", "dt_theory"]);
+    columns.extend([
+        "stability",
+        "outcome",
+        "max_stable_dt",
+        "omega_max",
+        "dt_theory",
+        "cost_per_simulated_second",
+        "evaluations_per_simulated_second",
+        "error_at_stable_dt",
+        "newton_max_iterations",
+        "max_steps",
+        "min_steps",
+    ]);
     let runs = assert_complete(&tmp.path().join("armadillo_stability"), &columns);
     // The explicit limit of the course armadillo is a few microseconds.
     let theory = runs.number(&runs.rows[0], "dt_theory").unwrap();
@@ -248,8 +265,9 @@ fn work_precision_quick_writes_every_output() {
     let mut columns = IDENTITY.to_vec();
     columns.extend([
         "dt",
-        "status",
+        "outcome",
         "error",
+        "newton_unconverged_steps",
         "wall_seconds",
         "force_evaluations",
         "hessian_evaluations",

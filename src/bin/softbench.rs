@@ -12,7 +12,7 @@ use clap::{Args, Parser, Subcommand};
 use serde::Serialize;
 use softbench::contact::ContactResponse;
 use softbench::data::{DataError, DataPaths};
-use softbench::experiment::{self, Outcome};
+use softbench::experiment;
 use softbench::export::{DisplayError, ExportFormat, FrameContent, FrameWriter, load_display};
 use softbench::integrate::Method;
 use softbench::material::MaterialModel;
@@ -342,39 +342,45 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
     })
     .with_context(|| format!("cannot write {}", summary_path.display()))?;
 
-    match &summary.outcome {
-        Outcome::Completed => {
-            let frames_note = if frames_written > 0 {
-                format!(" ({frames_written} frames in {})", frames_dir.display())
-            } else {
-                String::new()
-            };
-            println!(
-                "{}: {} steps of {} with dt = {:e} s in {:.3} s; wrote {}{frames_note}",
-                built.name,
-                summary.steps_completed,
-                summary.method,
-                summary.dt,
-                summary.totals.times.total,
-                args.out.display()
-            );
-            Ok(ExitCode::SUCCESS)
-        }
-        Outcome::Failed {
-            step,
-            t,
-            cause,
-            message,
-        } => {
-            eprintln!(
-                "error: {} with {} failed at step {step} (t = {t:e} s): {cause}: {message}; \
-                 the {rows} rows written before it are in {}",
-                built.name,
-                summary.method,
-                trajectory_path.display()
-            );
-            Ok(ExitCode::FAILURE)
-        }
+    let outcome = &summary.outcome;
+    if outcome.is_completed() {
+        let frames_note = if frames_written > 0 {
+            format!(" ({frames_written} frames in {})", frames_dir.display())
+        } else {
+            String::new()
+        };
+        let unconverged = if summary.newton_unconverged_steps > 0 {
+            format!(
+                "; Newton stopped unconverged at its iteration cap in {} of {} steps",
+                summary.newton_unconverged_steps, summary.steps_completed
+            )
+        } else {
+            String::new()
+        };
+        println!(
+            "{}: completed {} steps of {} with dt = {:e} s in {:.3} s{unconverged}; wrote {}{frames_note}",
+            built.name,
+            summary.steps_completed,
+            summary.method,
+            summary.dt,
+            summary.totals.times.total,
+            args.out.display()
+        );
+        Ok(ExitCode::SUCCESS)
+    } else {
+        eprintln!(
+            "error: {} with {} ended {} at step {} (t = {:e} s): {}: {}; the {rows} rows written \
+             before it are in {}",
+            built.name,
+            summary.method,
+            outcome.status,
+            outcome.step.unwrap_or(0),
+            outcome.t.unwrap_or(0.0),
+            outcome.cause,
+            outcome.message,
+            trajectory_path.display()
+        );
+        Ok(ExitCode::FAILURE)
     }
 }
 

@@ -1,8 +1,13 @@
 //! Running a scene and measuring it: the run loop with blow-up detection ([`run`]), the
-//! sampled metrics ([`Sample`]) and the run's outcome ([`RunSummary`]).
+//! energy balance that decides a blow-up ([`balance`]), the sampled metrics ([`Sample`]) and
+//! the run's outcome ([`RunSummary`], [`Outcome`]).
 
+pub mod balance;
 mod metrics;
+mod outcome;
 mod run;
 
+pub use balance::{EnergyBalance, EnergyScale};
 pub use metrics::{Energies, Metrics};
-pub use run::{Observer, Outcome, RunSummary, Sample, run};
+pub use outcome::{Outcome, OutcomeKind};
+pub use run::{Observer, RunSummary, Sample, run};

@@ -1,14 +1,15 @@
 //! The run loop: step a scene, sample its state, and stop at the first sign of blow-up.
 //!
-//! A run fails at the first step that cannot be taken (non-finite state, inverted element,
-//! Newton or solver failure: see [`crate::integrate::StepError`]) or, at a sampled step, when
-//! the internal energy (kinetic + elastic + springs) exceeds `energy_limit` times its initial
-//! value plus the work done on the body since the start: by gravity, and by time-dependent
-//! potentials such as drag springs (`sum over steps of V(x_n, t_n+1) - V(x_n, t_n)`, the work of
-//! moving their targets). The rows written before are valid
-//! states; the [`Outcome`] says where and why the run ended.
+//! A run ends early at the first step that cannot be taken (non-finite state, inverted
+//! element, Newton or solver failure: see [`crate::integrate::StepError`]) or, after any step,
+//! when the energy balance fails ([`super::balance`]): the mechanical energy exceeds its
+//! initial value plus the work done on the body by more than `energy_limit` times the scene's
+//! energy scale. The rows written before are valid states; the [`Outcome`] says where and why
+//! the run ended, in the vocabulary of [`OutcomeKind`].
 
+use super::balance::{EnergyBalance, EnergyScale};
 use super::metrics::{Energies, Metrics};
+use super::outcome::{Outcome, OutcomeKind};
 use crate::integrate::{Integrator, State, StepReport};
 use crate::model::Model;
 use crate::scene::RunConfig;
@@ -72,6 +73,18 @@ pub struct Sample {
     pub qp_seconds: f64,
     /// Entries of the largest sparse factor built since the previous row (nnz(L)).
     pub factor_nnz: u64,
+    /// Steps since the previous row whose Newton solve stopped unconverged.
+    pub newton_unconverged_steps: u64,
+    /// Net work done on the body by time-dependent potentials since the start (J).
+    pub driven_work: f64,
+    /// Energy removed by damping since the start (J).
+    pub dissipated: f64,
+    /// The energy balance's excess `total - total(0) - driven_work + dissipated` (J): zero for
+    /// an exact method, growing without bound for an unstable one.
+    pub energy_excess: f64,
+    /// What the excess is compared with: the scene's energy scale plus the positive work done
+    /// so far (J).
+    pub energy_budget: f64,
 }
 
 /// What watches a run: every sampled row, and (optionally) the state after every step —
@@ -92,21 +105,6 @@ impl<F: FnMut(&Sample) -> std::io::Result<()>> Observer for F {
     }
 }
 
-/// How a run ended.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
-#[serde(tag = "status", rename_all = "lowercase")]
-pub enum Outcome {
-    /// Every step was taken.
-    Completed,
-    /// The run stopped at `step` (trying to reach time `t`).
-    Failed {
-        step: usize,
-        t: f64,
-        cause: String,
-        message: String,
-    },
-}
-
 /// What a run did, for `summary.json` and study tables.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct RunSummary {
@@ -123,6 +121,20 @@ pub struct RunSummary {
     pub energy_drift_max: f64,
     /// The same at the last sampled row.
     pub energy_drift_final: f64,
+    /// The scene's energy scale the balance is measured against (J).
+    pub energy_scale: EnergyScale,
+    /// The blow-up limit: the excess may reach this many budgets (0: off).
+    pub energy_limit: f64,
+    /// Largest excess over budget of any step (the blow-up check fires above `energy_limit`).
+    pub energy_excess_peak: f64,
+    /// How fast the excess grew (e-folding rate, 1/s) when the run ended `unstable` by energy
+    /// growth (see [`EnergyBalance::growth_rate`]).
+    pub energy_growth_rate: Option<f64>,
+    /// Net work of time-dependent potentials and energy removed by damping (J).
+    pub driven_work: f64,
+    pub dissipated: f64,
+    /// Steps whose Newton solve stopped unconverged at the iteration cap.
+    pub newton_unconverged_steps: u64,
     /// Median and 95th percentile of the wall time per step (s).
     pub step_seconds_median: f64,
     pub step_seconds_p95: f64,
@@ -142,6 +154,7 @@ fn percentile(sorted: &[f64], p: f64) -> f64 {
 struct RowWork<'a> {
     report: &'a StepReport,
     steps: u64,
+    unconverged_steps: u64,
     dt: f64,
     elapsed: f64,
 }
@@ -152,6 +165,7 @@ fn sample(
     energies: &Energies,
     (p, l): ([f64; 3], [f64; 3]),
     w: RowWork,
+    balance: &EnergyBalance,
 ) -> Sample {
     let work = w.report;
     Sample {
@@ -195,6 +209,11 @@ fn sample(
         qp_solves: work.qp_solves.into(),
         qp_seconds: work.times.qp,
         factor_nnz: work.factor_nnz as u64,
+        newton_unconverged_steps: w.unconverged_steps,
+        driven_work: balance.driven_work(),
+        dissipated: balance.dissipated(),
+        energy_excess: balance.excess(energies.total()),
+        energy_budget: balance.budget(),
     }
 }
 
@@ -207,9 +226,9 @@ fn add_work(acc: &mut StepReport, r: &StepReport) {
 }
 
 /// Run `config.steps` steps of `integrator` from `state`, giving the observer step 0 and
-/// every `config.sample_every` steps (and the last), and every state with `after_step`.
-/// Returns how the run ended; an error only when the observer fails (e.g. the output file
-/// cannot be written).
+/// every `config.sample_every` steps (and the last), and every state with `after_step`. The
+/// energy balance is checked after every step, sampled or not. Returns how the run ended; an
+/// error only when the observer fails (e.g. the output file cannot be written).
 pub fn run(
     model: &mut Model,
     integrator: &mut dyn Integrator,
@@ -226,39 +245,55 @@ pub fn run(
         steps_requested: config.steps,
         steps_completed: 0,
         final_time: state.t,
-        outcome: Outcome::Completed,
+        outcome: Outcome::completed(),
         initial_energy: Energies::default(),
         final_energy: None,
         energy_drift_max: 0.0,
         energy_drift_final: 0.0,
+        energy_scale: EnergyScale::default(),
+        energy_limit: config.energy_limit,
+        energy_excess_peak: 0.0,
+        energy_growth_rate: None,
+        driven_work: 0.0,
+        dissipated: 0.0,
+        newton_unconverged_steps: 0,
         step_seconds_median: 0.0,
         step_seconds_p95: 0.0,
         totals: StepReport::default(),
     };
+    let model_error = |step: usize, t: f64, e: crate::model::ModelError| {
+        Outcome::of_step_error(step, t, &crate::integrate::StepError::from(e))
+    };
     let initial = match metrics.energies(model, state) {
         Ok(e) => e,
         Err(e) => {
-            summary.outcome = Outcome::Failed {
-                step: 0,
-                t: state.t,
-                cause: "model error".into(),
-                message: e.to_string(),
-            };
+            summary.outcome = model_error(0, state.t, e);
             return Ok(summary);
         }
     };
     summary.initial_energy = initial;
+    let scale = match EnergyScale::of(model, &initial) {
+        Ok(s) => s,
+        Err(e) => {
+            summary.outcome = model_error(0, state.t, e);
+            return Ok(summary);
+        }
+    };
+    summary.energy_scale = scale;
+    let mut balance = EnergyBalance::new(model, &initial, scale, config.energy_limit);
     let mut since_row = StepReport::default();
     let mut steps_since_row = 0u64;
-    let mut step_seconds = Vec::with_capacity(config.steps);
+    let mut unconverged_since_row = 0u64;
+    let mut step_seconds = Vec::with_capacity(config.steps.min(1 << 20));
     let momenta = metrics.momenta(model, state);
     let no_work = RowWork {
         report: &StepReport::default(),
         steps: 0,
+        unconverged_steps: 0,
         dt,
         elapsed: 0.0,
     };
-    observer.sample(&sample(0, state, &initial, momenta, no_work))?;
+    observer.sample(&sample(0, state, &initial, momenta, no_work, &balance))?;
     observer.after_step(0, model, state)?;
 
     let drift_scale = |e: &Energies| {
@@ -266,89 +301,90 @@ pub fn run(
         let s = initial.internal() + work;
         if s > 0.0 { s } else { 1.0 }
     };
-    let time_dependent = !model.vertex_potentials().is_empty();
-    let mut driven_work = 0.0;
     for step in 1..=config.steps {
-        if time_dependent {
-            let before = model.vertex_energy_at(&state.q, state.t);
-            let after = model.vertex_energy_at(&state.q, state.t + dt);
-            if let (Ok(b), Ok(a)) = (before, after) {
-                driven_work += a - b;
-            }
-        }
+        balance.before_step(model, state, dt);
         match integrator.step(model, state, dt) {
             Ok(report) => {
                 step_seconds.push(report.times.total);
                 add_work(&mut since_row, &report);
                 add_work(&mut summary.totals, &report);
                 steps_since_row += 1;
+                if report.newton_unconverged > 0 {
+                    unconverged_since_row += 1;
+                    summary.newton_unconverged_steps += 1;
+                }
                 summary.steps_completed = step;
                 summary.final_time = state.t;
                 observer.after_step(step, model, state)?;
             }
             Err(e) => {
-                summary.outcome = Outcome::Failed {
-                    step,
-                    t: state.t + dt,
-                    cause: e.cause().into(),
-                    message: e.to_string(),
-                };
+                summary.outcome = Outcome::of_step_error(step, state.t + dt, &e);
                 break;
             }
-        }
-        if step % config.sample_every != 0 && step != config.steps {
-            continue;
         }
         let energies = match metrics.energies(model, state) {
             Ok(e) => e,
             Err(e) => {
-                let cause = crate::integrate::StepError::from(e);
-                summary.outcome = Outcome::Failed {
-                    step,
-                    t: state.t,
-                    cause: cause.cause().into(),
-                    message: cause.to_string(),
-                };
+                summary.outcome = model_error(step, state.t, e);
                 break;
             }
         };
-        let momenta = metrics.momenta(model, state);
-        let work = RowWork {
-            report: &since_row,
-            steps: steps_since_row,
-            dt,
-            elapsed: start.elapsed().as_secs_f64(),
-        };
-        observer.sample(&sample(step, state, &energies, momenta, work))?;
-        since_row = StepReport::default();
-        steps_since_row = 0;
-        let drift = (energies.total() - initial.total()).abs() / drift_scale(&energies);
-        summary.energy_drift_max = summary.energy_drift_max.max(drift);
-        summary.energy_drift_final = drift;
-        summary.final_energy = Some(energies);
-        // Blow-up: internal energy beyond the limit times what it could legitimately be.
-        let gravity_work = (initial.gravity - energies.gravity).max(0.0);
-        let work = gravity_work + driven_work.max(0.0);
-        let allowed = config.energy_limit * (initial.internal() + work);
-        let floor = 1e-12 * (1.0 + initial.internal().abs() + initial.gravity.abs());
-        if config.energy_limit > 0.0
-            && (!energies.total().is_finite() || energies.internal() > allowed + floor)
-        {
-            summary.outcome = Outcome::Failed {
-                step,
-                t: state.t,
-                cause: "energy growth".into(),
-                message: format!(
-                    "kinetic + elastic energy {:.4e} J exceeds {} x (initial {:.4e} J + work done on the body {:.4e} J)",
-                    energies.internal(),
-                    config.energy_limit,
-                    initial.internal(),
-                    work
-                ),
+        let verdict = balance.after_step(model, state, dt, &energies);
+        let sampled = step % config.sample_every == 0 || step == config.steps;
+        if sampled || verdict.is_err() {
+            let momenta = metrics.momenta(model, state);
+            let work = RowWork {
+                report: &since_row,
+                steps: steps_since_row,
+                unconverged_steps: unconverged_since_row,
+                dt,
+                elapsed: start.elapsed().as_secs_f64(),
             };
+            observer.sample(&sample(step, state, &energies, momenta, work, &balance))?;
+            since_row = StepReport::default();
+            steps_since_row = 0;
+            unconverged_since_row = 0;
+            let drift = (energies.total() - initial.total()).abs() / drift_scale(&energies);
+            summary.energy_drift_max = summary.energy_drift_max.max(drift);
+            summary.energy_drift_final = drift;
+            summary.final_energy = Some(energies);
+        }
+        if let Err(v) = verdict {
+            summary.energy_growth_rate = balance.growth_rate();
+            let message = if v.energy.is_finite() {
+                format!(
+                    "energy {:.4e} J exceeds its initial value {:.4e} J plus the net work done \
+                     on the body {:.4e} J by {:.4e} J, more than run.energy_limit = {} times \
+                     the budget {:.4e} J (the scene's energy scale {:.4e} J plus the work put \
+                     in)",
+                    v.energy,
+                    initial.total(),
+                    balance.driven_work() - balance.dissipated(),
+                    v.excess,
+                    config.energy_limit,
+                    v.budget,
+                    scale.total(),
+                )
+            } else {
+                format!("energy is {} at t = {:e} s", v.energy, state.t)
+            };
+            summary.outcome = Outcome::ended(
+                OutcomeKind::Unstable,
+                step,
+                state.t,
+                if v.energy.is_finite() {
+                    "energy growth"
+                } else {
+                    "non-finite state"
+                },
+                message,
+            );
             break;
         }
     }
+    summary.energy_excess_peak = balance.peak_ratio();
+    summary.driven_work = balance.driven_work();
+    summary.dissipated = balance.dissipated();
     step_seconds.sort_by(f64::total_cmp);
     summary.step_seconds_median = percentile(&step_seconds, 0.5);
     summary.step_seconds_p95 = percentile(&step_seconds, 0.95);

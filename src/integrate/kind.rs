@@ -104,6 +104,15 @@ impl Method {
         )
     }
 
+    /// Whether the method solves a nonlinear system by Newton (so Newton's iteration cap and
+    /// tolerance can decide its result).
+    pub fn uses_newton(self) -> bool {
+        matches!(
+            self,
+            Self::BackwardEuler | Self::ImplicitMidpoint | Self::Bdf2
+        )
+    }
+
     /// Formal order of accuracy.
     pub fn order(self) -> u32 {
         match self {

@@ -221,9 +221,10 @@ pub struct RunConfig {
     /// Write a row every this many steps (the first and last are always written). Default 1.
     #[serde(default = "one")]
     pub sample_every: usize,
-    /// A run is stopped as blown up when kinetic + elastic energy exceeds this factor times
-    /// its initial value plus the work done by gravity since the start. 0 turns the check off.
-    /// Default 10.
+    /// A run is stopped as unstable when, after any step, its mechanical energy exceeds the
+    /// initial energy plus the net work done on the body (time-dependent potentials, less
+    /// damping) by more than this many times the energy budget: the scene's energy scale plus
+    /// the work put in (see `experiment::balance`). 0 turns the check off. Default 1.
     #[serde(default = "default_energy_limit")]
     pub energy_limit: f64,
 }
@@ -233,7 +234,7 @@ fn one() -> usize {
 }
 
 fn default_energy_limit() -> f64 {
-    10.0
+    1.0
 }
 
 /// `[damping]`: `rayleigh = { alpha = .., beta = .. }` (D = alpha M + beta K) and/or

@@ -68,35 +68,67 @@ pub struct StudyFile {
     pub quick: QuickSettings,
 }
 
-/// `[stability]`: the bisection of the largest stable time step.
+/// `[stability]`: the search for the largest stable time step.
+///
+/// A trial at `dt` runs the scene over `horizon` and counts as stable only if it covers the
+/// whole horizon, in at least `min_steps` and at most `max_steps` steps, with the energy
+/// balance holding and every step taken. So the steps that can be judged lie in
+/// `[max(dt_floor, horizon / max_steps), dt_ceiling]`, and the answer never depends on a cap
+/// that stopped a trial early.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct StabilitySettings {
-    /// Lower end of the bracket (s).
+    /// Presumed-stable lower end of the first bracket (s); tried only once the bracket closes
+    /// in on it.
     pub dt_min: f64,
-    /// Upper end of the bracket (s); a run stable here is reported as stable at `dt_max`.
+    /// The first step tried (s). If it is stable the bracket widens upward (x4 at a time) to
+    /// `dt_ceiling`, so methods stable there are still ranked.
     pub dt_max: f64,
-    /// Simulated time per trial (s).
+    /// Simulated time every trial must cover (s).
     pub horizon: f64,
-    /// A trial is unstable when kinetic + elastic energy exceeds this factor times its initial
-    /// value plus the work done on the body. Default 10.
+    /// A trial is unstable when the energy balance's excess (energy gained beyond the work
+    /// done on the body) exceeds this many times the energy budget (see
+    /// `experiment::balance`). Default 1.
     #[serde(default = "default_energy_factor")]
     pub energy_factor: f64,
     /// Bisection stops when `hi/lo - 1` is below this. Default 0.01.
     #[serde(default = "default_relative_precision")]
     pub relative_precision: f64,
-    /// If `dt_min` is unstable the bracket widens downward by 10x steps to this floor.
-    /// Default `dt_min / 1000`.
+    /// If `dt_min` is unstable the bracket widens downward by 10x steps to this floor (or to
+    /// `horizon / max_steps`, whichever is larger). Default `dt_min / 1000`.
     #[serde(default)]
     pub dt_floor: Option<f64>,
-    /// Steps per trial at most: a trial at a small dt covers `min(horizon, max_steps dt)`, so
-    /// explicit methods on stiff bodies stay affordable. Default 20,000.
+    /// The largest step tried (s). Default and upper bound: `horizon / min_steps`.
+    #[serde(default)]
+    pub dt_ceiling: Option<f64>,
+    /// Steps per trial at most; steps below `horizon / max_steps` are not judged. Default
+    /// 20,000.
     #[serde(default = "default_max_steps")]
     pub max_steps: usize,
+    /// Steps per trial at least, so a trial of one huge step never counts as stable.
+    /// Default 20.
+    #[serde(default = "default_min_steps")]
+    pub min_steps: usize,
+    /// After a limit is found, this many smaller steps (dt/2, dt/4, ...) are tried; a failure
+    /// there flags the result as non-monotone. Default 2.
+    #[serde(default = "default_probes")]
+    pub probes: usize,
+    /// Newton must converge within its iteration cap, or the step fails as `solver-failed`
+    /// (otherwise unconverged steps are accepted and counted). Default true.
+    #[serde(default = "yes")]
+    pub require_newton_convergence: bool,
+    /// Sample times of the error against a converged reference at the largest stable step
+    /// (`error_at_stable_dt`); 0 turns the reference off. Default 10.
+    #[serde(default = "default_error_samples")]
+    pub error_samples: usize,
+    /// How that reference is computed (defaults as in work-precision studies, with a default
+    /// step of `horizon / 4000`; in quick mode never finer than `horizon / 400`).
+    #[serde(default)]
+    pub reference: ReferenceSettings,
 }
 
 fn default_energy_factor() -> f64 {
-    10.0
+    1.0
 }
 fn default_relative_precision() -> f64 {
     0.01
@@ -104,11 +136,35 @@ fn default_relative_precision() -> f64 {
 fn default_max_steps() -> usize {
     20_000
 }
+fn default_min_steps() -> usize {
+    20
+}
+fn default_probes() -> usize {
+    2
+}
+fn default_error_samples() -> usize {
+    10
+}
+fn yes() -> bool {
+    true
+}
 
 impl StabilitySettings {
-    /// The floor of the downward widening.
+    /// The floor of the downward widening as set (see [`StabilitySettings::lowest_dt`]).
     pub fn floor(&self) -> f64 {
         self.dt_floor.unwrap_or(self.dt_min / 1000.0)
+    }
+
+    /// The smallest step a trial can judge: the floor, or the step at which `max_steps` steps
+    /// just cover the horizon.
+    pub fn lowest_dt(&self) -> f64 {
+        self.floor().max(self.horizon / self.max_steps as f64)
+    }
+
+    /// The largest step a trial can judge: `dt_ceiling`, at most `horizon / min_steps`.
+    pub fn highest_dt(&self) -> f64 {
+        let bound = self.horizon / self.min_steps.max(1) as f64;
+        self.dt_ceiling.map_or(bound, |c| c.min(bound))
     }
 }
 
@@ -118,6 +174,10 @@ impl StabilitySettings {
 pub struct WorkPrecisionSettings {
     /// Simulated time of every run (s); must be a whole number of steps of every dt.
     pub horizon: f64,
+    /// Newton must converge within its iteration cap, or the step fails as `solver-failed`.
+    /// Default true.
+    #[serde(default = "yes")]
+    pub require_newton_convergence: bool,
     /// Errors are measured at `horizon k / samples`, k = 1..samples. Default 4.
     #[serde(default = "default_samples")]
     pub samples: usize,
@@ -182,10 +242,12 @@ pub struct QuickSettings {
     /// Trajectory runs take at most this many steps. Default 20.
     #[serde(default)]
     pub steps: Option<usize>,
-    /// Stability: horizon and steps per trial, and the bisection precision. Defaults: a tenth
-    /// of the horizon, 300 steps, 0.05.
+    /// Work-precision: the horizon. Stability studies refuse it: they keep their horizon, so a
+    /// quick verdict at a step is the full study's verdict at that step.
     #[serde(default)]
     pub horizon: Option<f64>,
+    /// Stability: steps per trial at most, so only larger steps are judged (default: the
+    /// study's, at most 2000), and the bisection precision (default 0.05).
     #[serde(default)]
     pub max_steps: Option<usize>,
     #[serde(default)]

@@ -83,11 +83,35 @@ pub fn load(path: &Path, quick: bool) -> Result<Study, StudyError> {
     let ctx = Context { path, text: &text };
     let kind = check_settings(&file, &ctx)?;
     let mut file = file;
+    if kind == StudyKind::Stability && file.quick.horizon.is_some() {
+        return Err(StudyError::Invalid {
+            path: path.to_owned(),
+            line: ctx.line_of_key("horizon"),
+            key: "quick.horizon".into(),
+            message: "a stability study keeps its horizon in quick mode, so a quick verdict at a \
+                      step is the full study's verdict at that step; set [quick] max_steps to \
+                      judge fewer (larger) steps instead"
+                .into(),
+        });
+    }
     if quick && let Some(s) = file.stability.as_mut() {
+        // Same horizon and criterion, fewer and larger steps judged: every quick trial is the
+        // trial the full study would run at that step.
         let q = &file.quick;
-        s.horizon = q.horizon.unwrap_or(s.horizon / 10.0);
-        s.max_steps = q.max_steps.unwrap_or(300);
+        s.max_steps = q.max_steps.unwrap_or(s.max_steps.min(2000));
         s.relative_precision = q.relative_precision.unwrap_or(0.05);
+        if s.lowest_dt() > s.highest_dt() {
+            return Err(ctx.invalid(
+                0,
+                "quick.max_steps",
+                format!(
+                    "in quick mode no step can be judged: horizon / max_steps = {:e} s is above \
+                     the ceiling {:e} s (horizon / min_steps); raise [quick] max_steps",
+                    s.horizon / s.max_steps as f64,
+                    s.highest_dt()
+                ),
+            ));
+        }
     }
     if quick && let Some(w) = file.work_precision.as_mut() {
         w.horizon = file.quick.horizon.unwrap_or(w.horizon);
@@ -336,6 +360,22 @@ fn resolve_run(
         }
     };
     let mut config = config;
+    // Stability and work-precision studies judge methods, so by default an unconverged Newton
+    // solve fails the step instead of being accepted.
+    let require = match kind {
+        StudyKind::Stability => file
+            .stability
+            .as_ref()
+            .is_some_and(|s| s.require_newton_convergence),
+        StudyKind::WorkPrecision => file
+            .work_precision
+            .as_ref()
+            .is_some_and(|w| w.require_newton_convergence),
+        _ => false,
+    };
+    if require {
+        config.integrator.newton.require_convergence = true;
+    }
     match kind {
         StudyKind::Trajectory if quick => {
             config.run.steps = config.run.steps.min(file.quick.steps.unwrap_or(20));

@@ -1,10 +1,11 @@
-//! What one run of a study produced: a status, named metric cells for `runs.csv`, and the
+//! What one run of a study produced: an outcome, named metric cells for `runs.csv`, and the
 //! sampled series; plus the pieces every kind shares (building the run, summary columns).
 
 use super::format::cell;
 use super::load::RunSpec;
+use super::table::Table;
 use crate::data::DataPaths;
-use crate::experiment::{self, Outcome, RunSummary, Sample};
+use crate::experiment::{self, Outcome, OutcomeKind, RunSummary, Sample};
 use crate::integrate::State;
 use crate::parallel::Parallelism;
 use crate::scene::{self, RunConfig, Scene};
@@ -12,10 +13,10 @@ use crate::scene::{self, RunConfig, Scene};
 /// The result of one run.
 #[derive(Clone, Debug, Default)]
 pub struct Measured {
-    /// `ok`, `unstable at t=… (cause)` or `failed: cause` (or a kind's own, e.g. for a
-    /// stability bracket).
-    pub status: String,
-    /// The message behind a non-ok status.
+    /// The outcome word ([`OutcomeKind`]): how the run ended, or for a stability run how its
+    /// first unstable trial ended (`completed` when none was).
+    pub outcome: String,
+    /// The message behind an outcome other than `completed`.
     pub message: String,
     /// Metric columns (name, cell).
     pub cells: Vec<(&'static str, String)>,
@@ -43,30 +44,32 @@ impl Measured {
     }
 }
 
-/// Whether a status cell means the run ended as it should: `ok`, or stable over the whole
-/// stability bracket.
-pub fn is_clean(status: &str) -> bool {
-    status == "ok" || status.starts_with("stable at")
+/// Stability verdicts that answer the question (a limit, or stable up to the ceiling).
+pub const ANSWERED_STABILITY: [&str; 2] = ["limit-found", "stable-to-ceiling"];
+
+/// Whether a row of `runs.csv` ended as it should: a stability row with a limit or stable to
+/// its ceiling, any other row `completed`.
+pub fn is_clean(table: &Table, row: &[String]) -> bool {
+    match table.get(row, "stability") {
+        Some(verdict) => ANSWERED_STABILITY.contains(&verdict),
+        None => table.get(row, "outcome") == Some(OutcomeKind::Completed.name()),
+    }
 }
 
-/// Causes that mean the method lost stability (rather than a solver giving up).
-const UNSTABLE_CAUSES: [&str; 3] = ["non-finite state", "inverted element", "energy growth"];
-
-/// The status cell and message of a run's outcome.
-pub fn status_of(outcome: &Outcome) -> (String, String) {
-    match outcome {
-        Outcome::Completed => ("ok".into(), String::new()),
-        Outcome::Failed {
-            t, cause, message, ..
-        } => {
-            let status = if UNSTABLE_CAUSES.contains(&cause.as_str()) {
-                format!("unstable at t={} ({cause})", super::format::short(*t))
-            } else {
-                format!("failed: {cause}")
-            };
-            (status, message.clone())
-        }
-    }
+/// The outcome word and message of a run's outcome.
+pub fn outcome_of(outcome: &Outcome) -> (String, String) {
+    let message = if outcome.is_completed() {
+        String::new()
+    } else {
+        format!(
+            "{} at step {} (t = {}): {}",
+            outcome.cause,
+            outcome.step.unwrap_or(0),
+            super::format::short(outcome.t.unwrap_or(0.0)),
+            outcome.message
+        )
+    };
+    (outcome.status.name().to_owned(), message)
 }
 
 /// The summary columns every run kind reports (work, time, drift).
@@ -98,6 +101,29 @@ pub fn summary_cells(s: &RunSummary) -> Vec<(&'static str, String)> {
         ("factor_seconds", f(t.times.factor)),
         ("solve_seconds", f(t.times.solve)),
         ("qp_seconds", f(t.times.qp)),
+        (
+            "newton_unconverged_steps",
+            s.newton_unconverged_steps.to_string(),
+        ),
+        ("energy_excess_peak", f(s.energy_excess_peak)),
+        ("energy_limit", f(s.energy_limit)),
+    ]
+}
+
+/// The caps and tolerances of a run's integrator that can decide its result, reported next
+/// to it: Newton's iteration cap and whether convergence was required.
+pub fn cap_cells(spec: &RunSpec) -> Vec<(&'static str, String)> {
+    let integrator = &spec.loaded.config.integrator;
+    if !integrator.method.uses_newton() {
+        return vec![
+            ("newton_max_iterations", String::new()),
+            ("newton_required", String::new()),
+        ];
+    }
+    let newton = &integrator.newton;
+    vec![
+        ("newton_max_iterations", newton.max_iterations.to_string()),
+        ("newton_required", newton.require_convergence.to_string()),
     ]
 }
 

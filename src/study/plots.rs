@@ -66,11 +66,20 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
         let slug = slug(scene);
         match study.kind {
             StudyKind::Stability => {
+                if let Some(chart) = cost_error_chart(scene, runs, params, &rows) {
+                    emit(
+                        format!("cost-error-{slug}"),
+                        "Wall seconds per simulated second against the relative L2 position \
+                         error, both at each method's largest stable dt (log-log): lower left \
+                         is better. Methods with no stable dt in range are absent.",
+                        Chart::Line(chart),
+                    )?;
+                }
                 emit(
                     format!("stable-dt-{slug}"),
                     "Largest stable time step per method (log scale); the line is the explicit \
-                     limit 2/omega_max of the scene at rest. Bars marked >= dt_max were stable \
-                     over the whole bracket.",
+                     limit 2/omega_max of the scene at rest. Bars marked >= ceiling were stable \
+                     at the largest step judged (horizon / min_steps).",
                     Chart::Bar(stable_dt_chart(scene, runs, params, &rows)),
                 )?;
             }
@@ -106,12 +115,14 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
                     format!("energy-{slug}{suffix}"),
                     match study.kind {
                         StudyKind::Stability => {
-                            "Relative energy error over time of each method's trial at its largest \
-                             stable dt (log scale)."
+                            "Energy balance over time of each method's trial at its largest \
+                             stable dt (or its failing trial): |E(t) - E(0) - work done| over the \
+                             energy budget the blow-up check uses (log scale)."
                         }
                         _ => {
-                            "Relative energy error |E(t) - E(0)| / (E_int(0) + |gravity work|) \
-                             over time (log scale)."
+                            "Energy balance over time: |E(t) - E(0) - work done on the body| \
+                             over the energy budget the blow-up check uses (the scene's energy \
+                             scale plus the work put in), log scale."
                         }
                     },
                     Chart::Line(energy_chart(&title, &series)),
@@ -219,21 +230,37 @@ fn stable_dt_chart(
             .iter()
             .map(|r| {
                 let value = runs.number(r, "max_stable_dt");
-                let status = runs.get(r, "status").unwrap_or_default();
+                let verdict = runs.get(r, "stability").unwrap_or_default();
                 let mut label = label(runs, params, r, &[]);
-                if status.starts_with("stable at") {
-                    // The bar is the top of the bracket, not a limit that was found.
-                    label.push_str(" (>= dt_max)");
+                if verdict == "stable-to-ceiling" {
+                    // The bar is the ceiling of the search, not a limit that was found.
+                    label.push_str(" (>= ceiling)");
                 }
+                if runs
+                    .get(r, "non_monotone_dt")
+                    .is_some_and(|v| !v.is_empty())
+                {
+                    label.push_str(" (non-monotone)");
+                }
+                let note = match verdict {
+                    "unstable-at-every-dt" => Some(match runs.number(r, "energy_growth_rate") {
+                        Some(rate) => format!(
+                            "unstable at every dt (energy e-folds at {}/s)",
+                            super::format::short(rate)
+                        ),
+                        None => "unstable at every dt".into(),
+                    }),
+                    _ if value.is_none() => Some(format!(
+                        "no stable dt in range ({})",
+                        runs.get(r, "outcome").unwrap_or("?")
+                    )),
+                    _ => None,
+                };
                 Bar {
                     label,
                     value,
                     marker: None,
-                    note: if value.is_none() {
-                        Some("no stable dt".into())
-                    } else {
-                        None
-                    },
+                    note,
                 }
             })
             .collect(),
@@ -243,6 +270,42 @@ fn stable_dt_chart(
             value: t,
         }),
     }
+}
+
+/// Cost per simulated second against the error at the largest stable step: one point per
+/// method, the headline of a stability study.
+fn cost_error_chart(
+    scene: &str,
+    runs: &Table,
+    params: &[String],
+    rows: &[&Vec<String>],
+) -> Option<LineChart> {
+    let series: Vec<Series> = rows
+        .iter()
+        .filter_map(|r| {
+            let error = runs.number(r, "error_at_stable_dt")?;
+            let cost = runs.number(r, "cost_per_simulated_second")?;
+            let mut label = label(runs, params, r, &[]);
+            if let Some(dt) = runs.number(r, "max_stable_dt") {
+                label.push_str(&format!(" dt={}", super::format::short(dt)));
+            }
+            if runs.get(r, "error_scored") == Some("no") {
+                label.push_str(" (error within reference accuracy)");
+            }
+            Some(Series {
+                label,
+                points: vec![(error, cost)],
+            })
+        })
+        .collect();
+    (!series.is_empty()).then(|| LineChart {
+        title: format!("Cost against error at the largest stable step: {scene}"),
+        x_label: "relative L2 position error at the largest stable dt".into(),
+        y_label: "wall seconds per simulated second".into(),
+        x_log: true,
+        y_log: true,
+        series,
+    })
 }
 
 fn work_precision_chart(
@@ -321,35 +384,24 @@ fn load_series(
 
 fn energy_chart(scene: &str, series: &[RunSeries]) -> LineChart {
     LineChart {
-        title: format!("Energy error over time: {scene}"),
+        title: format!("Energy balance over time: {scene}"),
         x_label: "time t (s)".into(),
-        y_label: "|E(t) - E(0)| / (E_int(0) + |gravity work|)".into(),
+        y_label: "|E(t) - E(0) - work| / energy budget".into(),
         x_log: false,
         y_log: true,
         series: series
             .iter()
             .map(|s| {
                 let t = &s.table;
-                let cols =
-                    ["t", "total", "kinetic", "elastic", "springs", "gravity"].map(|c| t.column(c));
-                let points = match cols {
-                    [Some(ct), Some(ce), Some(ck), Some(cel), Some(cs), Some(cg)] => {
+                let points = match ["t", "energy_excess", "energy_budget"].map(|c| t.column(c)) {
+                    [Some(ct), Some(ce), Some(cb)] => {
                         let num =
                             |r: &Vec<String>, c: usize| r[c].parse::<f64>().unwrap_or(f64::NAN);
-                        let first = t.rows.first();
-                        first.map_or(Vec::new(), |f| {
-                            let (e0, g0) = (num(f, ce), num(f, cg));
-                            let internal0 = num(f, ck) + num(f, cel) + num(f, cs);
-                            t.rows
-                                .iter()
-                                .skip(1)
-                                .map(|r| {
-                                    let scale = internal0 + (g0 - num(r, cg)).abs();
-                                    let scale = if scale > 0.0 { scale } else { 1.0 };
-                                    (num(r, ct), (num(r, ce) - e0).abs() / scale)
-                                })
-                                .collect()
-                        })
+                        t.rows
+                            .iter()
+                            .skip(1)
+                            .map(|r| (num(r, ct), num(r, ce).abs() / num(r, cb)))
+                            .collect()
                     }
                     _ => Vec::new(),
                 };

@@ -17,19 +17,22 @@ use std::path::Path;
 fn summary_columns(kind: StudyKind) -> &'static [&'static str] {
     match kind {
         StudyKind::Stability => &[
-            "status",
+            "stability",
             "max_stable_dt",
-            "dt_theory",
+            "outcome",
+            "first_unstable_dt",
             "stable_over_theory",
-            "unstable_cause",
-            "horizon",
-            "newton_iterations_per_step",
-            "step_seconds_median",
+            "cost_per_simulated_second",
+            "evaluations_per_simulated_second",
+            "error_at_stable_dt",
+            "non_monotone_dt",
+            "energy_growth_rate",
+            "newton_unconverged_steps",
             "trials",
         ],
         StudyKind::WorkPrecision => &[
             "dt",
-            "status",
+            "outcome",
             "error",
             "energy_error",
             "wall_seconds",
@@ -37,18 +40,28 @@ fn summary_columns(kind: StudyKind) -> &'static [&'static str] {
             "hessian_evaluations",
             "factorizations",
             "linear_iterations",
+            "newton_unconverged_steps",
         ],
         _ => &[
             "dt",
-            "status",
+            "outcome",
             "energy_drift_max",
             "energy_drift_final",
             "momentum_drift",
             "step_seconds_median",
             "step_seconds_p95",
             "newton_iterations_per_step",
+            "newton_unconverged_steps",
         ],
     }
+}
+
+/// The study's reference solutions by physics (scene name first), and those that failed
+/// (with why).
+#[derive(Clone, Copy)]
+pub struct References<'a> {
+    pub solved: &'a BTreeMap<u64, (String, Reference)>,
+    pub failed: &'a BTreeMap<u64, (String, String)>,
 }
 
 /// Write `report.md` into `dir`.
@@ -59,7 +72,7 @@ pub fn write(
     runs: &Table,
     plots: &[Plot],
     reused: usize,
-    references: &BTreeMap<u64, (String, Reference)>,
+    references: References,
 ) -> std::io::Result<()> {
     let text = render(study, meta, runs, plots, reused, references);
     write_atomic(&dir.join("report.md"), |w| w.write_all(text.as_bytes()))
@@ -71,8 +84,12 @@ fn render(
     runs: &Table,
     plots: &[Plot],
     reused: usize,
-    references: &BTreeMap<u64, (String, Reference)>,
+    references: References,
 ) -> String {
+    let References {
+        solved: references,
+        failed: failed_references,
+    } = references;
     let s = &meta.study;
     let mut out = String::new();
     let kind = if s.study == StudyKind::Sweep {
@@ -113,8 +130,14 @@ fn render(
         meta.wall_seconds.map_or("-".into(), |w| format!("{w:.1}")),
     );
     settings(&mut out, study);
-    if !references.is_empty() {
+    if !references.is_empty() || !failed_references.is_empty() {
         let _ = writeln!(out, "References:\n");
+        for (scene, message) in failed_references.values() {
+            let _ = writeln!(
+                out,
+                "- {scene}: **the reference failed**, so its errors are left empty: {message}"
+            );
+        }
         for (scene, r) in references.values() {
             let _ = writeln!(
                 out,
@@ -124,11 +147,7 @@ fn render(
                 short(r.dt),
                 r.difference,
                 r.energy_difference,
-                study
-                    .file
-                    .work_precision
-                    .as_ref()
-                    .map_or(2.0, |w| w.reference.floor_factor)
+                r.floor() / r.difference.max(f64::MIN_POSITIVE)
             );
         }
         let _ = writeln!(out);
@@ -180,19 +199,32 @@ fn render(
     let _ = writeln!(out, "## Runs that did not finish cleanly\n");
     let mut any = false;
     for row in &runs.rows {
-        let status = runs.get(row, "status").unwrap_or_default();
+        let outcome = runs.get(row, "outcome").unwrap_or_default();
+        let verdict = runs.get(row, "stability");
         let message = runs.get(row, "message").unwrap_or_default();
-        let unstable_cause = runs.get(row, "unstable_cause").unwrap_or_default();
-        let bad = !super::measured::is_clean(status);
-        let unscored = runs.get(row, "scored") == Some("no") && status == "ok";
-        if bad || unscored {
+        let bad = !super::measured::is_clean(runs, row);
+        let completed = outcome == crate::experiment::OutcomeKind::Completed.name();
+        let unscored = runs.get(row, "scored") == Some("no") && completed;
+        let unconverged = runs
+            .number(row, "newton_unconverged_steps")
+            .is_some_and(|n| n > 0.0);
+        let non_monotone = runs
+            .get(row, "non_monotone_dt")
+            .is_some_and(|v| !v.is_empty());
+        if bad || unscored || unconverged || non_monotone {
             any = true;
-            let detail = if !message.is_empty() {
-                message
-            } else {
-                unstable_cause
-            };
-            let _ = writeln!(out, "- `{}`: {status}: {detail}", row[0]);
+            let what = verdict.unwrap_or(outcome);
+            let mut detail = message.to_owned();
+            if unconverged {
+                let _ = write!(
+                    detail,
+                    "{}Newton stopped unconverged at its cap ({} iterations) in {} steps",
+                    if detail.is_empty() { "" } else { "; " },
+                    runs.get(row, "newton_max_iterations").unwrap_or("?"),
+                    runs.get(row, "newton_unconverged_steps").unwrap_or("?")
+                );
+            }
+            let _ = writeln!(out, "- `{}`: {what}: {detail}", row[0]);
         }
     }
     if !any {
@@ -201,29 +233,46 @@ fn render(
     out
 }
 
-/// The kind's settings, one line.
+/// The kind's settings, and every cap and threshold that can decide a result.
 fn settings(out: &mut String, study: &Study) {
     if let (StudyKind::Stability, Some(st)) = (study.kind, &study.file.stability) {
         let _ = writeln!(
             out,
-            "Stability search: dt in [{}, {}] s (widened down to {} s if needed), horizon {} s \
-             per trial (at most {} steps), unstable when kinetic + elastic energy exceeds {} x its \
-             initial value plus the work done, or a step fails; bisection to {}% .\n",
-            short(st.dt_min),
+            "Stability search: first trial at {} s, bisection down to a presumed-stable {} s or \
+             widening up (x4) to the ceiling, to {}% precision, then {} smaller probe(s). A trial \
+             is stable when it covers the {} s horizon in {} to {} steps with every step taken \
+             and its energy gain beyond the work done on the body below {} x the energy budget; \
+             so only steps in [{}, {}] s are judged. Newton convergence {}.\n",
             short(st.dt_max),
-            short(st.floor()),
+            short(st.dt_min),
+            st.relative_precision * 100.0,
+            st.probes,
             short(st.horizon),
+            st.min_steps,
             st.max_steps,
             st.energy_factor,
-            st.relative_precision * 100.0
+            short(st.lowest_dt()),
+            short(st.highest_dt()),
+            if st.require_newton_convergence {
+                "is required (an unconverged step fails as solver-failed)"
+            } else {
+                "is **not** required: unconverged steps are accepted and counted \
+                 (`newton_unconverged_steps`)"
+            }
         );
     }
     if let (StudyKind::WorkPrecision, Some(w)) = (study.kind, &study.file.work_precision) {
         let _ = writeln!(
             out,
-            "Work-precision: horizon {} s, errors at {} sample times (the largest is reported).\n",
+            "Work-precision: horizon {} s, errors at {} sample times (the largest is reported). \
+             Newton convergence {}.\n",
             short(w.horizon),
-            w.samples
+            w.samples,
+            if w.require_newton_convergence {
+                "is required"
+            } else {
+                "is **not** required: unconverged steps are accepted and counted"
+            }
         );
     }
 }

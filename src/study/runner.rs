@@ -168,7 +168,7 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
     } else {
         Parallelism::Rayon
     };
-    let shared = Shared::prepare(study, &pending, parallelism, &progress)?;
+    let shared = Shared::prepare(study, &pending, parallelism, options.jobs, &progress)?;
 
     // Run, each result written as soon as it arrives.
     let (sender, receiver) = std::sync::mpsc::channel::<(usize, Result<Measured, String>)>();
@@ -233,9 +233,12 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
     let table = ordered(study, &header, &rows);
     table.write(&runs_path).map_err(io(&runs_path))?;
     for row in &table.rows {
-        let status = table.get(row, "status").unwrap_or_default();
-        if !is_clean(status) {
-            not_ok.push((row[0].clone(), status.to_owned()));
+        if !is_clean(&table, row) {
+            let what = table
+                .get(row, "stability")
+                .or_else(|| table.get(row, "outcome"))
+                .unwrap_or_default();
+            not_ok.push((row[0].clone(), what.to_owned()));
         }
     }
     let meta = Meta::of(study, options, &machine, &started, Some(clock.elapsed()));
@@ -248,7 +251,10 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
         &table,
         &plots,
         reused,
-        &shared.references,
+        report::References {
+            solved: &shared.references,
+            failed: &shared.failed_references,
+        },
     )
     .map_err(io(&dir.join("report.md")))?;
     meta.write(dir).map_err(io(&dir.join("meta.json")))?;
@@ -269,11 +275,17 @@ fn summary_line(kind: StudyKind, m: &Measured) -> String {
             .map(super::format::short)
     };
     let extra = match kind {
-        StudyKind::Stability => number("max_stable_dt").map(|dt| format!(", max stable dt {dt} s")),
+        StudyKind::Stability => Some(format!(
+            ", {}{}",
+            m.get("stability").unwrap_or_default(),
+            number("max_stable_dt")
+                .map(|dt| format!(" at dt {dt} s"))
+                .unwrap_or_default()
+        )),
         StudyKind::WorkPrecision => number("error").map(|e| format!(", error {e}")),
         _ => number("energy_drift_max").map(|d| format!(", energy drift {d}")),
     };
-    format!("{}{}", m.status, extra.unwrap_or_default())
+    format!("{}{}", m.outcome, extra.unwrap_or_default())
 }
 
 /// What runs share, computed once before they start: the highest mode of each scene (for
@@ -282,6 +294,8 @@ struct Shared {
     omega: HashMap<u64, Option<f64>>,
     /// Reference solution by physics.
     references: BTreeMap<u64, (String, Reference)>,
+    /// References that failed (stability studies go on without them): scene and message.
+    failed_references: BTreeMap<u64, (String, String)>,
 }
 
 impl Shared {
@@ -289,6 +303,7 @@ impl Shared {
         study: &Study,
         pending: &[&RunSpec],
         parallelism: Parallelism,
+        jobs: usize,
         progress: &Progress,
     ) -> Result<Self, RunError> {
         let mut omega = HashMap::new();
@@ -299,6 +314,7 @@ impl Shared {
                     .work_precision
                     .as_ref()
                     .is_some_and(|w| w.reference.method.is_none()));
+        // (A stability study's reference also picks its method from omega_max.)
         for spec in pending {
             if needs_omega && !omega.contains_key(&spec.physics) {
                 let task = format!("highest mode of {}", spec.scene);
@@ -313,20 +329,18 @@ impl Shared {
             }
         }
         let mut references = BTreeMap::new();
-        if let Some(w) = study.file.work_precision.as_ref()
-            && study.kind == StudyKind::WorkPrecision
-        {
+        let mut failed_references = BTreeMap::new();
+        let settings = reference_settings(study);
+        if let Some(w) = settings.as_ref() {
+            // One reference per physics, `jobs` of them at a time (each is independent).
+            let mut needed: Vec<&RunSpec> = Vec::new();
             for spec in pending {
-                if references.contains_key(&spec.physics) {
-                    continue;
+                if !needed.iter().any(|s| s.physics == spec.physics) {
+                    needed.push(spec);
                 }
-                let smallest = study
-                    .runs
-                    .iter()
-                    .filter(|r| r.physics == spec.physics)
-                    .map(|r| r.loaded.config.run.dt)
-                    .fold(f64::INFINITY, f64::min);
-                let dt = w.reference.dt.unwrap_or(smallest / w.reference.dt_factor);
+            }
+            let compute = |spec: &RunSpec| {
+                let dt = reference_dt(study, w, spec);
                 let method = w.reference.method.unwrap_or_else(|| {
                     // RK4 where it is stable at dt (its limit is 2.83 / omega_max), else the
                     // second-order implicit midpoint rule.
@@ -341,9 +355,40 @@ impl Shared {
                     method.name()
                 );
                 progress.start(&task);
-                let reference = work_precision::reference(spec, w, method, dt, parallelism)
-                    .map_err(|m| RunError::Run(format!("scene {}: {m}", spec.scene)))?;
+                let result = work_precision::reference(spec, w, method, dt, parallelism);
                 progress.finish(&task);
+                (method, result)
+            };
+            let mut results = Vec::new();
+            for group in needed.chunks(jobs.max(1)) {
+                let computed: Vec<_> = std::thread::scope(|scope| {
+                    let handles: Vec<_> = group
+                        .iter()
+                        .map(|spec| scope.spawn(|| compute(spec)))
+                        .collect();
+                    handles
+                        .into_iter()
+                        .map(|h| h.join().expect("a reference computation panicked"))
+                        .collect()
+                });
+                results.extend(group.iter().copied().zip(computed));
+            }
+            for (spec, (method, result)) in results {
+                let reference = match result {
+                    Ok(r) => r,
+                    // A stability study still judges stability without its reference: the
+                    // errors at the largest stable steps are left empty, and the report says
+                    // why.
+                    Err(m) if study.kind == StudyKind::Stability => {
+                        progress.line(&format!(
+                            "reference for {} failed, so error_at_stable_dt is left empty: {m}",
+                            spec.scene
+                        ));
+                        failed_references.insert(spec.physics, (spec.scene.clone(), m));
+                        continue;
+                    }
+                    Err(m) => return Err(RunError::Run(format!("scene {}: {m}", spec.scene))),
+                };
                 progress.line(&format!(
                     "reference for {}: {} at dt = {:e} s, {:.3e} from the one at twice its step ({:.1} s)",
                     spec.scene,
@@ -355,8 +400,60 @@ impl Shared {
                 references.insert(spec.physics, (spec.scene.clone(), reference));
             }
         }
-        Ok(Self { omega, references })
+        Ok(Self {
+            omega,
+            references,
+            failed_references,
+        })
     }
+}
+
+/// How the study's reference solutions are computed, if it has any: the work-precision
+/// settings, or for a stability study its error samples over its horizon.
+fn reference_settings(study: &Study) -> Option<super::config::WorkPrecisionSettings> {
+    match study.kind {
+        StudyKind::WorkPrecision => study.file.work_precision.clone(),
+        StudyKind::Stability => {
+            let s = study.file.stability.as_ref()?;
+            (s.error_samples > 0).then(|| super::config::WorkPrecisionSettings {
+                horizon: s.horizon,
+                samples: s.error_samples,
+                require_newton_convergence: true,
+                reference: s.reference.clone(),
+            })
+        }
+        _ => None,
+    }
+}
+
+/// The reference step for the physics of `spec`: as set, or for a work-precision study the
+/// smallest dt of the grid over `dt_factor`, for a stability study `horizon / 4000`
+/// (in quick mode never finer than `horizon / 400`); rounded down to divide the sample
+/// interval.
+fn reference_dt(study: &Study, w: &super::config::WorkPrecisionSettings, spec: &RunSpec) -> f64 {
+    let target = w.reference.dt.unwrap_or_else(|| match study.kind {
+        StudyKind::WorkPrecision => {
+            let smallest = study
+                .runs
+                .iter()
+                .filter(|r| r.physics == spec.physics)
+                .map(|r| r.loaded.config.run.dt)
+                .fold(f64::INFINITY, f64::min);
+            smallest / w.reference.dt_factor
+        }
+        _ => w.horizon / 4000.0,
+    });
+    if study.kind == StudyKind::WorkPrecision {
+        return target;
+    }
+    // Quick mode: a reference no finer than horizon / 400 (it is a smoke test).
+    let target = if study.quick {
+        target.max(w.horizon / 400.0)
+    } else {
+        target
+    };
+    let interval = w.horizon / w.samples as f64;
+    interval / (interval / target).ceil().max(1.0)
 }
 
 fn measure(
@@ -367,9 +464,12 @@ fn measure(
 ) -> Result<Measured, String> {
     match study.kind {
         StudyKind::Stability => {
-            let omega = shared.omega.get(&spec.physics).copied().flatten();
             let settings = study.file.stability.as_ref().expect("checked at load");
-            stability::measure(spec, settings, omega, parallelism)
+            let shared = stability::Shared {
+                omega: shared.omega.get(&spec.physics).copied().flatten(),
+                reference: shared.references.get(&spec.physics).map(|(_, r)| r),
+            };
+            stability::measure(spec, settings, &shared, parallelism)
         }
         StudyKind::WorkPrecision => {
             let settings = study.file.work_precision.as_ref().expect("checked at load");
@@ -432,7 +532,7 @@ fn record(
             "linear_solver" => spec
                 .linear_solver
                 .map_or("-".to_owned(), |s| s.name().to_owned()),
-            "status" => m.status.clone(),
+            "outcome" => m.outcome.clone(),
             "message" => m.message.clone(),
             "config_hash" => spec.hash.clone(),
             other => params

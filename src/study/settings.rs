@@ -92,10 +92,10 @@ pub(super) fn check_settings(file: &StudyFile, ctx: &Context) -> Result<StudyKin
                     format!("must be > 0 s (got {})", s.horizon),
                 ));
             }
-            if !(s.energy_factor.is_finite() && s.energy_factor > 1.0) {
+            if !(s.energy_factor.is_finite() && s.energy_factor > 0.0) {
                 return Err(bad(
                     "stability.energy_factor",
-                    format!("must be > 1 (got {})", s.energy_factor),
+                    format!("must be > 0 (got {})", s.energy_factor),
                 ));
             }
             if !(s.relative_precision > 0.0 && s.relative_precision < 1.0) {
@@ -112,6 +112,39 @@ pub(super) fn check_settings(file: &StudyFile, ctx: &Context) -> Result<StudyKin
             }
             if s.max_steps == 0 {
                 return Err(bad("stability.max_steps", "must be at least 1".into()));
+            }
+            if s.min_steps == 0 || s.min_steps > s.max_steps {
+                return Err(bad(
+                    "stability.min_steps",
+                    format!(
+                        "must be in [1, max_steps = {}] (got {})",
+                        s.max_steps, s.min_steps
+                    ),
+                ));
+            }
+            if s.dt_ceiling.is_some_and(|c| !positive(c)) {
+                return Err(bad("stability.dt_ceiling", "must be > 0 s".into()));
+            }
+            if s.lowest_dt() > s.highest_dt() {
+                return Err(bad(
+                    "stability.max_steps",
+                    format!(
+                        "no step can be judged: horizon / max_steps = {:e} s is above the \
+                         ceiling {:e} s (horizon / min_steps or dt_ceiling); raise max_steps",
+                        s.horizon / s.max_steps as f64,
+                        s.highest_dt()
+                    ),
+                ));
+            }
+            let r = &s.reference;
+            if !(r.dt_factor.is_finite() && r.dt_factor >= 1.0) {
+                return Err(bad(
+                    "stability.reference.dt_factor",
+                    format!("must be >= 1 (got {})", r.dt_factor),
+                ));
+            }
+            if r.dt.is_some_and(|dt| !(dt.is_finite() && dt > 0.0)) {
+                return Err(bad("stability.reference.dt", "must be > 0 s".into()));
             }
         }
         StudyKind::WorkPrecision => {

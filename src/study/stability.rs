@@ -1,34 +1,60 @@
-//! Stability runs: the largest time step at which a method survives a fixed horizon, by
-//! bisection, next to the explicit limit 2/omega_max of the scene at rest.
+//! Stability runs: the largest time step at which a method covers a fixed horizon, what it
+//! costs per simulated second there and how wrong it is, next to the explicit limit
+//! 2/omega_max of the scene at rest.
 //!
-//! A trial is stable when every step succeeds and the internal energy stays within
-//! `energy_factor` times its initial value plus the work done on the body (see
-//! [`crate::experiment::run`]): a non-finite state, an inverted element (for materials that
-//! cannot invert), energy growth or a Newton failure make it unstable. Bisection assumes
-//! stability is monotone in dt over the bracket, which it is for the linear stability of
-//! these methods but need not be for Newton failures.
+//! A trial at `dt` is stable when it covers the whole horizon in at least `min_steps` and at
+//! most `max_steps` steps with every step taken and the energy balance holding (see
+//! [`crate::experiment::balance`]). Steps outside `[lowest_dt, highest_dt]` are never
+//! judged, so no cap decides a verdict. The search: try `dt_max`; if it is stable, widen
+//! upward (x4) to the ceiling; otherwise bisect in log dt between a presumed-stable `dt_min`
+//! (tried once the bracket closes in on it, widened downward by 10x to `lowest_dt` if it
+//! fails) and the failure. Bisection presumes stability is monotone in dt; after it, a few
+//! smaller steps are probed and a failure there is reported (`non_monotone_dt`).
+//!
+//! The verdict (`stability`): `limit-found`, `stable-to-ceiling`, `unstable-at-every-dt`
+//! (every trial ended `unstable`; the energy growth rate of the smallest is reported) or
+//! `no-stable-dt-in-range` (otherwise no trial was stable). The `outcome` column is how the
+//! first unstable trial ended.
 
 use super::config::StabilitySettings;
 use super::format::{cell, short};
 use super::load::RunSpec;
-use super::measured::{Measured, build, run_rows, status_of, summary_cells};
+use super::measured::{Measured, build, cap_cells, outcome_of, summary_cells};
 use super::table::Table;
-use crate::experiment::{Outcome, RunSummary, Sample};
-use crate::model::{HighestMode, SpectrumSettings, highest_mode};
+use super::work_precision::Reference;
+use crate::experiment::{self, Observer, Outcome, OutcomeKind, RunSummary, Sample};
+use crate::integrate::State;
+use crate::model::{HighestMode, Model, SpectrumSettings, highest_mode};
 use crate::parallel::Parallelism;
 use crate::scene::{RunConfig, Scene};
 
 /// Columns of a stability study's `runs.csv` after the run's identity.
 pub const COLUMNS: &[&str] = &[
-    "status",
+    "stability",
+    "outcome",
     "max_stable_dt",
+    "first_unstable_dt",
     "omega_max",
     "dt_theory",
     "stable_over_theory",
-    "first_unstable_dt",
-    "unstable_cause",
-    "trials",
+    "cost_per_simulated_second",
+    "evaluations_per_simulated_second",
+    "error_at_stable_dt",
+    "error_scored",
+    "reference_difference",
+    "non_monotone_dt",
+    "energy_growth_rate",
+    "lowest_dt",
+    "highest_dt",
     "horizon",
+    "min_steps",
+    "max_steps",
+    "energy_limit",
+    "energy_excess_peak",
+    "newton_max_iterations",
+    "newton_required",
+    "newton_unconverged_steps",
+    "trials",
     "newton_iterations_per_step",
     "step_seconds_median",
     "step_seconds_p95",
@@ -45,20 +71,37 @@ pub const COLUMNS: &[&str] = &[
     "qp_seconds",
 ];
 
-/// Rows kept per trial in the series (the energy check runs at these rows).
+/// The verdicts of the `stability` column.
+pub const VERDICTS: [&str; 4] = [
+    "limit-found",
+    "stable-to-ceiling",
+    "unstable-at-every-dt",
+    "no-stable-dt-in-range",
+];
+
+/// Rows kept per trial in the series (the balance itself is checked at every step).
 const ROWS_PER_TRIAL: usize = 200;
+
+/// Upward widening factor when `dt_max` is stable.
+const WIDEN_UP: f64 = 4.0;
+
+/// Bisections at most (a precision near round-off cannot loop forever).
+const MAX_BISECTIONS: usize = 64;
 
 /// One trial at one dt.
 struct Trial {
     dt: f64,
-    horizon: f64,
+    /// Simulated time covered (s).
+    covered: f64,
     summary: RunSummary,
     rows: Vec<Sample>,
+    /// Positions at the reference's sample times (dense output), as far as the trial got.
+    positions: Vec<Vec<f64>>,
 }
 
 impl Trial {
     fn stable(&self) -> bool {
-        self.summary.outcome == Outcome::Completed
+        self.summary.outcome.is_completed()
     }
 }
 
@@ -68,103 +111,240 @@ pub fn explicit_limit(scene: &mut Scene) -> Result<HighestMode, String> {
     highest_mode(&mut scene.model, &q, &SpectrumSettings::default()).map_err(|e| e.to_string())
 }
 
-/// Find the largest stable dt of one run. `omega` is the scene's highest mode (cached by the
-/// caller per scene).
+/// Keeps the sampled rows and the positions at given times, interpolated between steps by
+/// the cubic Hermite polynomial of the two states around each time (positions and
+/// velocities), so a trial at any dt can be compared with a reference at fixed times.
+pub(super) struct DenseOutput {
+    times: Vec<f64>,
+    previous: State,
+    rows: Vec<Sample>,
+    positions: Vec<Vec<f64>>,
+}
+
+impl DenseOutput {
+    pub(super) fn new(times: Vec<f64>) -> Self {
+        Self {
+            times,
+            previous: State::default(),
+            rows: Vec::new(),
+            positions: Vec::new(),
+        }
+    }
+
+    fn hermite(a: &State, b: &State, t: f64) -> Vec<f64> {
+        let h = b.t - a.t;
+        if h <= 0.0 {
+            return b.q.clone();
+        }
+        let s = ((t - a.t) / h).clamp(0.0, 1.0);
+        let (s2, s3) = (s * s, s * s * s);
+        let h00 = 2.0 * s3 - 3.0 * s2 + 1.0;
+        let h10 = s3 - 2.0 * s2 + s;
+        let h01 = -2.0 * s3 + 3.0 * s2;
+        let h11 = s3 - s2;
+        (0..a.q.len())
+            .map(|i| h00 * a.q[i] + h10 * h * a.v[i] + h01 * b.q[i] + h11 * h * b.v[i])
+            .collect()
+    }
+}
+
+impl Observer for DenseOutput {
+    fn sample(&mut self, sample: &Sample) -> std::io::Result<()> {
+        self.rows.push(sample.clone());
+        Ok(())
+    }
+
+    fn after_step(&mut self, step: usize, _: &Model, state: &State) -> std::io::Result<()> {
+        if step > 0 {
+            while let Some(&t) = self.times.get(self.positions.len()) {
+                // A sample time within round-off of this step's time counts as reached.
+                let h = (state.t - self.previous.t).abs();
+                if t > state.t + 1e-9 * h {
+                    break;
+                }
+                self.positions.push(Self::hermite(&self.previous, state, t));
+            }
+        }
+        if !self.times.is_empty() {
+            self.previous.clone_from(state);
+        }
+        Ok(())
+    }
+}
+
+/// Everything a stability run needs that runs share: the highest mode and the reference.
+pub struct Shared<'a> {
+    pub omega: Option<f64>,
+    pub reference: Option<&'a Reference>,
+}
+
+/// Find the largest stable dt of one run, and its cost and error there.
 pub fn measure(
     spec: &RunSpec,
     settings: &StabilitySettings,
-    omega: Option<f64>,
+    shared: &Shared,
     parallelism: Parallelism,
 ) -> Result<Measured, String> {
     let mut scene = build(spec, parallelism).map_err(|e| e.to_string())?;
-    let mut trials: Vec<Trial> = Vec::new();
-    let try_dt = |scene: &mut Scene, dt: f64, trials: &mut Vec<Trial>| -> bool {
-        let steps = ((settings.horizon / dt).ceil() as usize).clamp(1, settings.max_steps);
+    let lowest = settings.lowest_dt();
+    let highest = settings.highest_dt();
+    let sample_times = shared
+        .reference
+        .map_or_else(Vec::new, |r| r.times().to_vec());
+    let run_trial = |dt: f64| -> Trial {
+        let needed = (settings.horizon / dt * (1.0 - 1e-12)).ceil().max(1.0);
+        let steps = (needed as usize).min(settings.max_steps);
         let run = RunConfig {
             dt,
             steps,
             sample_every: steps.div_ceil(ROWS_PER_TRIAL).max(1),
             energy_limit: settings.energy_factor,
         };
-        let (summary, rows) = run_rows(scene, &run);
-        let trial = Trial {
-            dt,
-            horizon: steps as f64 * dt,
-            summary,
-            rows,
-        };
-        let stable = trial.stable();
-        trials.push(trial);
-        stable
-    };
-
-    // Bisect in log dt with `lo` presumed stable: a trial at dt_min is the most expensive one
-    // (an implicit method over the whole horizon at the smallest step), so `lo` is tried only
-    // once the bracket has closed in on it (within 4x) without a stable trial above it. If it
-    // fails, the bracket widens downward by 10x steps to the floor.
-    let (mut lo, mut hi) = (settings.dt_min, settings.dt_max);
-    let floor = settings.floor();
-    let none_in_range = || {
-        format!(
-            "no stable dt in [{}, {}]",
-            short(floor),
-            short(settings.dt_max)
+        let mut integrator = scene.integrator();
+        let mut state = scene.initial.clone();
+        let mut output = DenseOutput::new(sample_times.clone());
+        let mut summary = experiment::run(
+            &mut scene.model,
+            integrator.as_mut(),
+            &mut state,
+            &run,
+            &mut output,
         )
+        .expect("keeping rows in memory cannot fail");
+        if summary.outcome.is_completed() && (needed as usize) > steps {
+            summary.outcome = Outcome::ended(
+                OutcomeKind::HorizonNotReached,
+                steps,
+                state.t,
+                "step cap",
+                format!(
+                    "stability.max_steps = {} steps of {dt:e} s cover {:e} s of the {:e} s horizon",
+                    settings.max_steps, state.t, settings.horizon
+                ),
+            );
+        }
+        Trial {
+            dt,
+            covered: state.t,
+            summary,
+            rows: output.rows,
+            positions: output.positions,
+        }
     };
-    let (status, bracket): (String, Option<(f64, Option<f64>)>) =
-        if try_dt(&mut scene, hi, &mut trials) {
-            (format!("stable at dt_max={}", short(hi)), Some((hi, None)))
-        } else {
-            let mut verified = false;
-            loop {
-                let closed = hi / lo - 1.0 <= settings.relative_precision;
-                if !verified && (closed || hi / lo <= 4.0) {
-                    if try_dt(&mut scene, lo, &mut trials) {
-                        verified = true;
-                    } else if lo <= floor * (1.0 + 1e-12) {
-                        break (none_in_range(), None);
-                    } else {
-                        hi = lo;
-                        lo = (lo / 10.0).max(floor);
-                    }
-                    continue;
-                }
-                if closed {
-                    break ("ok".to_owned(), Some((lo, Some(hi))));
-                }
-                let mid = (lo * hi).sqrt();
-                if try_dt(&mut scene, mid, &mut trials) {
-                    lo = mid;
-                    verified = true;
-                } else {
-                    hi = mid;
-                }
+    let mut search = Search {
+        run: run_trial,
+        trials: Vec::new(),
+        precision: settings.relative_precision,
+    };
+    let bracket = search.find(settings);
+    // Probe smaller steps below a limit.
+    let mut non_monotone = None;
+    if let Some((limit, Some(_))) = bracket {
+        let mut dt = limit;
+        for _ in 0..settings.probes {
+            dt /= 2.0;
+            if dt < lowest {
+                break;
             }
-        };
-
-    let best = bracket.and_then(|(dt, _)| trials.iter().find(|t| t.dt == dt && t.stable()));
-    let first_unstable = bracket
-        .and_then(|(_, hi)| hi)
-        .and_then(|hi| trials.iter().find(|t| t.dt == hi))
-        .or_else(|| trials.iter().rev().find(|t| !t.stable()));
-    let mut m = Measured {
-        status,
-        ..Measured::default()
-    };
-    if let Some(best) = best {
-        m.cells = summary_cells(&best.summary);
-        m.set("horizon", cell(Some(best.horizon)));
-        m.series = best.rows.clone();
-    }
-    m.set("max_stable_dt", cell(bracket.map(|(lo, _)| lo)));
-    m.set("first_unstable_dt", cell(bracket.and_then(|(_, hi)| hi)));
-    if let Some(t) = first_unstable {
-        let (s, message) = status_of(&t.summary.outcome);
-        m.set("unstable_cause", s);
-        if bracket.is_none() {
-            m.message = message;
+            if !search.stable(dt) && non_monotone.is_none() {
+                non_monotone = Some(dt);
+            }
         }
     }
+    let trials = search.trials;
+
+    let verdict = match bracket {
+        Some((_, None)) => "stable-to-ceiling",
+        Some((_, Some(_))) => "limit-found",
+        None if trials
+            .iter()
+            .all(|t| t.summary.outcome.status == OutcomeKind::Unstable) =>
+        {
+            "unstable-at-every-dt"
+        }
+        None => "no-stable-dt-in-range",
+    };
+    let best = bracket.and_then(|(dt, _)| trials.iter().find(|t| t.dt == dt && t.stable()));
+    let first_unstable = match bracket {
+        Some((_, Some(hi))) => trials.iter().find(|t| t.dt == hi),
+        Some((_, None)) => None,
+        // The smallest step tried decides "nothing was stable".
+        None => trials
+            .iter()
+            .filter(|t| !t.stable())
+            .min_by(|a, b| a.dt.total_cmp(&b.dt)),
+    };
+
+    let mut m = Measured::default();
+    match first_unstable {
+        Some(t) => {
+            let (outcome, message) = outcome_of(&t.summary.outcome);
+            m.outcome = outcome;
+            m.message = format!("at dt = {}: {message}", short(t.dt));
+        }
+        None => m.outcome = OutcomeKind::Completed.name().to_owned(),
+    }
+    if let Some(best) = best {
+        m.cells = summary_cells(&best.summary);
+        let simulated = best.covered.max(f64::MIN_POSITIVE);
+        let totals = &best.summary.totals;
+        m.set(
+            "cost_per_simulated_second",
+            cell(Some(totals.times.total / simulated)),
+        );
+        let evaluations = totals.evaluations.gradient + totals.evaluations.hessian;
+        m.set(
+            "evaluations_per_simulated_second",
+            cell(Some(evaluations as f64 / simulated)),
+        );
+        if let Some(reference) = shared.reference {
+            m.set("reference_difference", cell(Some(reference.difference)));
+            if let Some(error) = reference.relative_l2_error(&best.positions) {
+                let scored = error > reference.floor();
+                m.set("error_at_stable_dt", cell(Some(error)));
+                m.set("error_scored", if scored { "yes" } else { "no" }.into());
+            }
+        }
+        m.series = best.rows.clone();
+    } else if let Some(t) = first_unstable {
+        m.series = t.rows.clone();
+    }
+    m.cells.extend(cap_cells(spec));
+    m.set("stability", verdict.to_owned());
+    m.set("max_stable_dt", cell(bracket.map(|(lo, _)| lo)));
+    m.set("first_unstable_dt", cell(bracket.and_then(|(_, hi)| hi)));
+    m.set("non_monotone_dt", cell(non_monotone));
+    if verdict == "unstable-at-every-dt" {
+        m.set(
+            "energy_growth_rate",
+            cell(first_unstable.and_then(|t| t.summary.energy_growth_rate)),
+        );
+    }
+    if verdict != "limit-found" && verdict != "stable-to-ceiling" {
+        m.message = format!(
+            "{verdict} in [{}, {}] s: {}",
+            short(lowest),
+            short(highest),
+            m.message
+        );
+    } else if let Some(dt) = non_monotone {
+        m.message = format!(
+            "not monotone: the smaller step {} failed ({})",
+            short(dt),
+            trials
+                .iter()
+                .find(|t| t.dt == dt)
+                .map(|t| outcome_of(&t.summary.outcome).1)
+                .unwrap_or_default()
+        );
+    }
+    m.set("lowest_dt", cell(Some(lowest)));
+    m.set("highest_dt", cell(Some(highest)));
+    m.set("horizon", cell(Some(settings.horizon)));
+    m.set("min_steps", settings.min_steps.to_string());
+    m.set("max_steps", settings.max_steps.to_string());
+    m.set("energy_limit", cell(Some(settings.energy_factor)));
+    let omega = shared.omega;
     m.set("omega_max", cell(omega));
     let theory = omega.map(|w| 2.0 / w);
     m.set("dt_theory", cell(theory));
@@ -175,23 +355,131 @@ pub fn measure(
     m.set("trials", trials.len().to_string());
     let total: f64 = trials.iter().map(|t| t.summary.totals.times.total).sum();
     m.set("trials_wall_seconds", cell(Some(total)));
-    let header = ["dt", "steps", "horizon", "stable", "status", "message"];
-    m.trials = Some(Table {
+    m.trials = Some(trial_table(&trials));
+    Ok(m)
+}
+
+/// The search over dt: runs trials (each dt once) and keeps them.
+struct Search<F: FnMut(f64) -> Trial> {
+    run: F,
+    trials: Vec<Trial>,
+    precision: f64,
+}
+
+impl<F: FnMut(f64) -> Trial> Search<F> {
+    /// Whether the trial at `dt` is stable (run now, or recalled).
+    fn stable(&mut self, dt: f64) -> bool {
+        if let Some(t) = self.trials.iter().find(|t| t.dt == dt) {
+            return t.stable();
+        }
+        let trial = (self.run)(dt);
+        let stable = trial.stable();
+        self.trials.push(trial);
+        stable
+    }
+
+    fn closed(&self, lo: f64, hi: f64) -> bool {
+        hi / lo - 1.0 <= self.precision
+    }
+
+    /// The bracket `(largest stable dt, smallest unstable dt above it)`, `(ceiling, None)`
+    /// when the ceiling is stable, or `None` when no step in range is.
+    fn find(&mut self, settings: &StabilitySettings) -> Option<(f64, Option<f64>)> {
+        let (lowest, highest) = (settings.lowest_dt(), settings.highest_dt());
+        let start = settings.dt_max.clamp(lowest, highest);
+        if self.stable(start) {
+            // Widen upward until a failure or the ceiling.
+            let mut lo = start;
+            while lo < highest {
+                let next = (lo * WIDEN_UP).min(highest);
+                if !self.stable(next) {
+                    return Some(self.bisect(lo, next));
+                }
+                lo = next;
+            }
+            return Some((lo, None));
+        }
+        // `lo` is presumed stable: a trial at the lowest step is the most expensive one (an
+        // implicit method over the whole horizon at its smallest step), so it is tried only
+        // once the bracket has closed in on it (within 4x) without a stable trial above it.
+        // If it fails, the bracket widens downward by 10x steps to `lowest`.
+        let mut hi = start;
+        let mut lo = settings.dt_min.clamp(lowest, hi);
+        if lo >= hi {
+            lo = (hi / 10.0).max(lowest);
+        }
+        for _ in 0..MAX_BISECTIONS {
+            if lo >= hi {
+                return None;
+            }
+            if self.closed(lo, hi) || hi / lo <= 4.0 {
+                if self.stable(lo) {
+                    return Some(self.bisect(lo, hi));
+                }
+                if lo <= lowest * (1.0 + 1e-12) {
+                    return None;
+                }
+                hi = lo;
+                lo = (lo / 10.0).max(lowest);
+                continue;
+            }
+            let mid = (lo * hi).sqrt();
+            if self.stable(mid) {
+                return Some(self.bisect(mid, hi));
+            }
+            hi = mid;
+        }
+        None
+    }
+
+    /// Bisect in log dt between a stable `lo` and an unstable `hi`.
+    fn bisect(&mut self, mut lo: f64, mut hi: f64) -> (f64, Option<f64>) {
+        for _ in 0..MAX_BISECTIONS {
+            if self.closed(lo, hi) {
+                break;
+            }
+            let mid = (lo * hi).sqrt();
+            if self.stable(mid) {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        (lo, Some(hi))
+    }
+}
+
+/// `series/<id>-trials.csv`: every trial with its outcome.
+fn trial_table(trials: &[Trial]) -> Table {
+    let header = [
+        "dt",
+        "steps",
+        "covered",
+        "stable",
+        "outcome",
+        "energy_excess_peak",
+        "newton_unconverged_steps",
+        "wall_seconds",
+        "message",
+    ];
+    Table {
         header: header.map(str::to_owned).to_vec(),
         rows: trials
             .iter()
             .map(|t| {
-                let (status, message) = status_of(&t.summary.outcome);
+                let (outcome, message) = outcome_of(&t.summary.outcome);
                 vec![
                     cell(Some(t.dt)),
-                    t.summary.steps_requested.to_string(),
-                    cell(Some(t.horizon)),
+                    t.summary.steps_completed.to_string(),
+                    cell(Some(t.covered)),
                     t.stable().to_string(),
-                    status,
+                    outcome,
+                    cell(Some(t.summary.energy_excess_peak)),
+                    t.summary.newton_unconverged_steps.to_string(),
+                    cell(Some(t.summary.totals.times.total)),
                     message,
                 ]
             })
             .collect(),
-    });
-    Ok(m)
+    }
 }

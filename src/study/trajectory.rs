@@ -3,14 +3,14 @@
 
 use super::format::cell;
 use super::load::RunSpec;
-use super::measured::{Measured, build, run_rows, status_of, summary_cells};
+use super::measured::{Measured, build, cap_cells, outcome_of, run_rows, summary_cells};
 use crate::experiment::Sample;
 use crate::parallel::Parallelism;
 
 /// Columns of a trajectory study's `runs.csv` after the run's identity.
 pub const COLUMNS: &[&str] = &[
     "dt",
-    "status",
+    "outcome",
     "energy_drift_max",
     "energy_drift_final",
     "momentum_drift",
@@ -26,6 +26,11 @@ pub const COLUMNS: &[&str] = &[
     "linear_iterations",
     "newton_iterations",
     "newton_iterations_per_step",
+    "newton_unconverged_steps",
+    "newton_max_iterations",
+    "newton_required",
+    "energy_excess_peak",
+    "energy_limit",
     "assemble_seconds",
     "factor_seconds",
     "solve_seconds",
@@ -37,13 +42,14 @@ pub fn measure(spec: &RunSpec, parallelism: Parallelism) -> Result<Measured, Str
     let mut scene = build(spec, parallelism).map_err(|e| e.to_string())?;
     let run = scene.config.run;
     let (summary, rows) = run_rows(&mut scene, &run);
-    let (status, message) = status_of(&summary.outcome);
+    let (outcome, message) = outcome_of(&summary.outcome);
     let mut m = Measured {
-        status,
+        outcome,
         message,
         cells: summary_cells(&summary),
         ..Measured::default()
     };
+    m.cells.extend(cap_cells(spec));
     m.set("dt", cell(Some(run.dt)));
     let conserved = Conservation::of(&scene);
     let (p, l) = momentum_drift(&rows, &conserved);

@@ -12,7 +12,7 @@
 use super::config::WorkPrecisionSettings;
 use super::format::cell;
 use super::load::RunSpec;
-use super::measured::{Measured, build, status_of, summary_cells};
+use super::measured::{Measured, build, cap_cells, outcome_of, summary_cells};
 use crate::experiment::{self, Energies, Observer, RunSummary, Sample};
 use crate::integrate::{Method, State};
 use crate::model::Model;
@@ -22,7 +22,7 @@ use crate::scene::{RunConfig, Scene};
 /// Columns of a work-precision study's `runs.csv` after the run's identity.
 pub const COLUMNS: &[&str] = &[
     "dt",
-    "status",
+    "outcome",
     "error",
     "energy_error",
     "wall_seconds",
@@ -41,6 +41,9 @@ pub const COLUMNS: &[&str] = &[
     "step_seconds_p95",
     "steps",
     "energy_drift_max",
+    "newton_unconverged_steps",
+    "newton_max_iterations",
+    "newton_required",
     "assemble_seconds",
     "factor_seconds",
     "solve_seconds",
@@ -66,6 +69,42 @@ pub struct Reference {
     pub energy_difference: f64,
     /// Wall time of both reference runs (s).
     pub wall_seconds: f64,
+    /// The sample times (s).
+    times: Vec<f64>,
+    /// Errors below `floor_factor * difference` are not scored.
+    floor_factor: f64,
+}
+
+impl Reference {
+    /// The sample times (s): `horizon k / samples`, k = 1..samples.
+    pub fn times(&self) -> &[f64] {
+        &self.times
+    }
+
+    /// Errors at or below this are within the reference's own accuracy.
+    pub fn floor(&self) -> f64 {
+        self.floor_factor * self.difference
+    }
+
+    /// Relative L2 position error over all sample times:
+    /// `sqrt(sum_k |x_k - x_ref(t_k)|^2) / sqrt(sum_k |x_ref(t_k) - X|^2)` with X the rest
+    /// positions, so it is relative to how far the body moves. `None` unless `positions`
+    /// holds every sample time.
+    pub fn relative_l2_error(&self, positions: &[Vec<f64>]) -> Option<f64> {
+        let reference = &self.snapshots.q;
+        if positions.len() != reference.len() || reference.is_empty() {
+            return None;
+        }
+        let squared =
+            |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>();
+        let error: f64 = positions
+            .iter()
+            .zip(reference)
+            .map(|(x, r)| squared(x, r))
+            .sum();
+        let motion: f64 = reference.iter().map(|r| squared(r, &self.rest)).sum();
+        Some(error.sqrt() / motion.sqrt().max(f64::MIN_POSITIVE))
+    }
 }
 
 /// Records rows, and the state and energies every `stride` steps.
@@ -198,8 +237,8 @@ pub fn reference(
             energy_limit: 0.0,
         };
         let (summary, _, snapshots) = sampled_run(&mut scene, &run, stride);
-        if let experiment::Outcome::Failed { .. } = summary.outcome {
-            let (status, message) = status_of(&summary.outcome);
+        if !summary.outcome.is_completed() {
+            let (status, message) = outcome_of(&summary.outcome);
             return Err(format!(
                 "the reference ({} at dt = {dt:e} s) {status}: {message}; choose another \
                  [work-precision.reference] method or dt",
@@ -224,6 +263,10 @@ pub fn reference(
         difference,
         energy_difference,
         wall_seconds: t1 + t2,
+        times: (1..=settings.samples)
+            .map(|k| settings.horizon * k as f64 / settings.samples as f64)
+            .collect(),
+        floor_factor: settings.reference.floor_factor,
     })
 }
 
@@ -237,21 +280,22 @@ pub fn measure(
     let mut scene = build(spec, parallelism).map_err(|e| e.to_string())?;
     let run = scene.config.run;
     let (summary, rows, snapshots) = sampled_run(&mut scene, &run, stride(settings, run.dt));
-    let (status, message) = status_of(&summary.outcome);
+    let (outcome, message) = outcome_of(&summary.outcome);
     let mut m = Measured {
-        status,
+        outcome,
         message,
         cells: summary_cells(&summary),
         series: rows,
         ..Measured::default()
     };
+    m.cells.extend(cap_cells(spec));
     m.set("dt", cell(Some(run.dt)));
     m.set("reference_method", reference.method.name().to_owned());
     m.set("reference_dt", cell(Some(reference.dt)));
     m.set("reference_difference", cell(Some(reference.difference)));
     let floor = settings.reference.floor_factor * reference.difference;
     match errors(&snapshots, &reference.snapshots, &reference.rest) {
-        Some((error, energy)) if summary.outcome == experiment::Outcome::Completed => {
+        Some((error, energy)) if summary.outcome.is_completed() => {
             let scored = error > floor;
             m.set("scored", if scored { "yes" } else { "no" }.into());
             m.set("error", cell(scored.then_some(error)));
