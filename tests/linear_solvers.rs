@@ -618,9 +618,7 @@ fn settings_deserialize_with_documented_defaults() {
 
 /// A StVK box squashed to 35% of its length: strongly negative stiffness, so with a large
 /// step `M + dt^2 K` is indefinite (the case of `tests/newton.rs`'s Cholesky fallback).
-fn squashed_stvk_step(
-    solver: LinearSolverKind,
-) -> (softbench::integrate::StepReport, Vec<f64>) {
+fn squashed_stvk_step(solver: LinearSolverKind) -> (softbench::integrate::StepReport, Vec<f64>) {
     use softbench::integrate::{IntegratorSettings, Method, State};
     let lame = softbench::material::LameParameters::from_youngs_poisson(1e4, 0.3).unwrap();
     let material = softbench::material::MaterialModel::from_name("stvk", lame).unwrap();
@@ -666,7 +664,10 @@ fn ldlt_negative_pivots_fall_back_to_projected_hessians_like_cholesky() {
         .map(|(a, b)| (a - b).powi(2))
         .sum::<f64>()
         .sqrt();
-    assert!(diff <= 1e-10 * scale, "ldlt differs from cholesky by {diff:e}");
+    assert!(
+        diff <= 1e-10 * scale,
+        "ldlt differs from cholesky by {diff:e}"
+    );
 }
 
 /// The course armadillo yanked by its hand (`armadillo_drag.toml`, backward Euler): with
