@@ -3,6 +3,8 @@
 #[path = "support/grid_spd.rs"]
 mod grid_spd;
 
+mod common;
+
 use std::sync::Arc;
 
 use grid_spd::{Grid, Spec, add_block, add_diagonal, relative_residual, rhs};
@@ -612,4 +614,94 @@ fn settings_deserialize_with_documented_defaults() {
         .to_string();
     assert!(err.contains("valid: cholesky, ldlt, cg, dense"), "{err}");
     assert!(serde_json::from_str::<SolverSettings>(r#"{"cg": {"tol": 1e-6}}"#).is_err());
+}
+
+/// A StVK box squashed to 35% of its length: strongly negative stiffness, so with a large
+/// step `M + dt^2 K` is indefinite (the case of `tests/newton.rs`'s Cholesky fallback).
+fn squashed_stvk_step(solver: LinearSolverKind) -> (softbench::integrate::StepReport, Vec<f64>) {
+    use softbench::integrate::{IntegratorSettings, Method, State};
+    let lame = softbench::material::LameParameters::from_youngs_poisson(1e4, 0.3).unwrap();
+    let material = softbench::material::MaterialModel::from_name("stvk", lame).unwrap();
+    let mesh = softbench::mesh::generate::box_mesh([2, 1, 1], [0.2, 0.1, 0.1]);
+    let mut model =
+        softbench::model::Model::new(softbench::model::ModelSpec::elastic(mesh, material, 1000.0))
+            .unwrap();
+    let mut state = State::at_rest(&model);
+    state.q.iter_mut().step_by(3).for_each(|x| *x *= 0.35);
+    let mut integ = IntegratorSettings {
+        method: Method::BackwardEuler,
+        linear_solver: solver,
+        ..Default::default()
+    }
+    .build();
+    let report = integ
+        .step(&mut model, &mut state, 0.1)
+        .unwrap_or_else(|e| panic!("{solver:?}: {e}"));
+    (report, state.q)
+}
+
+/// LDLᵀ factors an indefinite `M + dt^2 K` without failing, but Newton needs a descent
+/// direction: its negative pivots trigger the same projected-Hessian fallback as a failed
+/// Cholesky pivot, so both solvers take the same step and count the same fallbacks.
+#[test]
+fn ldlt_negative_pivots_fall_back_to_projected_hessians_like_cholesky() {
+    let (chol, q_chol) = squashed_stvk_step(LinearSolverKind::Cholesky);
+    let (ldlt, q_ldlt) = squashed_stvk_step(LinearSolverKind::Ldlt);
+    eprintln!(
+        "squashed StVK, backward Euler dt 0.1: indefinite fallbacks cholesky {} ldlt {}, \
+         newton iterations {} / {}",
+        chol.indefinite_fallbacks,
+        ldlt.indefinite_fallbacks,
+        chol.newton_iterations,
+        ldlt.newton_iterations
+    );
+    assert!(ldlt.indefinite_fallbacks > 0, "{ldlt:?}");
+    assert_eq!(ldlt.indefinite_fallbacks, chol.indefinite_fallbacks);
+    let scale = q_chol.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let diff = q_chol
+        .iter()
+        .zip(&q_ldlt)
+        .map(|(a, b)| (a - b).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    assert!(
+        diff <= 1e-10 * scale,
+        "ldlt differs from cholesky by {diff:e}"
+    );
+}
+
+/// The course armadillo yanked by its hand (`armadillo_drag.toml`, backward Euler): with
+/// LDLᵀ it used to fail at step 6 ("not a descent direction") where Cholesky, CG and dense
+/// finish. It now finishes like Cholesky, and summary.json counts the fallbacks.
+#[test]
+fn the_dragged_armadillo_finishes_with_ldlt_like_with_cholesky() {
+    if common::reference_mesh("arma_6.node").is_none() {
+        return;
+    }
+    let dir = common::TempDir::new("ldlt-drag");
+    let mut fallbacks = Vec::new();
+    for solver in ["cholesky", "ldlt"] {
+        let out = dir.path().join(solver);
+        let set = format!("integrator.linear_solver={solver}");
+        let result = common::simulate(
+            &common::scene("armadillo_drag.toml"),
+            &out,
+            &["--set", &set],
+        );
+        let stderr = String::from_utf8_lossy(&result.stderr);
+        assert!(result.status.success(), "{solver}: {stderr}");
+        let summary: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap())
+                .unwrap();
+        let s = &summary["summary"];
+        assert_eq!(s["steps_completed"], 150, "{solver}");
+        let n = s["totals"]["indefinite_fallbacks"].as_u64().unwrap();
+        eprintln!(
+            "dragged armadillo, {solver}: 150 steps, {n} indefinite fallbacks, final elastic {} J",
+            s["final_energy"]["elastic"]
+        );
+        fallbacks.push(n);
+    }
+    assert!(fallbacks[1] > 0, "ldlt never fell back: {fallbacks:?}");
+    assert_eq!(fallbacks[0], fallbacks[1]);
 }

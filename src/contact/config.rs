@@ -114,10 +114,12 @@ named_enum! {
     ContactResponse, "contact response", UnknownContactResponse {
         /// A stiff spring `1/2 k d^2` on the penetration depth, inside the model.
         Penalty = "penalty",
-        /// After each step, move penetrating vertices to the surface and change their
-        /// velocity (restitution, friction).
+        /// After each step, move penetrating vertices to the surface (the body following
+        /// as in a backward Euler step) and change their velocity (restitution, friction).
         Projection = "projection",
-        /// After each step, change the velocity of penetrating vertices only.
+        /// Predictive: a vertex that would end the step inside gets the new velocity
+        /// (restitution, friction) and moves by dt times it from where it started, so it
+        /// never lands inside.
         VelocityFlip = "velocity-flip",
         /// Backward Euler with linearized non-penetration constraints (a QP per iteration).
         Constrained = "constrained",
@@ -130,10 +132,10 @@ impl ContactResponse {
         match self {
             Self::Penalty => "spring 1/2 k d^2 on the depth; any integrator, penetrates ~ load/k",
             Self::Projection => {
-                "move to the surface, restitution/friction; any integrator, needs a small dt"
+                "move to the surface after the step, restitution/friction; any integrator"
             }
             Self::VelocityFlip => {
-                "reflect the normal velocity only; bounces, cannot hold a resting body"
+                "predictive: reflect the velocity of a vertex that would penetrate, redo its move"
             }
             Self::Constrained => {
                 "backward Euler with non-penetration constraints (a QP per iteration); exact"

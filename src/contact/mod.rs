@@ -10,9 +10,11 @@
 //! - `penalty` ([`PenaltyContact`]): a per-vertex potential `1/2 k d^2` on the penetration
 //!   depth; every integrator sees it as a force, implicit ones also see its Hessian;
 //! - `projection` and `velocity-flip` ([`WithContactResponse`]): after each step of any
-//!   integrator, penetrating vertices are moved to the surface (projection only) and their
-//!   velocity relative to the obstacle is reflected with restitution and damped tangentially
-//!   by friction ([`VelocityRule`]);
+//!   integrator, vertices that ended inside get their velocity relative to the obstacle
+//!   reflected with restitution and damped tangentially by friction ([`VelocityRule`]) and
+//!   are moved to the surface (projection) or to where the new velocity takes them from their
+//!   start-of-step position (velocity-flip, predictive); after implicit methods the body
+//!   follows the correction (`correction.rs`);
 //! - `constrained` ([`ConstrainedBackwardEuler`]): backward Euler whose iterations solve a
 //!   convex QP with linearized non-penetration constraints (clarabel).
 //!
@@ -23,6 +25,7 @@
 mod capsule;
 pub mod config;
 pub mod constrained;
+mod correction;
 mod cuboid;
 mod half_space;
 pub mod obstacle;

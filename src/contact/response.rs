@@ -1,7 +1,20 @@
-//! Responses applied after a step of any integrator: [`WithContactResponse`] runs the inner
+//! Responses applied around a step of any integrator: [`WithContactResponse`] runs the inner
 //! integrator, then corrects the free vertices that ended inside an obstacle, and reports the
 //! contacts of the new state.
+//!
+//! Both corrections put each such vertex's normal coordinate on a target and change its
+//! velocity by the [`VelocityRule`]; they differ in the target:
+//! - projection: the obstacle's surface (the vertex's position is corrected after the fact);
+//! - velocity-flip (predictive): where the vertex's flipped velocity takes it from its
+//!   start-of-step position, `x_0 + dt v'`, so the step is redone with the flipped velocity
+//!   and the vertex never lands inside (exactly for a plane, to O(dt² v²/R) on a curved
+//!   surface of radius R), as the seeds do for a vertex that *would* penetrate.
+//!
+//! The rest of the body follows the correction as a backward Euler step would
+//! ([`super::correction`]), so the correction does not store elastic energy the impact never
+//! had.
 
+use super::correction::{ContactRow, Correction};
 use super::obstacle::{ObstacleSample, Obstacles};
 use crate::integrate::{Integrator, State, StepError, StepReport};
 use crate::model::Model;
@@ -17,7 +30,9 @@ pub enum Response {
     /// Move the vertex to the nearest surface point and change its velocity relative to the
     /// obstacle (see [`VelocityRule`]).
     Projection(VelocityRule),
-    /// Change the velocity only (see [`VelocityRule`]); the position is left inside.
+    /// Change the velocity (see [`VelocityRule`]) of a vertex that would end the step inside,
+    /// and move it from its start-of-step position by `dt` times the new velocity (normal
+    /// coordinate), so it stays outside.
     VelocityFlip(VelocityRule),
 }
 
@@ -53,7 +68,22 @@ pub struct WithContactResponse {
     obstacles: Arc<Obstacles>,
     response: Response,
     margin: f64,
+    correction: Correction,
+    /// The state at the start of the step (restored if the correction fails).
+    start_q: Vec<f64>,
+    start_v: Vec<f64>,
+    /// This step's contacts and the new velocity of each.
+    rows: Vec<ContactRow>,
+    velocities: Vec<Vector3<f64>>,
+    /// Row of each free vertex in `rows`, if any.
+    row_of: Vec<Option<usize>>,
+    /// The inner step's result while the state is corrected.
+    end_q: Vec<f64>,
+    end_v: Vec<f64>,
 }
+
+/// Passes of the correction: vertices the previous pass pushed inside join the next one.
+const MAX_PASSES: usize = 4;
 
 impl WithContactResponse {
     /// `inner` followed by `response` against `obstacles`; vertices within `margin` (m) of an
@@ -64,11 +94,20 @@ impl WithContactResponse {
         response: Response,
         margin: f64,
     ) -> Self {
+        let correction = Correction::new(inner.is_explicit());
         Self {
             inner,
             obstacles,
             response,
             margin,
+            correction,
+            start_q: Vec::new(),
+            start_v: Vec::new(),
+            rows: Vec::new(),
+            velocities: Vec::new(),
+            row_of: Vec::new(),
+            end_q: Vec::new(),
+            end_v: Vec::new(),
         }
     }
 
@@ -77,28 +116,113 @@ impl WithContactResponse {
         self.response
     }
 
-    /// Apply the response to every free vertex at time `t`.
-    fn respond(&self, state: &mut State, t: f64) {
-        let (rule, project) = match self.response {
-            Response::ReportOnly => return,
-            Response::Projection(rule) => (rule, true),
-            Response::VelocityFlip(rule) => (rule, false),
+    /// Add a row for every free vertex of `q` inside an obstacle at time `t` that has none
+    /// yet (its deepest obstacle); returns how many were added.
+    fn add_rows(&mut self, q: &[f64], v: &[f64], t: f64, dt: f64) -> usize {
+        let (rule, predictive) = match self.response {
+            Response::ReportOnly => return 0,
+            Response::Projection(rule) => (rule, false),
+            Response::VelocityFlip(rule) => (rule, true),
         };
-        for (x, v) in state.q.chunks_exact_mut(3).zip(state.v.chunks_exact_mut(3)) {
-            let mut p = Vector3::new(x[0], x[1], x[2]);
-            let mut u = Vector3::new(v[0], v[1], v[2]);
-            for o in self.obstacles.iter() {
-                let s = o.sample(&p, t);
-                if s.sdf.distance < 0.0 {
-                    if project {
-                        p -= s.sdf.gradient * s.sdf.distance;
+        let mut added = 0;
+        for (f, x) in q.chunks_exact(3).enumerate() {
+            if self.row_of[f].is_some() {
+                continue;
+            }
+            let p = Vector3::new(x[0], x[1], x[2]);
+            let deepest = self
+                .obstacles
+                .iter()
+                .map(|o| o.sample(&p, t))
+                .filter(|s| s.sdf.distance < 0.0)
+                .min_by(|a, b| a.sdf.distance.total_cmp(&b.sdf.distance));
+            let Some(s) = deepest else { continue };
+            let n = s.sdf.gradient;
+            let u = rule.apply(Vector3::from_column_slice(&v[3 * f..][..3]), &s);
+            let target = if predictive {
+                n.dot(&(Vector3::from_column_slice(&self.start_q[3 * f..][..3]) + dt * u))
+            } else {
+                n.dot(&p) - s.sdf.distance
+            };
+            self.row_of[f] = Some(self.rows.len());
+            self.rows.push(ContactRow {
+                vertex: f,
+                normal: n,
+                target,
+            });
+            self.velocities.push(u);
+            added += 1;
+        }
+        added
+    }
+
+    /// Correct the state after the inner step: positions at `t`, start-of-step copies in
+    /// `start_q`/`start_v`.
+    fn respond(
+        &mut self,
+        model: &mut Model,
+        state: &mut State,
+        t: f64,
+        dt: f64,
+        report: &mut StepReport,
+    ) -> Result<(), StepError> {
+        // The inner step's result, kept while `state` is corrected (buffers reused).
+        let mut q1 = std::mem::take(&mut self.end_q);
+        let mut v1 = std::mem::take(&mut self.end_v);
+        q1.clone_from(&state.q);
+        v1.clone_from(&state.v);
+        let result = self.correct(model, state, &q1, &v1, t, dt, report);
+        self.end_q = q1;
+        self.end_v = v1;
+        result
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn correct(
+        &mut self,
+        model: &mut Model,
+        state: &mut State,
+        q1: &[f64],
+        v1: &[f64],
+        t: f64,
+        dt: f64,
+        report: &mut StepReport,
+    ) -> Result<(), StepError> {
+        self.rows.clear();
+        self.velocities.clear();
+        self.row_of.clear();
+        self.row_of.resize(q1.len() / 3, None);
+        let mut added = self.add_rows(q1, v1, t, dt);
+        let mut passes = 0;
+        while added > 0 && passes < MAX_PASSES {
+            passes += 1;
+            let dx = self
+                .correction
+                .solve(model, q1, dt, &self.rows, passes == 1, report)?;
+            for ((q, x), d) in state.q.iter_mut().zip(q1).zip(dx) {
+                *q = x + d;
+            }
+            added = self.add_rows(&state.q, v1, t, dt);
+        }
+        // Contact vertices take the rule's velocity; the rest of the body follows the
+        // correction with the velocity change dx / dt (backward Euler's v = (x - x_0) / dt).
+        for (f, ((v, q), x)) in state
+            .v
+            .chunks_exact_mut(3)
+            .zip(state.q.chunks_exact(3))
+            .zip(q1.chunks_exact(3))
+            .enumerate()
+        {
+            match self.row_of[f] {
+                Some(r) => v.copy_from_slice(self.velocities[r].as_slice()),
+                None => {
+                    for i in 0..3 {
+                        v[i] += (q[i] - x[i]) / dt;
                     }
-                    u = rule.apply(u, &s);
                 }
             }
-            x.copy_from_slice(p.as_slice());
-            v.copy_from_slice(u.as_slice());
         }
+        Ok(())
     }
 }
 
@@ -122,9 +246,19 @@ impl Integrator for WithContactResponse {
         dt: f64,
         report: &mut StepReport,
     ) -> Result<(), StepError> {
+        if self.response != Response::ReportOnly {
+            self.start_q.clone_from(&state.q);
+            self.start_v.clone_from(&state.v);
+        }
         self.inner.advance(model, state, dt, report)?;
         let t = state.t + dt;
-        self.respond(state, t);
+        if self.response != Response::ReportOnly
+            && let Err(e) = self.respond(model, state, t, dt, report)
+        {
+            state.q.clone_from(&self.start_q);
+            state.v.clone_from(&self.start_v);
+            return Err(e);
+        }
         let stats = self.obstacles.stats(&state.q, t, self.margin);
         report.contacts = stats.contacts;
         report.max_penetration = stats.max_penetration;

@@ -1,8 +1,11 @@
 //! The linear system of implicit methods, `H = M + beta K(x)`: assembled into the model's
 //! fixed pattern, factored by any [`LinearSolver`] (symbolic analysis once), solved per
-//! right-hand side. If `H` turns out indefinite (a failed Cholesky pivot, or CG meeting
-//! negative curvature), it is reassembled with element Hessians projected to PSD — which makes
-//! `H` positive definite — and the fallback is counted in the step report.
+//! right-hand side. If `H` turns out indefinite (a failed Cholesky pivot, CG meeting negative
+//! curvature, or negative pivots counted by LDLᵀ, which factors indefinite matrices without
+//! failing), it is reassembled with element Hessians projected to PSD — which makes `H`
+//! positive definite — and the fallback is counted in the step report. Every caller needs a
+//! positive definite `H` (Newton's direction must descend), so a matrix still indefinite after
+//! projection is an error, never a solution.
 
 use super::{StepError, StepReport};
 use crate::model::{HessianOptions, Model};
@@ -30,7 +33,9 @@ pub(crate) struct ImplicitSystem {
 fn is_indefinite(e: &SolveError) -> bool {
     matches!(
         e,
-        SolveError::NotPositiveDefinite { .. } | SolveError::NegativeCurvature { .. }
+        SolveError::NotPositiveDefinite { .. }
+            | SolveError::NegativeCurvature { .. }
+            | SolveError::Indefinite { .. }
     )
 }
 
@@ -98,15 +103,21 @@ impl ImplicitSystem {
         Ok(self.matrix.as_ref().expect("assembled"))
     }
 
+    /// Factor the assembled matrix. A factorization that reports negative pivots (LDLᵀ) is
+    /// counted as done but returned as `Indefinite`: the matrix is not positive definite.
     fn factor_current(&mut self, report: &mut StepReport) -> Result<(), SolveError> {
         let start = Instant::now();
         let result = self.solver.factor(self.matrix.as_ref().expect("assembled"));
         report.times.factor += start.elapsed().as_secs_f64();
-        if result.is_ok() {
-            report.factorizations += 1;
-            report.factor_nnz = report.factor_nnz.max(self.solver.stats().factor_nnz);
+        let factored = result?;
+        report.factorizations += 1;
+        report.factor_nnz = report.factor_nnz.max(self.solver.stats().factor_nnz);
+        match factored.negative_pivots {
+            Some(negative_pivots) if negative_pivots > 0 => {
+                Err(SolveError::Indefinite { negative_pivots })
+            }
+            _ => Ok(()),
         }
-        result.map(|_| ())
     }
 
     /// Assemble the damping matrix `D(q)` for this step, to be added with weight `gamma` to

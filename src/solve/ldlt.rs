@@ -3,7 +3,10 @@
 //!
 //! LDLᵀ succeeds on indefinite matrices without saying so, so every `factor` counts the
 //! negative entries of D ([`FactorReport::negative_pivots`]): by Sylvester's law of inertia
-//! that is the number of negative eigenvalues of `A`. Without pivoting the factorization can
+//! that is the number of negative eigenvalues of `A`. The solver's contract is to factor any
+//! symmetric nonsingular matrix and report its inertia; a caller that needs `A` positive
+//! definite acts on the count (the implicit integrators' system falls back to projected
+//! Hessians, as on a failed Cholesky pivot). Without pivoting the factorization can
 //! be unstable on strongly indefinite matrices; the residual in each [`SolveReport`] shows it.
 //! Storage is allocated by `analyze` as for [`super::cholesky`].
 

@@ -98,6 +98,12 @@ pub enum SolveError {
         "matrix is not positive definite (CG found pᵀAp = {curvature:e} at iteration {iteration})"
     )]
     NegativeCurvature { iteration: usize, curvature: f64 },
+    /// An inertia-revealing factorization (LDLᵀ) succeeded, but `A` has `negative_pivots`
+    /// negative eigenvalues where the caller needs it positive definite (a Newton step must
+    /// be a descent direction). The solver never returns this itself; callers that require
+    /// positive definiteness turn a [`FactorReport::negative_pivots`] into it.
+    #[error("matrix is indefinite (LDLᵀ found {negative_pivots} negative pivot(s))")]
+    Indefinite { negative_pivots: usize },
     /// LDLᵀ met an exactly zero pivot: `A` is singular. `column` in the original ordering.
     #[error("matrix is singular (zero pivot at column {column})")]
     SingularMatrix { column: usize },
