@@ -214,3 +214,28 @@ fn only_pattern_matching_nothing() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("beam-rk4"));
     assert!(!out.exists());
 }
+
+#[test]
+fn stability_step_bounds_that_leave_nothing_to_judge() {
+    let stability = "name = \"bad\"\nstudy = \"stability\"\nscenes = [\"beam.toml\"]\n\
+                     [grid]\n\"integrator.method\" = [\"rk4\"]\n[stability]\n\
+                     dt_min = 1e-4\ndt_max = 0.01\nhorizon = 1.0\n";
+    // horizon / max_steps above the ceiling: no step can be judged.
+    assert_rejected(
+        &format!("{stability}max_steps = 10\nmin_steps = 5\ndt_ceiling = 0.01\n"),
+        &["study.toml", "stability.max_steps", "no step can be judged"],
+    );
+    assert_rejected(
+        &format!("{stability}max_steps = 100\nmin_steps = 200\n"),
+        &["stability.min_steps", "[1, max_steps = 100]"],
+    );
+    assert_rejected(
+        &format!("{stability}energy_factor = 0\n"),
+        &["stability.energy_factor", "must be > 0"],
+    );
+    // A quick horizon would make quick verdicts differ from the full study's.
+    assert_rejected(
+        &format!("{stability}[quick]\nhorizon = 0.1\n"),
+        &["quick.horizon", "keeps its horizon"],
+    );
+}

@@ -136,16 +136,7 @@ pub(super) fn check_settings(file: &StudyFile, ctx: &Context) -> Result<StudyKin
                     ),
                 ));
             }
-            let r = &s.reference;
-            if !(r.dt_factor.is_finite() && r.dt_factor >= 1.0) {
-                return Err(bad(
-                    "stability.reference.dt_factor",
-                    format!("must be >= 1 (got {})", r.dt_factor),
-                ));
-            }
-            if r.dt.is_some_and(|dt| !(dt.is_finite() && dt > 0.0)) {
-                return Err(bad("stability.reference.dt", "must be > 0 s".into()));
-            }
+            check_reference(&s.reference, "stability", &bad)?;
         }
         StudyKind::WorkPrecision => {
             let Some(w) = &file.work_precision else {
@@ -164,16 +155,7 @@ pub(super) fn check_settings(file: &StudyFile, ctx: &Context) -> Result<StudyKin
             if w.samples == 0 {
                 return Err(bad("work-precision.samples", "must be at least 1".into()));
             }
-            let r = &w.reference;
-            if !(r.dt_factor.is_finite() && r.dt_factor >= 1.0) {
-                return Err(bad(
-                    "work-precision.reference.dt_factor",
-                    format!("must be >= 1 (got {})", r.dt_factor),
-                ));
-            }
-            if r.dt.is_some_and(|dt| !(dt.is_finite() && dt > 0.0)) {
-                return Err(bad("work-precision.reference.dt", "must be > 0 s".into()));
-            }
+            check_reference(&w.reference, "work-precision", &bad)?;
             if !file.grid.contains_key("run.dt")
                 && !file
                     .methods
@@ -190,4 +172,25 @@ pub(super) fn check_settings(file: &StudyFile, ctx: &Context) -> Result<StudyKin
         StudyKind::Trajectory | StudyKind::Sweep => {}
     }
     Ok(kind)
+}
+
+/// The `[<table>.reference]` settings' ranges.
+fn check_reference(
+    r: &super::config::ReferenceSettings,
+    table: &str,
+    bad: &dyn Fn(&str, String) -> StudyError,
+) -> Result<(), StudyError> {
+    if !(r.dt_factor.is_finite() && r.dt_factor >= 1.0) {
+        return Err(bad(
+            &format!("{table}.reference.dt_factor"),
+            format!("must be >= 1 (got {})", r.dt_factor),
+        ));
+    }
+    if r.dt.is_some_and(|dt| !(dt.is_finite() && dt > 0.0)) {
+        return Err(bad(
+            &format!("{table}.reference.dt"),
+            "must be > 0 s".into(),
+        ));
+    }
+    Ok(())
 }
