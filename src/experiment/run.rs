@@ -105,6 +105,8 @@ pub enum Outcome {
         cause: String,
         message: String,
     },
+    /// A stop was requested (SIGINT or SIGTERM) after `step` steps; the rows so far are valid.
+    Interrupted { step: usize, signal: String },
 }
 
 /// What a run did, for `summary.json` and study tables.
@@ -250,7 +252,7 @@ pub fn run(
     summary.initial_energy = initial;
     let mut since_row = StepReport::default();
     let mut steps_since_row = 0u64;
-    let mut step_seconds = Vec::with_capacity(config.steps);
+    let mut step_seconds = Vec::with_capacity(config.steps.min(1 << 20));
     let momenta = metrics.momenta(model, state);
     let no_work = RowWork {
         report: &StepReport::default(),
@@ -269,6 +271,13 @@ pub fn run(
     let time_dependent = !model.vertex_potentials().is_empty();
     let mut driven_work = 0.0;
     for step in 1..=config.steps {
+        if let Some(signal) = crate::interrupt::requested() {
+            summary.outcome = Outcome::Interrupted {
+                step: step - 1,
+                signal: signal.name().into(),
+            };
+            break;
+        }
         if time_dependent {
             let before = model.vertex_energy_at(&state.q, state.t);
             let after = model.vertex_energy_at(&state.q, state.t + dt);

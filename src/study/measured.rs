@@ -66,6 +66,9 @@ pub fn status_of(outcome: &Outcome) -> (String, String) {
             };
             (status, message.clone())
         }
+        Outcome::Interrupted { step, signal } => {
+            ("interrupted".into(), format!("{signal} after step {step}"))
+        }
     }
 }
 
