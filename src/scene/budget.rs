@@ -81,7 +81,13 @@ pub(super) fn check(c: &SceneConfig) -> Result<(), Problem> {
             ),
         };
         let total = particles.and_then(|p| p.checked_mul(20));
-        limits::MESH.check_usize(total).map_err(over(key))?;
+        limits::MESH.check_usize(total).map_err(|e| Problem {
+            key,
+            message: format!(
+                "{} particles, about 20 entries each with springs and display tets: {e}",
+                particles.map_or("more than 2^64".into(), |p| p.to_string())
+            ),
+        })?;
         let lengths = j
             .size
             .iter()
