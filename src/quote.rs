@@ -6,7 +6,9 @@
 //! short.
 
 /// Longest line of a message, in characters.
-pub const MAX_LINE: usize = 300;
+pub const MAX_LINE: usize = 500;
+/// Longest line of a parser's message, which echoes lines of the file itself.
+pub const MAX_SOURCE_LINE: usize = 160;
 /// Longest `` `quoted` `` span of a message, in characters.
 pub const MAX_QUOTE: usize = 60;
 
@@ -14,6 +16,16 @@ pub const MAX_QUOTE: usize = 60;
 /// [`MAX_LINE`] (cuts marked with `...`), at most 12 lines, and control characters other
 /// than tabs and newlines shown as `?`.
 pub fn clip_message(message: &str) -> String {
+    clip(message, MAX_LINE)
+}
+
+/// [`clip_message`] for a parser's message (TOML), which shows lines of the file: each line is
+/// cut to [`MAX_SOURCE_LINE`] characters.
+pub fn clip_source(message: &str) -> String {
+    clip(message, MAX_SOURCE_LINE)
+}
+
+fn clip(message: &str, max_line: usize) -> String {
     let mut out = Vec::new();
     for (i, line) in message.lines().enumerate() {
         if i == 12 {
@@ -23,10 +35,10 @@ pub fn clip_message(message: &str) -> String {
         let line = clip_quotes(line);
         let mut clipped: String = line
             .chars()
-            .take(MAX_LINE)
+            .take(max_line)
             .map(|c| if c.is_control() && c != '\t' { '?' } else { c })
             .collect();
-        if line.chars().nth(MAX_LINE).is_some() {
+        if line.chars().nth(max_line).is_some() {
             clipped.push_str("...");
         }
         out.push(clipped);
@@ -59,8 +71,8 @@ mod tests {
     #[test]
     fn a_long_line_is_clipped_and_nul_bytes_hidden() {
         let long = format!("a\0b{}", "x".repeat(10_000));
-        let clipped = clip_message(&long);
-        assert!(clipped.len() < MAX_LINE + 10);
+        let clipped = clip_source(&long);
+        assert!(clipped.len() < MAX_SOURCE_LINE + 10);
         assert!(clipped.starts_with("a?b"));
         assert!(clipped.ends_with("..."));
     }

@@ -42,7 +42,7 @@ pub enum SceneError {
     #[error("{path}: {message}")]
     Parse { path: PathBuf, message: String },
     /// A value out of its valid range.
-    #[error("{path}: {key}: {message}")]
+    #[error("{path}: {key}: {}", crate::quote::clip_message(.message))]
     Invalid {
         path: PathBuf,
         key: String,
@@ -143,7 +143,7 @@ pub fn parse(text: &str, path: &Path, overrides: &[String]) -> Result<SceneConfi
 pub fn parse_text(text: &str, path: &Path) -> Result<toml::Table, SceneError> {
     toml::from_str(text).map_err(|e| SceneError::Parse {
         path: path.to_owned(),
-        message: crate::quote::clip_message(e.to_string().trim_end()),
+        message: crate::quote::clip_source(e.to_string().trim_end()),
     })
 }
 
@@ -162,7 +162,7 @@ pub fn from_table(
             if let Some(Err(located)) = text.map(toml::from_str::<SceneConfig>) {
                 return Err(SceneError::Parse {
                     path: path.to_owned(),
-                    message: crate::quote::clip_message(located.to_string().trim_end()),
+                    message: crate::quote::clip_source(located.to_string().trim_end()),
                 });
             }
             let context = if text.is_some() {
@@ -172,7 +172,7 @@ pub fn from_table(
             };
             return Err(SceneError::Parse {
                 path: path.to_owned(),
-                message: crate::quote::clip_message(&format!(
+                message: crate::quote::clip_source(&format!(
                     "{context}{}",
                     e.to_string().trim_end()
                 )),
@@ -193,7 +193,7 @@ fn validate(c: &SceneConfig, path: &Path) -> Result<(), SceneError> {
     if !(r.dt.is_finite() && r.dt > 0.0) {
         return Err(invalid(
             "run.dt",
-            format!("must be a positive time step in seconds (got {})", r.dt),
+            format!("must be a positive time step in seconds (got {:e})", r.dt),
         ));
     }
     if r.steps == 0 {

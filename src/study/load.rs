@@ -81,7 +81,7 @@ pub fn load(path: &Path, quick: bool) -> Result<Study, StudyError> {
     })?;
     let file: StudyFile = toml::from_str(&text).map_err(|e| StudyError::Parse {
         path: path.to_owned(),
-        message: crate::quote::clip_message(e.to_string().trim_end()),
+        message: crate::quote::clip_source(e.to_string().trim_end()),
     })?;
     let ctx = Context { path, text: &text };
     let kind = check_settings(&file, &ctx)?;
