@@ -81,7 +81,12 @@ fn assert_whole_csv(path: &Path, rows: usize) {
     let width = lines.next().unwrap().split(',').count();
     let mut n = 0;
     for line in lines {
-        assert_eq!(line.split(',').count(), width, "ragged line in {}", path.display());
+        assert_eq!(
+            line.split(',').count(),
+            width,
+            "ragged line in {}",
+            path.display()
+        );
         n += 1;
     }
     assert_eq!(n, rows, "{} rows in {}", n, path.display());
@@ -94,7 +99,12 @@ fn two_simulates_into_one_folder_never_commit_a_ragged_file() {
     let tmp = TempDir::new("two-sim");
     let path = tmp.write("beam.toml", &beam(400));
     let out = tmp.path().join("out");
-    let args = ["simulate", path.to_str().unwrap(), "--out", out.to_str().unwrap()];
+    let args = [
+        "simulate",
+        path.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
     for _ in 0..3 {
         let (a, b) = (spawn(&args), spawn(&args));
         let pids = [a.id(), b.id()];
@@ -112,7 +122,10 @@ fn two_simulates_into_one_folder_never_commit_a_ragged_file() {
         }
         assert!(outputs.iter().any(|o| o.status.success()));
         assert_whole_csv(&out.join("trajectory.csv"), 401);
-        assert!(!out.join(".softbench.lock").exists(), "the lock was not released");
+        assert!(
+            !out.join(".softbench.lock").exists(),
+            "the lock was not released"
+        );
     }
 }
 
@@ -130,7 +143,13 @@ scenes = ["beam.toml"]
 "#,
     );
     let out = tmp.path().join("results");
-    let base = ["run", study.to_str().unwrap(), "--out", out.to_str().unwrap(), "--wait"];
+    let base = [
+        "run",
+        study.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--wait",
+    ];
     let with = |only: &'static str| {
         let mut a = base.to_vec();
         a.extend(["--only", only]);
@@ -201,9 +220,15 @@ fn a_tetgen_ele_header_with_a_fourth_field_is_refused() {
 fn absurd_sizes_are_errors_naming_the_number_the_limit_and_the_variable() {
     let cases = [
         ("run.steps=1000000000000", "SOFTBENCH_MAX_STEPS"),
-        ("mesh.generate={box=[1000,1000,1000],size=[1,1,1]}", "SOFTBENCH_MAX_MESH"),
+        (
+            "mesh.generate={box=[1000,1000,1000],size=[1,1,1]}",
+            "SOFTBENCH_MAX_MESH",
+        ),
         ("mesh.generate={ball=100000,radius=1}", "SOFTBENCH_MAX_MESH"),
-        ("mesh.generate={box=[9223372036854775807,1,1],size=[1,1,1]}", "more than 2^64"),
+        (
+            "mesh.generate={box=[9223372036854775807,1,1],size=[1,1,1]}",
+            "more than 2^64",
+        ),
     ];
     let tmp = TempDir::new("sizes");
     let path = tmp.write("beam.toml", &beam(5));
@@ -301,7 +326,12 @@ scenes = ["beam.toml"]
     );
     let out = tmp.path().join("results");
     let mut child = Command::new(env!("CARGO_BIN_EXE_softbench"))
-        .args(["run", study.to_str().unwrap(), "--out", out.to_str().unwrap()])
+        .args([
+            "run",
+            study.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
@@ -320,12 +350,19 @@ scenes = ["beam.toml"]
 fn simulate_and_signal(tmp: &TempDir, signal: i32) -> std::process::Output {
     let path = tmp.write("beam.toml", &beam(5_000_000));
     let out = tmp.path().join("out");
-    let child = spawn(&["simulate", path.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    let child = spawn(&[
+        "simulate",
+        path.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
     // Stepping once its temporary trajectory file exists and has grown past the first rows.
     wait_for("simulate writes rows", || {
         std::fs::read_dir(&out).is_ok_and(|entries| {
             entries.flatten().any(|e| {
-                e.file_name().to_string_lossy().starts_with(".trajectory.csv.")
+                e.file_name()
+                    .to_string_lossy()
+                    .starts_with(".trajectory.csv.")
                     && e.metadata().is_ok_and(|m| m.len() > 20_000)
             })
         })
@@ -340,7 +377,10 @@ fn sigint_during_simulate_keeps_the_rows_and_reports_interrupted() {
     let o = simulate_and_signal(&tmp, libc::SIGINT);
     let err = stderr(&o);
     assert_eq!(o.status.code(), Some(130), "{err}");
-    assert!(err.contains("stopped by SIGINT") && err.contains("run the same command"), "{err}");
+    assert!(
+        err.contains("stopped by SIGINT") && err.contains("run the same command"),
+        "{err}"
+    );
     let out = tmp.path().join("out");
     let summary = std::fs::read_to_string(out.join("summary.json")).unwrap();
     assert!(summary.contains("\"status\": \"interrupted\""), "{summary}");
@@ -380,22 +420,36 @@ scenes = ["beam.toml", "long.toml"]
 "#,
     );
     let out = tmp.path().join("results");
-    let child = spawn(&["run", study.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    let child = spawn(&[
+        "run",
+        study.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
     // The short run is done once runs.csv exists; the long one then runs until the signal.
-    wait_for("the first run is recorded", || out.join("stop/runs.csv").is_file());
+    wait_for("the first run is recorded", || {
+        out.join("stop/runs.csv").is_file()
+    });
     std::thread::sleep(Duration::from_millis(300));
     send(&child, libc::SIGTERM);
     let o = child.wait_with_output().unwrap();
     let err = stderr(&o);
     assert_eq!(o.status.code(), Some(143), "{err}");
-    assert!(err.contains("run the same command again to resume"), "{err}");
+    assert!(
+        err.contains("run the same command again to resume"),
+        "{err}"
+    );
     assert_whole_csv(&out.join("stop/runs.csv"), 1);
     assert!(!out.join("stop/.softbench.lock").exists());
     // Resume with the long run made short: the finished run is reused.
     tmp.write("long.toml", &beam(20));
     let o = run_study(&study, &out, &[]);
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(stderr(&o).contains("1 of 2 runs already complete"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("1 of 2 runs already complete"),
+        "{}",
+        stderr(&o)
+    );
 }
 
 // 8. plot on a truncated runs.csv.
@@ -465,9 +519,7 @@ fn assert_study_refused(extra: &str, expect: &[&str]) {
     tmp.write("beam.toml", &beam(5));
     let study = tmp.write(
         "study.toml",
-        &format!(
-            "name = \"small\"\nstudy = \"trajectory\"\nscenes = [\"beam.toml\"]\n{extra}\n"
-        ),
+        &format!("name = \"small\"\nstudy = \"trajectory\"\nscenes = [\"beam.toml\"]\n{extra}\n"),
     );
     let out = tmp.path().join("results");
     let o = run_study(&study, &out, &["--quick"]);
@@ -569,6 +621,9 @@ fn an_error_about_proc_self_environ_quotes_only_a_short_line() {
         .unwrap();
     let err = stderr(&o);
     assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(!err.contains(&"x".repeat(100)), "the environment was echoed: {err}");
+    assert!(
+        !err.contains(&"x".repeat(100)),
+        "the environment was echoed: {err}"
+    );
     assert!(err.lines().all(|l| l.chars().count() <= 400), "{err}");
 }
