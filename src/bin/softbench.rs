@@ -141,8 +141,15 @@ fn main() -> ExitCode {
         Err(err) if err.chain().any(console::is_broken_pipe) => ExitCode::SUCCESS,
         Err(err) => {
             console::err(&format!("error: {err:#}"));
-            if let Some(signal) = err.chain().find_map(|e| e.downcast_ref::<Stopped>()) {
-                ExitCode::from(signal.0.exit_code())
+            // Stopped by a signal, or failed while stopping (waiting for a lock, a reference
+            // solution cut short): report the signal's exit code.
+            if let Some(signal) = err
+                .chain()
+                .find_map(|e| e.downcast_ref::<Stopped>())
+                .map(|s| s.0)
+                .or_else(interrupt::requested)
+            {
+                ExitCode::from(signal.exit_code())
             } else if is_bad_input(&err) {
                 ExitCode::from(2)
             } else {

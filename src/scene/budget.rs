@@ -108,7 +108,7 @@ pub(super) fn check(c: &SceneConfig) -> Result<(), Problem> {
             ),
         });
     }
-    if let Some(g) = c.forces.gravity.iter().find(|g| !(g.abs() <= MAX_GRAVITY)) {
+    if let Some(g) = c.forces.gravity.iter().find(|g| g.is_nan() || g.abs() > MAX_GRAVITY) {
         return Err(Problem {
             key: "forces.gravity",
             message: format!(
@@ -132,7 +132,7 @@ fn check_lengths<'a>(
     key: &'static str,
     mut lengths: impl Iterator<Item = &'a f64>,
 ) -> Result<(), Problem> {
-    match lengths.find(|x| !(x.abs() <= MAX_LENGTH)) {
+    match lengths.find(|x| x.is_nan() || x.abs() > MAX_LENGTH) {
         Some(x) => Err(Problem {
             key,
             message: format!("lengths must be within ±{MAX_LENGTH:e} m (got {x:e})"),
