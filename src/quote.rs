@@ -6,9 +6,9 @@
 //! short.
 
 /// Longest line of a message, in characters.
-pub const MAX_LINE: usize = 500;
-/// Longest line of a parser's message, which echoes lines of the file itself.
-pub const MAX_SOURCE_LINE: usize = 160;
+pub const MAX_LINE: usize = 1000;
+/// Longest line of a parser's message that echoes a line of the file itself (`12 | ...`).
+pub const MAX_SOURCE_LINE: usize = 80;
 /// Longest `` `quoted` `` span of a message, in characters.
 pub const MAX_QUOTE: usize = 60;
 
@@ -19,19 +19,31 @@ pub fn clip_message(message: &str) -> String {
     clip(message, MAX_LINE)
 }
 
-/// [`clip_message`] for a parser's message (TOML), which shows lines of the file: each line is
-/// cut to [`MAX_SOURCE_LINE`] characters.
+/// [`clip_message`] for a parser's message (TOML), which shows lines of the file as
+/// `12 | text`: those are cut to [`MAX_SOURCE_LINE`] characters.
 pub fn clip_source(message: &str) -> String {
     clip(message, MAX_SOURCE_LINE)
 }
 
-fn clip(message: &str, max_line: usize) -> String {
+/// Whether a line of a TOML parser message echoes the file (`12 | text`).
+fn echoes_source(line: &str) -> bool {
+    let t = line.trim_start();
+    let digits = t.bytes().take_while(u8::is_ascii_digit).count();
+    digits > 0 && t[digits..].starts_with(" |")
+}
+
+fn clip(message: &str, max_source_line: usize) -> String {
     let mut out = Vec::new();
     for (i, line) in message.lines().enumerate() {
         if i == 12 {
             out.push("...".to_owned());
             break;
         }
+        let max_line = if echoes_source(line) {
+            max_source_line
+        } else {
+            MAX_LINE
+        };
         let line = clip_quotes(line);
         let mut clipped: String = line
             .chars()
@@ -69,12 +81,26 @@ mod tests {
     use super::*;
 
     #[test]
-    fn a_long_line_is_clipped_and_nul_bytes_hidden() {
-        let long = format!("a\0b{}", "x".repeat(10_000));
+    fn an_echoed_source_line_is_clipped_and_nul_bytes_hidden() {
+        let long = format!(
+            "error\n1 | a\0b{}\n  |   ^\nexpected `=`",
+            "x".repeat(10_000)
+        );
         let clipped = clip_source(&long);
-        assert!(clipped.len() < MAX_SOURCE_LINE + 10);
-        assert!(clipped.starts_with("a?b"));
-        assert!(clipped.ends_with("..."));
+        let echoed = clipped.lines().nth(1).unwrap();
+        assert!(
+            echoed.starts_with("1 | a?b") && echoed.ends_with("..."),
+            "{echoed}"
+        );
+        assert!(echoed.len() < MAX_SOURCE_LINE + 10);
+        assert!(clipped.ends_with("expected `=`"));
+    }
+
+    #[test]
+    fn a_long_message_line_is_kept_up_to_max_line() {
+        let list = "name, ".repeat(100);
+        assert_eq!(clip_source(&list), list);
+        assert!(clip_message(&"z".repeat(5000)).len() < MAX_LINE + 10);
     }
 
     #[test]

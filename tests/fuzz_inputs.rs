@@ -239,8 +239,8 @@ fn named<T, E: std::fmt::Display>(result: Result<T, E>, file: &str) -> Result<T,
             "the error does not name {file}: {message}"
         );
         assert!(
-            message.lines().all(|l| l.chars().count() <= 600),
-            "an error line over 600 characters: {message}"
+            message.lines().all(|l| l.chars().count() <= 1100),
+            "an error line over 1100 characters: {message}"
         );
         message
     })

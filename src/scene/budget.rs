@@ -108,7 +108,12 @@ pub(super) fn check(c: &SceneConfig) -> Result<(), Problem> {
             ),
         });
     }
-    if let Some(g) = c.forces.gravity.iter().find(|g| g.is_nan() || g.abs() > MAX_GRAVITY) {
+    if let Some(g) = c
+        .forces
+        .gravity
+        .iter()
+        .find(|g| g.is_nan() || g.abs() > MAX_GRAVITY)
+    {
         return Err(Problem {
             key: "forces.gravity",
             message: format!(
