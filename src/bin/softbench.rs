@@ -573,6 +573,12 @@ fn run_study(args: &RunArgs) -> anyhow::Result<ExitCode> {
 }
 
 fn plot(args: &PlotArgs) -> anyhow::Result<ExitCode> {
+    // Redrawing replaces and removes plot files: not while a study writes the folder.
+    let _lock = if args.dir.is_dir() {
+        Some(lock_folder(&args.dir, "plot", false)?)
+    } else {
+        None
+    };
     let plots = study::redraw(&args.dir)
         .with_context(|| format!("cannot redraw the plots of {}", args.dir.display()))?;
     for p in &plots {
