@@ -28,18 +28,23 @@
 //! `vec(F)` is column-major (`F[(0,0)], F[(1,0)], F[(2,0)], F[(0,1)], ...`), which is nalgebra's
 //! storage order.
 
+pub mod console;
 pub mod contact;
 pub mod data;
 pub mod experiment;
 pub mod export;
 pub mod fem;
 pub mod integrate;
+pub mod interrupt;
+pub mod limits;
+pub mod lock;
 pub mod material;
 pub mod mesh;
 pub mod model;
 pub mod names;
 pub mod parallel;
 pub mod plot;
+pub mod quote;
 pub mod report;
 pub mod rng;
 pub mod scene;

@@ -1,7 +1,11 @@
 //! The `softbench` command line. Each subcommand is one variant of [`Command`] and one
 //! function. Exit codes: 0 on success; 1 when a simulation failed (blew up) or on any other
-//! error (such as an unwritable output); 2 for bad input (a scene, mesh or option that is
-//! missing or malformed), in which case nothing is written.
+//! error (such as an unwritable output, or an output folder in use by another softbench);
+//! 2 for bad input (a scene, mesh or option that is missing or malformed), in which case
+//! nothing is written; 130 or 143 after SIGINT or SIGTERM (what was done is written first).
+//!
+//! Nothing here uses `println!`/`eprintln!`: they panic on a closed pipe. Output goes through
+//! [`softbench::console`], and a broken pipe ends the command quietly.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -10,11 +14,14 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::{Args, Parser, Subcommand};
 use serde::Serialize;
+use softbench::console;
 use softbench::contact::ContactResponse;
 use softbench::data::{DataError, DataPaths};
-use softbench::experiment;
+use softbench::experiment::{self, OutcomeKind};
 use softbench::export::{DisplayError, ExportFormat, FrameContent, FrameWriter, load_display};
 use softbench::integrate::Method;
+use softbench::interrupt::{self, Signal};
+use softbench::lock::{FolderLock, Holder, LockError, Wait};
 use softbench::material::MaterialModel;
 use softbench::mesh::{AnyMesh, MeshError, MeshFormat, MeshReport, TetMesh, read_mesh};
 use softbench::model::Model;
@@ -69,6 +76,9 @@ struct RunArgs {
     /// Redo runs that are already complete.
     #[arg(long)]
     force: bool,
+    /// If another softbench is writing the study's folder, wait for it instead of stopping.
+    #[arg(long)]
+    wait: bool,
 }
 
 #[derive(Args)]
@@ -97,6 +107,9 @@ struct SimulateArgs {
     /// With --export: a frame every K steps (and at step 0 and the last step). Default 1.
     #[arg(long, value_name = "K", requires = "export")]
     every: Option<usize>,
+    /// If another softbench is writing the output folder, wait for it instead of stopping.
+    #[arg(long)]
+    wait: bool,
 }
 
 #[derive(Args)]
@@ -111,6 +124,9 @@ struct MeshInfoArgs {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    if let Err(e) = interrupt::install() {
+        console::err(&format!("warning: cannot handle SIGINT/SIGTERM: {e}"));
+    }
     let result = match cli.command {
         Command::MeshInfo(args) => mesh_info(&args),
         Command::Simulate(args) => simulate(&args),
@@ -120,9 +136,21 @@ fn main() -> ExitCode {
     };
     match result {
         Ok(code) => code,
+        // The reader of our output went away (`softbench list | head -1`): what was done is
+        // written; end quietly.
+        Err(err) if err.chain().any(console::is_broken_pipe) => ExitCode::SUCCESS,
         Err(err) => {
-            eprintln!("error: {err:#}");
-            if is_bad_input(&err) {
+            console::err(&format!("error: {err:#}"));
+            // Stopped by a signal, or failed while stopping (waiting for a lock, a reference
+            // solution cut short): report the signal's exit code.
+            if let Some(signal) = err
+                .chain()
+                .find_map(|e| e.downcast_ref::<Stopped>())
+                .map(|s| s.0)
+                .or_else(interrupt::requested)
+            {
+                ExitCode::from(signal.exit_code())
+            } else if is_bad_input(&err) {
                 ExitCode::from(2)
             } else {
                 ExitCode::FAILURE
@@ -140,6 +168,30 @@ fn is_bad_input(err: &anyhow::Error) -> bool {
             || e.is::<DisplayError>()
             || e.is::<BadInput>()
             || e.is::<StudyError>()
+            || e.is::<softbench::limits::OverBudget>()
+            || e.downcast_ref::<study::RedrawError>()
+                .is_some_and(|r| matches!(r, study::RedrawError::Results(_)))
+    })
+}
+
+/// Stopped by a signal before anything was written (exit code 130 or 143).
+#[derive(Debug, thiserror::Error)]
+#[error("stopped by {} before anything was written", .0.name())]
+struct Stopped(Signal);
+
+/// Stop here if a signal has arrived (before anything is written).
+fn stop_if_requested() -> Result<(), Stopped> {
+    interrupt::requested().map_or(Ok(()), |s| Err(Stopped(s)))
+}
+
+/// Lock an output folder for this process; with `wait`, wait for another holder, saying so.
+fn lock_folder(folder: &Path, purpose: &str, wait: bool) -> Result<FolderLock, LockError> {
+    let wait = if wait { Wait::Yes } else { Wait::No };
+    FolderLock::acquire(folder, purpose, wait, |holder: &Holder| {
+        console::err(&format!(
+            "waiting for {holder} to finish with {}",
+            folder.display()
+        ));
     })
 }
 
@@ -210,7 +262,7 @@ fn frame_content(
                 Some(display) => {
                     let skin = &display.skinning;
                     if !skin.outside().is_empty() {
-                        eprintln!(
+                        console::err(&format!(
                             "note: {} of {} display vertices of {} lie outside the tet mesh \
                              (largest distance {:.3e}); they follow the closest point of their \
                              nearest tet",
@@ -218,7 +270,7 @@ fn frame_content(
                             skin.num_display_vertices(),
                             display.path.display(),
                             skin.max_outside_distance()
-                        );
+                        ));
                     }
                     let name = display.path.file_name().map_or_else(
                         || display.path.display().to_string(),
@@ -262,8 +314,10 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
         .map(|format| frame_content(format, &loaded, &built.model))
         .transpose()?;
 
+    stop_if_requested()?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
+    let _lock = lock_folder(&args.out, "simulate", args.wait)?;
     let trajectory_path = args.out.join("trajectory.csv");
     let mut trajectory = AtomicFile::create(&trajectory_path)
         .with_context(|| format!("cannot write {}", trajectory_path.display()))?;
@@ -343,44 +397,65 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
     .with_context(|| format!("cannot write {}", summary_path.display()))?;
 
     let outcome = &summary.outcome;
-    if outcome.is_completed() {
-        let frames_note = if frames_written > 0 {
-            format!(" ({frames_written} frames in {})", frames_dir.display())
-        } else {
-            String::new()
-        };
-        let unconverged = if summary.newton_unconverged_steps > 0 {
-            format!(
-                "; Newton stopped unconverged at its iteration cap in {} of {} steps",
-                summary.newton_unconverged_steps, summary.steps_completed
-            )
-        } else {
-            String::new()
-        };
-        println!(
-            "{}: completed {} steps of {} with dt = {:e} s in {:.3} s{unconverged}; wrote {}{frames_note}",
-            built.name,
-            summary.steps_completed,
-            summary.method,
-            summary.dt,
-            summary.totals.times.total,
-            args.out.display()
-        );
-        Ok(ExitCode::SUCCESS)
-    } else {
-        eprintln!(
-            "error: {} with {} ended {} at step {} (t = {:e} s): {}: {}; the {rows} rows written \
-             before it are in {}",
-            built.name,
-            summary.method,
-            outcome.status,
-            outcome.step.unwrap_or(0),
-            outcome.t.unwrap_or(0.0),
-            outcome.cause,
-            outcome.message,
-            trajectory_path.display()
-        );
-        Ok(ExitCode::FAILURE)
+    match outcome.status {
+        OutcomeKind::Completed => {
+            let frames_note = if frames_written > 0 {
+                format!(" ({frames_written} frames in {})", frames_dir.display())
+            } else {
+                String::new()
+            };
+            let unconverged = if summary.newton_unconverged_steps > 0 {
+                format!(
+                    "; Newton stopped unconverged at its iteration cap in {} of {} steps",
+                    summary.newton_unconverged_steps, summary.steps_completed
+                )
+            } else {
+                String::new()
+            };
+            console::out(&format!(
+                "{}: completed {} steps of {} with dt = {:e} s in {:.3} s{unconverged}; wrote {}{frames_note}",
+                built.name,
+                summary.steps_completed,
+                summary.method,
+                summary.dt,
+                summary.totals.times.total,
+                args.out.display()
+            ));
+            Ok(ExitCode::SUCCESS)
+        }
+        OutcomeKind::Interrupted => {
+            let step = outcome.step.unwrap_or(0);
+            console::err(&format!(
+                "{}: {} of {}; the {rows} rows so far are in {}, the state after step {step} in \
+                 {} and summary.json says `interrupted`. simulate keeps no checkpoint: run the \
+                 same command again to start over",
+                built.name,
+                outcome.message,
+                summary.steps_requested,
+                trajectory_path.display(),
+                positions_path.display()
+            ));
+            let code = match interrupt::requested() {
+                Some(s) => s.exit_code(),
+                None => Signal::Interrupt.exit_code(),
+            };
+            Ok(ExitCode::from(code))
+        }
+        _ => {
+            console::err(&format!(
+                "error: {} with {} ended {} at step {} (t = {:e} s): {}: {}; the {rows} rows \
+                 written before it are in {}",
+                built.name,
+                summary.method,
+                outcome.status,
+                outcome.step.unwrap_or(0),
+                outcome.t.unwrap_or(0.0),
+                outcome.cause,
+                outcome.message,
+                trajectory_path.display()
+            ));
+            Ok(ExitCode::FAILURE)
+        }
     }
 }
 
@@ -465,6 +540,7 @@ fn run_study(args: &RunArgs) -> anyhow::Result<ExitCode> {
         jobs: args.jobs,
         force: args.force,
         progress: true,
+        wait: args.wait,
     };
     if let Some(p) = &options.only
         && !study.runs.iter().any(|r| study::matches(&r.id, p))
@@ -476,9 +552,21 @@ fn run_study(args: &RunArgs) -> anyhow::Result<ExitCode> {
         ))
         .into());
     }
+    stop_if_requested()?;
     let done = study::run(&study, &options)
         .with_context(|| format!("study {} stopped", study.file.name))?;
-    println!(
+    if let Some(signal) = done.interrupted {
+        console::err(&format!(
+            "{}: stopped by {}: {} runs are done and kept in {} (plots and report.md are not \
+             drawn); run the same command again to resume: finished runs are reused",
+            study.file.name,
+            signal.name(),
+            done.ran + done.reused,
+            done.dir.join("runs.csv").display()
+        ));
+        return Ok(ExitCode::from(signal.exit_code()));
+    }
+    console::out(&format!(
         "{}: {} runs ({} run now, {} reused{}); {} not ok; wrote {}",
         study.file.name,
         done.ran + done.reused,
@@ -491,15 +579,27 @@ fn run_study(args: &RunArgs) -> anyhow::Result<ExitCode> {
         },
         done.not_ok.len(),
         done.dir.display()
-    );
+    ));
     Ok(ExitCode::SUCCESS)
 }
 
 fn plot(args: &PlotArgs) -> anyhow::Result<ExitCode> {
+    // Redrawing replaces and removes plot files: not while a study writes the folder.
+    let _lock = if args.dir.is_dir() {
+        Some(lock_folder(&args.dir, "plot", false)?)
+    } else {
+        None
+    };
     let plots = study::redraw(&args.dir)
         .with_context(|| format!("cannot redraw the plots of {}", args.dir.display()))?;
     for p in &plots {
-        println!("{}", args.dir.join(format!("{}.png", p.stem)).display());
+        console::out(
+            &args
+                .dir
+                .join(format!("{}.png", p.stem))
+                .display()
+                .to_string(),
+        );
     }
     Ok(ExitCode::SUCCESS)
 }

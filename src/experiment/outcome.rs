@@ -19,16 +19,19 @@ pub enum OutcomeKind {
     SolverFailed,
     /// A cap on the number of steps stopped the run before its horizon.
     HorizonNotReached,
+    /// A stop was requested (SIGINT or SIGTERM); the rows so far are valid states.
+    Interrupted,
 }
 
 impl OutcomeKind {
     /// Every kind, in the order reports list them.
-    pub const ALL: [OutcomeKind; 5] = [
+    pub const ALL: [OutcomeKind; 6] = [
         Self::Completed,
         Self::Unstable,
         Self::LeftMaterialDomain,
         Self::SolverFailed,
         Self::HorizonNotReached,
+        Self::Interrupted,
     ];
 
     /// The word written in tables.
@@ -39,6 +42,7 @@ impl OutcomeKind {
             Self::LeftMaterialDomain => "left-material-domain",
             Self::SolverFailed => "solver-failed",
             Self::HorizonNotReached => "horizon-not-reached",
+            Self::Interrupted => "interrupted",
         }
     }
 

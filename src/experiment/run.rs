@@ -302,6 +302,16 @@ pub fn run(
         if s > 0.0 { s } else { 1.0 }
     };
     for step in 1..=config.steps {
+        if let Some(signal) = crate::interrupt::requested() {
+            summary.outcome = Outcome::ended(
+                OutcomeKind::Interrupted,
+                step - 1,
+                state.t,
+                "interrupted",
+                format!("stopped by {} after step {}", signal.name(), step - 1),
+            );
+            break;
+        }
         balance.before_step(model, state, dt);
         match integrator.step(model, state, dt) {
             Ok(report) => {

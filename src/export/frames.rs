@@ -368,14 +368,19 @@ fn with_path(e: io::Error, path: &Path) -> io::Error {
     io::Error::new(e.kind(), format!("{}: {e}", path.display()))
 }
 
-/// Removes `frame_*.vtu`, `frame_*.obj`, `series.pvd` (and their `.partial` leftovers) from
+/// Removes `frame_*.vtu`, `frame_*.obj`, `series.pvd` (and their temporary leftovers,
+/// `.<name>.<random>.partial` or the older `<name>.partial`) from
 /// `dir`, so a shorter run does not leave a longer run's frames behind.
 fn remove_previous_frames(dir: &Path) -> io::Result<()> {
     for entry in std::fs::read_dir(dir).map_err(|e| with_path(e, dir))? {
         let entry = entry?;
         let name = entry.file_name();
         let Some(name) = name.to_str() else { continue };
-        let base = name.strip_suffix(".partial").unwrap_or(name);
+        let base = name.strip_suffix(".partial").map_or(name, |b| {
+            b.strip_prefix('.')
+                .and_then(|b| b.rsplit_once('.'))
+                .map_or(b, |(stem, _)| stem)
+        });
         let is_frame = base.strip_prefix("frame_").is_some_and(|rest| {
             let stem = rest
                 .strip_suffix(".vtu")

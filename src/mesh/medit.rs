@@ -181,7 +181,8 @@ fn read_vertices(
     start_line: usize,
 ) -> Result<Vec<nalgebra::Vector3<f64>>, MeshError> {
     let n = section_count(tokens, path, "Vertices")?;
-    let mut positions = Vec::with_capacity(n.min(1 << 24));
+    let capacity = text::announced(path, tokens.line(), n, "vertices", tokens.text_len)?;
+    let mut positions = Vec::with_capacity(capacity);
     for i in 0..n {
         let mut xyz = [0.0; 3];
         for x in &mut xyz {
@@ -203,7 +204,8 @@ fn read_tets(
     start_line: usize,
 ) -> Result<TetCollector, MeshError> {
     let n = section_count(tokens, path, "Tetrahedra")?;
-    let mut tets = TetCollector::new(1, n.min(1 << 24));
+    let capacity = text::announced(path, tokens.line(), n, "tets", tokens.text_len)?;
+    let mut tets = TetCollector::new(1, capacity);
     for i in 0..n {
         let mut tet = [0; 4];
         let mut first_line = 0;

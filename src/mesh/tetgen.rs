@@ -69,17 +69,17 @@ fn records(text: &str) -> impl Iterator<Item = Record<'_>> {
     })
 }
 
-/// Parses the header line: exactly `min..=max` integer fields.
+/// Parses the header line: `min..=max` integer fields.
 fn header(
     record: Option<Record>,
     path: &Path,
     text: &str,
     form: &str,
-    min: usize,
+    (min, max): (usize, usize),
 ) -> Result<(usize, Vec<usize>), MeshError> {
     let (line, fields) =
         record.ok_or_else(|| text::empty_mesh(path, text::last_line(text), "no header line"))?;
-    if fields.len() < min || fields.len() > 4 {
+    if fields.len() < min || fields.len() > max {
         return Err(parse_error(
             path,
             line,
@@ -131,10 +131,39 @@ fn truncated(path: &Path, text: &str, what: &str, i: usize, n: usize) -> MeshErr
     )
 }
 
+/// Most attributes a header may announce per entry (TetGen writes a handful).
+const MAX_ATTRIBUTES: usize = 1 << 16;
+
+/// Fields per data line: `fixed` plus the header's attribute count, which is checked (a huge
+/// count would otherwise wrap the sum and let short lines through).
+fn line_width(
+    path: &Path,
+    line: usize,
+    fixed: usize,
+    attributes: usize,
+) -> Result<usize, MeshError> {
+    if attributes > MAX_ATTRIBUTES {
+        return Err(parse_error(
+            path,
+            line,
+            format!(
+                "the header announces {attributes} attributes per entry; at most {MAX_ATTRIBUTES}"
+            ),
+        ));
+    }
+    Ok(fixed + attributes)
+}
+
 /// Parses a `.node` file; returns positions and the index base.
 fn parse_nodes(text: &str, path: &Path) -> Result<(Vec<Vector3<f64>>, usize), MeshError> {
     let mut records = records(text);
-    let (line, h) = header(records.next(), path, text, "points 3 attributes markers", 2)?;
+    let (line, h) = header(
+        records.next(),
+        path,
+        text,
+        "points 3 attributes markers",
+        (2, 4),
+    )?;
     let (n, dim) = (h[0], h[1]);
     let attributes = h.get(2).copied().unwrap_or(0);
     let markers = h.get(3).copied().unwrap_or(0);
@@ -159,9 +188,10 @@ fn parse_nodes(text: &str, path: &Path) -> Result<(Vec<Vector3<f64>>, usize), Me
             "the header announces 0 points",
         ));
     }
-    let width = 4 + attributes + markers;
+    let width = line_width(path, line, 4 + markers, attributes)?;
     let form = "id x y z, then attributes and marker";
-    let mut positions = Vec::with_capacity(n.min(1 << 24));
+    let capacity = text::announced(path, line, n, "points", text.len())?;
+    let mut positions = Vec::with_capacity(capacity);
     let mut base = 0;
     for (i, (line, fields)) in records.enumerate() {
         check_record(path, line, &fields, width, i, n, form)?;
@@ -214,7 +244,7 @@ fn parse_elements(text: &str, path: &Path, base: usize) -> Result<TetCollector, 
         path,
         text,
         "tets nodes_per_tet attributes",
-        2,
+        (2, 3),
     )?;
     let (m, per_tet) = (h[0], h[1]);
     let attributes = h.get(2).copied().unwrap_or(0);
@@ -228,9 +258,10 @@ fn parse_elements(text: &str, path: &Path, base: usize) -> Result<TetCollector, 
     if m == 0 {
         return Err(text::empty_mesh(path, line, "the header announces 0 tets"));
     }
-    let width = 1 + per_tet + attributes;
+    let width = line_width(path, line, 1 + per_tet, attributes)?;
     let form = "id, node indices, then attributes";
-    let mut tets = TetCollector::new(base, m.min(1 << 24));
+    let capacity = text::announced(path, line, m, "tets", text.len())?;
+    let mut tets = TetCollector::new(base, capacity);
     let mut count = 0;
     for (i, (line, fields)) in records.enumerate() {
         check_record(path, line, &fields, width, i, m, form)?;

@@ -25,13 +25,34 @@ pub(crate) fn read_text(path: &Path) -> Result<String, MeshError> {
     })
 }
 
-/// A [`MeshError::Parse`] at a 1-based line.
+/// A [`MeshError::Parse`] at a 1-based line. The message is clipped to a short line: it may
+/// quote a token of the file, which can be the whole file.
 pub(crate) fn parse_error(path: &Path, line: usize, message: impl Into<String>) -> MeshError {
     MeshError::Parse {
         path: path.to_path_buf(),
         line,
-        message: message.into(),
+        message: crate::quote::clip_message(&message.into()),
     }
+}
+
+/// Shortest text of one entry (a vertex or a tet line such as `0 0 0 0\n`), for bounding
+/// what a header's count can make us allocate.
+const MIN_ENTRY_BYTES: usize = 8;
+
+/// Checks a count announced by a header (`what` names it) against the mesh budget, and returns
+/// the capacity to reserve for it: no more than the text could hold, so a tiny file that
+/// announces 10^12 vertices allocates nothing large.
+pub(crate) fn announced(
+    path: &Path,
+    line: usize,
+    n: usize,
+    what: &str,
+    text_len: usize,
+) -> Result<usize, MeshError> {
+    crate::limits::MESH
+        .check_usize(Some(n))
+        .map_err(|e| parse_error(path, line, format!("the header announces {n} {what}: {e}")))?;
+    Ok(n.min(text_len / MIN_ENTRY_BYTES + 1))
 }
 
 /// The lines of a text, 1-based, with `\r` and `#` comments removed.
@@ -55,6 +76,8 @@ pub(crate) fn last_line(text: &str) -> usize {
 /// A stream of whitespace-separated tokens with their 1-based line numbers, for formats whose
 /// records may span lines (MEDIT). `#` starts a comment that runs to the end of the line.
 pub(crate) struct Tokens<'a> {
+    /// Length of the whole text (bytes), to bound what a count can make a reader reserve.
+    pub(crate) text_len: usize,
     lines: std::str::Split<'a, char>,
     current: std::str::SplitAsciiWhitespace<'a>,
     line: usize,
@@ -64,6 +87,7 @@ pub(crate) struct Tokens<'a> {
 impl<'a> Tokens<'a> {
     pub(crate) fn new(text: &'a str) -> Self {
         Tokens {
+            text_len: text.len(),
             lines: text.split('\n'),
             current: "".split_ascii_whitespace(),
             line: 0,
@@ -94,9 +118,21 @@ impl<'a> Iterator for Tokens<'a> {
     }
 }
 
-/// Parses a finite coordinate.
+/// Largest |coordinate| a mesh may have (m): volumes and energies are cubes and squares of
+/// lengths, so larger coordinates overflow f64 to infinity and NaN.
+pub const MAX_COORDINATE: f64 = 1e50;
+
+/// Parses a finite coordinate (at most [`MAX_COORDINATE`] in magnitude).
 pub(crate) fn coordinate(path: &Path, line: usize, token: &str) -> Result<f64, MeshError> {
     match token.parse::<f64>() {
+        Ok(x) if x.is_finite() && x.abs() > MAX_COORDINATE => Err(parse_error(
+            path,
+            line,
+            format!(
+                "coordinate `{token}` is beyond ±{MAX_COORDINATE:e}: volumes and energies \
+                 would overflow"
+            ),
+        )),
         Ok(x) if x.is_finite() => Ok(x),
         Ok(_) => Err(parse_error(
             path,
@@ -143,13 +179,15 @@ pub(crate) fn vertex_index(
     base: i64,
 ) -> Result<usize, MeshError> {
     let raw = integer(path, line, token, "vertex index")?;
-    usize::try_from(raw - base).map_err(|_| {
-        parse_error(
-            path,
-            line,
-            format!("vertex index {raw} is out of range (indices are {base}-based)"),
-        )
-    })
+    raw.checked_sub(base)
+        .and_then(|i| usize::try_from(i).ok())
+        .ok_or_else(|| {
+            parse_error(
+                path,
+                line,
+                format!("vertex index {raw} is out of range (indices are {base}-based)"),
+            )
+        })
 }
 
 /// Collects tets with the line each came from, then checks them all at once.

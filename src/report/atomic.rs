@@ -1,43 +1,57 @@
-//! Atomic file writes: temp file in the same folder, then rename.
+//! Atomic file writes: a uniquely named temporary file in the target's folder, then a rename.
+//!
+//! The temporary name is unique per writer (`.<name>.<random>.partial`, created with
+//! `O_EXCL` by the `tempfile` crate), so two processes writing the same target never share a
+//! temporary file: the last rename wins and every committed file is whole.
 
-use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
+
+use tempfile::NamedTempFile;
 
 /// A file being written under a temporary name; [`AtomicFile::commit`] renames it into place.
 /// Dropped without a commit, the temporary file is removed.
 pub struct AtomicFile {
     target: PathBuf,
-    temp: PathBuf,
-    writer: Option<BufWriter<File>>,
+    writer: Option<BufWriter<NamedTempFile>>,
 }
 
 impl AtomicFile {
-    /// Start writing `target` (as `target.partial` until committed).
+    /// Start writing `target` (under a unique temporary name in its folder until committed).
     pub fn create(target: &Path) -> std::io::Result<Self> {
-        let mut name = target.file_name().unwrap_or_default().to_os_string();
-        name.push(".partial");
-        let temp = target.with_file_name(name);
-        let writer = BufWriter::new(File::create(&temp)?);
+        let dir = match target.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => Path::new("."),
+        };
+        let name = target.file_name().unwrap_or_default().to_string_lossy();
+        let prefix = format!(".{name}.");
+        let mut builder = tempfile::Builder::new();
+        builder.prefix(&prefix).suffix(".partial");
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            // Results are ordinary files (tempfile's default is owner-only).
+            builder.permissions(std::fs::Permissions::from_mode(0o644));
+        }
+        let temp = builder.tempfile_in(dir)?;
         Ok(Self {
             target: target.to_owned(),
-            temp,
-            writer: Some(writer),
+            writer: Some(BufWriter::new(temp)),
         })
     }
 
     /// The writer.
-    pub fn writer(&mut self) -> &mut BufWriter<File> {
+    pub fn writer(&mut self) -> &mut BufWriter<NamedTempFile> {
         self.writer.as_mut().expect("not yet committed")
     }
 
     /// Flush, sync and rename into place.
     pub fn commit(mut self) -> std::io::Result<()> {
         let writer = self.writer.take().expect("committed once");
-        let file = writer.into_inner().map_err(|e| e.into_error())?;
-        file.sync_all()?;
-        drop(file);
-        std::fs::rename(&self.temp, &self.target)
+        let temp = writer.into_inner().map_err(|e| e.into_error())?;
+        temp.as_file().sync_all()?;
+        temp.persist(&self.target).map_err(|e| e.error)?;
+        Ok(())
     }
 }
 
@@ -48,14 +62,6 @@ impl Write for AtomicFile {
 
     fn flush(&mut self) -> std::io::Result<()> {
         self.writer().flush()
-    }
-}
-
-impl Drop for AtomicFile {
-    fn drop(&mut self) {
-        if self.writer.take().is_some() {
-            let _ = std::fs::remove_file(&self.temp);
-        }
     }
 }
 

@@ -4,10 +4,12 @@
 //! Errors name the file and, where the TOML parser knows it, the line; semantic errors name
 //! the key (`run.dt`, `material.poisson_ratio`) and what would be valid.
 
+mod budget;
 mod config;
 mod overrides;
 mod springs;
 
+pub use budget::{MAX_DENSITY, MAX_GRAVITY, MAX_LENGTH};
 pub use config::{
     Axis, BoxConfig, DampingConfig, FixedConfig, ForcesConfig, GenerateConfig, InitialConfig,
     MaterialConfig, MeshConfig, RayleighConfig, RuleConfig, RunConfig, SceneConfig,
@@ -40,7 +42,7 @@ pub enum SceneError {
     #[error("{path}: {message}")]
     Parse { path: PathBuf, message: String },
     /// A value out of its valid range.
-    #[error("{path}: {key}: {message}")]
+    #[error("{path}: {key}: {}", crate::quote::clip_message(.message))]
     Invalid {
         path: PathBuf,
         key: String,
@@ -83,9 +85,41 @@ impl LoadedScene {
     }
 }
 
+/// Largest scene or study file (bytes): a configuration is a few kilobytes; this stops
+/// `/dev/zero` or a mistaken multi-gigabyte file from being read whole.
+pub const MAX_CONFIG_BYTES: u64 = 16 << 20;
+
+/// Reads a scene or study file as UTF-8 text, refusing files over [`MAX_CONFIG_BYTES`].
+pub fn read_config_text(path: &Path) -> std::io::Result<String> {
+    use std::io::Read;
+    let mut bytes = Vec::new();
+    std::fs::File::open(path)?
+        .take(MAX_CONFIG_BYTES + 1)
+        .read_to_end(&mut bytes)?;
+    if bytes.len() as u64 > MAX_CONFIG_BYTES {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!(
+                "larger than {} MiB: not a configuration file",
+                MAX_CONFIG_BYTES >> 20
+            ),
+        ));
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        let line = 1 + e.as_bytes()[..e.utf8_error().valid_up_to()]
+            .iter()
+            .filter(|&&b| b == b'\n')
+            .count();
+        std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!("line {line}: not UTF-8 text"),
+        )
+    })
+}
+
 /// Read `path`, apply `overrides` (`key=value`), and validate.
 pub fn load(path: &Path, overrides: &[String]) -> Result<LoadedScene, SceneError> {
-    let text = std::fs::read_to_string(path).map_err(|error| SceneError::Io {
+    let text = read_config_text(path).map_err(|error| SceneError::Io {
         path: path.to_owned(),
         error,
     })?;
@@ -109,7 +143,7 @@ pub fn parse(text: &str, path: &Path, overrides: &[String]) -> Result<SceneConfi
 pub fn parse_text(text: &str, path: &Path) -> Result<toml::Table, SceneError> {
     toml::from_str(text).map_err(|e| SceneError::Parse {
         path: path.to_owned(),
-        message: e.to_string().trim_end().to_owned(),
+        message: crate::quote::clip_source(e.to_string().trim_end()),
     })
 }
 
@@ -128,7 +162,7 @@ pub fn from_table(
             if let Some(Err(located)) = text.map(toml::from_str::<SceneConfig>) {
                 return Err(SceneError::Parse {
                     path: path.to_owned(),
-                    message: located.to_string().trim_end().to_owned(),
+                    message: crate::quote::clip_source(located.to_string().trim_end()),
                 });
             }
             let context = if text.is_some() {
@@ -138,7 +172,10 @@ pub fn from_table(
             };
             return Err(SceneError::Parse {
                 path: path.to_owned(),
-                message: format!("{context}{}", e.to_string().trim_end()),
+                message: crate::quote::clip_source(&format!(
+                    "{context}{}",
+                    e.to_string().trim_end()
+                )),
             });
         }
     };
@@ -156,7 +193,7 @@ fn validate(c: &SceneConfig, path: &Path) -> Result<(), SceneError> {
     if !(r.dt.is_finite() && r.dt > 0.0) {
         return Err(invalid(
             "run.dt",
-            format!("must be a positive time step in seconds (got {})", r.dt),
+            format!("must be a positive time step in seconds (got {:e})", r.dt),
         ));
     }
     if r.steps == 0 {
@@ -175,6 +212,7 @@ fn validate(c: &SceneConfig, path: &Path) -> Result<(), SceneError> {
         ));
     }
     springs::validate(c).map_err(|e| invalid(&e.key, e.message))?;
+    budget::check(c).map_err(|e| invalid(e.key, e.message))?;
     let mesh = c.mesh.as_ref();
     if let Some(mesh) = mesh {
         match (&mesh.file, &mesh.generate) {

@@ -15,7 +15,7 @@ pub enum StudyError {
     #[error("{path}: {message}")]
     Parse { path: PathBuf, message: String },
     /// A value that is not valid, at `line` of the study file, under `key`.
-    #[error("{path}:{line}: {key}: {message}")]
+    #[error("{path}:{line}: {key}: {}", crate::quote::clip_message(.message))]
     Invalid {
         path: PathBuf,
         line: usize,

@@ -67,18 +67,21 @@ struct SceneSource {
     line: usize,
 }
 
+/// Longest run id (a file name, with `-trials.csv` appended, must stay under 255 bytes).
+const MAX_RUN_ID: usize = 200;
+
 pub(super) const METHOD_KEY: &str = "integrator.method";
 const SOLVER_KEY: &str = "integrator.linear_solver";
 
 /// Read, expand and check a study. `quick` applies its `[quick]` settings.
 pub fn load(path: &Path, quick: bool) -> Result<Study, StudyError> {
-    let text = std::fs::read_to_string(path).map_err(|error| StudyError::Io {
+    let text = scene::read_config_text(path).map_err(|error| StudyError::Io {
         path: path.to_owned(),
         error,
     })?;
     let file: StudyFile = toml::from_str(&text).map_err(|e| StudyError::Parse {
         path: path.to_owned(),
-        message: e.to_string().trim_end().to_owned(),
+        message: crate::quote::clip_source(e.to_string().trim_end()),
     })?;
     let ctx = Context { path, text: &text };
     let kind = check_settings(&file, &ctx)?;
@@ -148,6 +151,15 @@ pub fn load(path: &Path, quick: bool) -> Result<Study, StudyError> {
         .filter(|k| distinct.get(*k).is_some_and(|s| s.len() > 1))
         .collect();
 
+    // Bound the grid before expanding it: each run is a resolved and validated scene.
+    let size = method_axes.iter().try_fold(0usize, |acc, entry| {
+        let counts: Vec<usize> = entry.iter().map(|a| a.values.len()).collect();
+        crate::limits::product(&counts)?.checked_add(acc)
+    });
+    crate::limits::RUNS
+        .check_usize(size.and_then(|s| s.checked_mul(scenes.len())))
+        .map_err(|e| ctx.invalid(0, "grid", e.to_string()))?;
+
     let mut runs: Vec<RunSpec> = Vec::new();
     let mut seen = BTreeSet::new();
     for source in &scenes {
@@ -168,6 +180,19 @@ pub fn load(path: &Path, quick: bool) -> Result<Study, StudyError> {
                     }
                 }
                 let id = sanitize(&id.join("-"));
+                if id.len() > MAX_RUN_ID {
+                    return Err(StudyError::Invalid {
+                        path: path.to_owned(),
+                        line: source.line,
+                        key: "scenes".into(),
+                        message: format!(
+                            "run id `{}...` is {} characters long; at most {MAX_RUN_ID} (it \
+                             names the run's series file): use a shorter scene name",
+                            id.chars().take(40).collect::<String>(),
+                            id.len()
+                        ),
+                    });
+                }
                 if !seen.insert(id.clone()) {
                     continue;
                 }
@@ -256,7 +281,7 @@ fn scene_sources(file: &StudyFile, ctx: &Context) -> Result<Vec<SceneSource>, St
         let source = match entry.get_ref() {
             Value::String(rel) => {
                 let path = base.join(rel);
-                let text = std::fs::read_to_string(&path).map_err(|error| {
+                let text = scene::read_config_text(&path).map_err(|error| {
                     scene_error(SceneError::Io {
                         path: path.clone(),
                         error,

@@ -47,10 +47,54 @@ pub fn redraw(dir: &std::path::Path) -> Result<Vec<plots::Plot>, RedrawError> {
     })?;
     let runs_path = dir.join("runs.csv");
     let runs = table::Table::read(&runs_path)?.ok_or_else(|| ResultsError::Io {
-        path: runs_path,
+        path: runs_path.clone(),
         error: std::io::Error::from(std::io::ErrorKind::NotFound),
     })?;
+    check_runs_table(&runs, &meta.study, &runs_path)?;
     Ok(plots::draw_all(dir, &meta.study, &runs)?)
+}
+
+/// Before any plot is replaced or removed: `runs.csv` must have the columns its study kind
+/// writes and at least one row (a cut or emptied file would otherwise leave no plots).
+fn check_runs_table(
+    runs: &table::Table,
+    study: &StudyMeta,
+    path: &std::path::Path,
+) -> Result<(), ResultsError> {
+    let malformed = |message: String| ResultsError::Malformed {
+        path: path.to_owned(),
+        message,
+    };
+    let kind_columns = match study.kind {
+        StudyKind::Stability => stability::COLUMNS,
+        StudyKind::WorkPrecision => work_precision::COLUMNS,
+        _ => trajectory::COLUMNS,
+    };
+    let required = [
+        "run_id",
+        "scene",
+        "method",
+        "linear_solver",
+        "message",
+        "config_hash",
+    ];
+    if let Some(missing) = required
+        .iter()
+        .chain(kind_columns)
+        .find(|c| runs.column(c).is_none())
+    {
+        return Err(malformed(format!(
+            "line 1: the header has no `{missing}` column (a {} study's runs.csv has it); the \
+             file is cut short or not softbench's: no plot was changed",
+            study.kind.name()
+        )));
+    }
+    if runs.rows.is_empty() {
+        return Err(malformed(
+            "no runs below the header: nothing to draw, no plot was changed".into(),
+        ));
+    }
+    Ok(())
 }
 
 /// Why plots could not be redrawn.

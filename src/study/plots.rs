@@ -37,7 +37,7 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
     if study.study == StudyKind::Sweep {
         for metric in sweep_metrics(study) {
             for chart in sweep_charts(study, runs, &metric) {
-                let stem = format!("sweep-{metric}");
+                let stem = format!("sweep-{}", slug(&metric));
                 let note = if metric == "max_stable_dt" {
                     " A line at the top of the axis is stable over the whole bracket (up to \
                      dt_max)."
@@ -366,6 +366,11 @@ fn load_series(
     rows.iter()
         .filter_map(|r| {
             let id = runs.get(r, "run_id")?;
+            // Run ids are file names (see study::load); a hand-edited one that is not stays
+            // unread rather than reaching outside series/.
+            if id.is_empty() || id.contains(['/', '\\']) || id.starts_with("..") {
+                return None;
+            }
             let path = dir.join("series").join(format!("{id}.csv"));
             let table = Table::read(&path).ok().flatten()?;
             let mut label = label(runs, params, r, &[]);

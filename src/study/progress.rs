@@ -56,7 +56,9 @@ impl Progress {
     pub(super) fn line(&self, text: &str) {
         match &self.bar {
             Some(bar) => bar.println(text),
-            None if self.enabled => eprintln!("{text}"),
+            None if self.enabled => {
+                crate::console::err(text);
+            }
             None => {}
         }
     }

@@ -14,6 +14,8 @@ use super::table::Table;
 use super::work_precision::Reference;
 use super::{report, stability, trajectory, work_precision};
 use crate::integrate::Method;
+use crate::interrupt;
+use crate::lock::{FolderLock, Wait};
 use crate::parallel::Parallelism;
 use crate::report::write_atomic;
 use std::collections::{BTreeMap, HashMap};
@@ -32,6 +34,9 @@ pub struct RunOptions {
     pub force: bool,
     /// Show a progress bar (on a terminal) or a line per run (otherwise).
     pub progress: bool,
+    /// When another process holds the folder's lock: wait for it (else stop with an error
+    /// naming it).
+    pub wait: bool,
 }
 
 /// Why a study stopped before finishing.
@@ -44,6 +49,9 @@ pub enum RunError {
     },
     #[error(transparent)]
     Results(#[from] super::error::ResultsError),
+    /// Another process is writing the study's folder.
+    #[error(transparent)]
+    Lock(#[from] crate::lock::LockError),
     /// A run could not even start (its scene failed to build), or a reference failed.
     #[error("{0}")]
     Run(String),
@@ -61,6 +69,9 @@ pub struct StudyRun {
     pub skipped: usize,
     /// Runs whose status is not ok.
     pub not_ok: Vec<(String, String)>,
+    /// Set when SIGINT/SIGTERM stopped the study: the finished runs are in `runs.csv`, plots
+    /// and report are not drawn, and running the same command again resumes.
+    pub interrupted: Option<crate::interrupt::Signal>,
 }
 
 /// The identity columns of every `runs.csv`.
@@ -122,6 +133,10 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
         move |error| RunError::Io { path, error }
     };
     std::fs::create_dir_all(dir.join("series")).map_err(io(dir))?;
+    let wait = if options.wait { Wait::Yes } else { Wait::No };
+    let _lock = FolderLock::acquire(dir, &format!("run {}", study.file.name), wait, |h| {
+        crate::console::err(&format!("waiting for {h} to finish with {}", dir.display()));
+    })?;
     let started = now_utc();
     let clock = std::time::Instant::now();
     let header = header(study);
@@ -169,6 +184,7 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
         Parallelism::Rayon
     };
     let shared = Shared::prepare(study, &pending, parallelism, options.jobs, &progress)?;
+    let mut interrupted = interrupt::requested();
 
     // Run, each result written as soon as it arrives.
     let (sender, receiver) = std::sync::mpsc::channel::<(usize, Result<Measured, String>)>();
@@ -181,6 +197,9 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
             let (next, pending, shared, progress) = (&next, &pending, &shared, &progress);
             scope.spawn(move || {
                 loop {
+                    if interrupt::requested().is_some() {
+                        break;
+                    }
                     let i = next.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
                     let Some(spec) = pending.get(i) else { break };
                     progress.start(&spec.id);
@@ -194,6 +213,13 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
         }
         drop(sender);
         for (i, result) in receiver {
+            // After a stop request, results are cut short (interrupted runs, stability trials
+            // stopped at once): keep none of them; the runs are redone on resume.
+            if let Some(signal) = interrupt::requested() {
+                interrupted.get_or_insert(signal);
+                next.store(usize::MAX / 2, std::sync::atomic::Ordering::SeqCst);
+                continue;
+            }
             let spec = pending[i];
             let outcome = match result {
                 Ok(m) => record(study, spec, &m, &header, dir).map(|row| (row, m)),
@@ -232,6 +258,18 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
     }
     let table = ordered(study, &header, &rows);
     table.write(&runs_path).map_err(io(&runs_path))?;
+    if let Some(signal) = interrupted.or_else(interrupt::requested) {
+        // meta.json stays as written at the start (no end time): the study is not finished.
+        progress.done();
+        return Ok(StudyRun {
+            dir: dir.clone(),
+            ran: table.rows.len().saturating_sub(reused),
+            reused,
+            skipped: study.runs.len() - selected.len(),
+            not_ok,
+            interrupted: Some(signal),
+        });
+    }
     for row in &table.rows {
         if !is_clean(&table, row) {
             let what = table
@@ -264,6 +302,7 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
         reused,
         skipped: study.runs.len() - selected.len(),
         not_ok,
+        interrupted: None,
     })
 }
 

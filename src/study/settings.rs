@@ -4,23 +4,41 @@ use super::config::{StudyFile, StudyKind};
 use super::error::StudyError;
 use super::load::Context;
 
-/// The measured kind, after checking the kind's settings are present and sane.
-pub(super) fn check_settings(file: &StudyFile, ctx: &Context) -> Result<StudyKind, StudyError> {
-    if file.name.trim().is_empty()
-        || file
-            .name
+/// Longest study name: it is a folder name, and run ids and file names are built from it.
+pub const MAX_NAME: usize = 100;
+
+/// A study name is the name of its results folder under `--out`: letters, digits, '-', '_'
+/// and '.', not starting with '.' (so never `.` or `..`, which would write into `--out` itself
+/// or its parent), at most [`MAX_NAME`] characters.
+pub fn check_name(name: &str) -> Result<(), String> {
+    let shown = crate::quote::clip_message(name);
+    if name.is_empty()
+        || name
             .chars()
             .any(|c| !(c.is_ascii_alphanumeric() || "-_.".contains(c)))
     {
-        return Err(ctx.invalid(
-            0,
-            "name",
-            format!(
-                "`{}` must be a non-empty folder name of letters, digits, '-', '_' or '.'",
-                file.name
-            ),
+        return Err(format!(
+            "`{shown}` must be a non-empty folder name of letters, digits, '-', '_' or '.'"
         ));
     }
+    if name.starts_with('.') {
+        return Err(format!(
+            "`{shown}` must not start with '.': the study's folder must be a new folder inside \
+             --out (`.` would be --out itself, `..` its parent)"
+        ));
+    }
+    if name.len() > MAX_NAME {
+        return Err(format!(
+            "is {} characters long; at most {MAX_NAME} (it names a folder)",
+            name.len()
+        ));
+    }
+    Ok(())
+}
+
+/// The measured kind, after checking the kind's settings are present and sane.
+pub(super) fn check_settings(file: &StudyFile, ctx: &Context) -> Result<StudyKind, StudyError> {
+    check_name(&file.name).map_err(|m| ctx.invalid(0, "name", m))?;
     let kind = match (&file.study, &file.sweep) {
         (StudyKind::Sweep, Some(sweep)) => {
             if sweep.kind == StudyKind::Sweep {
@@ -43,6 +61,27 @@ pub(super) fn check_settings(file: &StudyFile, ctx: &Context) -> Result<StudyKin
                     message: format!(
                         "`{}` is not a key of [grid]; the swept parameter must be one",
                         sweep.parameter
+                    ),
+                });
+            }
+            let columns = match sweep.kind {
+                StudyKind::Stability => super::stability::COLUMNS,
+                StudyKind::WorkPrecision => super::work_precision::COLUMNS,
+                _ => super::trajectory::COLUMNS,
+            };
+            if let Some(unknown) = sweep
+                .metrics
+                .iter()
+                .find(|m| !columns.contains(&m.as_str()))
+            {
+                return Err(StudyError::Invalid {
+                    path: ctx.path.to_owned(),
+                    line: ctx.line_of_key("metrics"),
+                    key: "sweep.metrics".into(),
+                    message: crate::names::unknown_name_message(
+                        &format!("{} metric", sweep.kind.name()),
+                        unknown,
+                        columns,
                     ),
                 });
             }
@@ -98,10 +137,14 @@ pub(super) fn check_settings(file: &StudyFile, ctx: &Context) -> Result<StudyKin
                     format!("must be > 0 (got {})", s.energy_factor),
                 ));
             }
-            if !(s.relative_precision > 0.0 && s.relative_precision < 1.0) {
+            if !(MIN_RELATIVE_PRECISION..1.0).contains(&s.relative_precision) {
                 return Err(bad(
                     "stability.relative_precision",
-                    format!("must be in (0, 1) (got {})", s.relative_precision),
+                    format!(
+                        "must be in [{MIN_RELATIVE_PRECISION:e}, 1) (got {}): the bisection \
+                         cannot resolve dt more finely than that",
+                        s.relative_precision
+                    ),
                 ));
             }
             if !(positive(s.floor()) && s.floor() <= s.dt_min) {
@@ -171,6 +214,7 @@ pub(super) fn check_settings(file: &StudyFile, ctx: &Context) -> Result<StudyKin
         }
         StudyKind::Trajectory | StudyKind::Sweep => {}
     }
+    check_quick(file, &bad)?;
     Ok(kind)
 }
 
@@ -190,6 +234,41 @@ fn check_reference(
         return Err(bad(
             &format!("{table}.reference.dt"),
             "must be > 0 s".into(),
+        ));
+    }
+    Ok(())
+}
+
+/// Finest bisection precision of a stability study: well above f64 resolution, so the
+/// bracket always closes.
+pub const MIN_RELATIVE_PRECISION: f64 = 1e-9;
+
+/// `[quick]`, checked whether or not `--quick` is given, so a study file is valid or not.
+fn check_quick(
+    file: &StudyFile,
+    bad: &dyn Fn(&str, String) -> StudyError,
+) -> Result<(), StudyError> {
+    let q = &file.quick;
+    for (key, value) in [
+        ("quick.steps", q.steps),
+        ("quick.max_steps", q.max_steps),
+        ("quick.dts", q.dts),
+    ] {
+        if value == Some(0) {
+            return Err(bad(key, "must be at least 1".into()));
+        }
+    }
+    if let Some(h) = q.horizon
+        && !(h.is_finite() && h > 0.0)
+    {
+        return Err(bad("quick.horizon", format!("must be > 0 s (got {h})")));
+    }
+    if let Some(p) = q.relative_precision
+        && !(MIN_RELATIVE_PRECISION..1.0).contains(&p)
+    {
+        return Err(bad(
+            "quick.relative_precision",
+            format!("must be in [{MIN_RELATIVE_PRECISION:e}, 1) (got {p})"),
         ));
     }
     Ok(())

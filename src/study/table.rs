@@ -21,10 +21,12 @@ impl Table {
         }
     }
 
-    /// Read `path`; `Ok(None)` if it does not exist.
+    /// Read `path`; `Ok(None)` if it does not exist. A file that does not end with a line
+    /// break was cut short (softbench writes whole files only) and is an error naming its
+    /// last line, as is a row with the wrong number of cells.
     pub fn read(path: &Path) -> Result<Option<Self>, ResultsError> {
-        let file = match std::fs::File::open(path) {
-            Ok(f) => f,
+        let bytes = match std::fs::read(path) {
+            Ok(b) => b,
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
             Err(error) => {
                 return Err(ResultsError::Io {
@@ -37,7 +39,17 @@ impl Table {
             path: path.to_owned(),
             message: e.to_string(),
         };
-        let mut reader = csv::Reader::from_reader(std::io::BufReader::new(file));
+        if bytes.last().is_some_and(|&b| b != b'\n') {
+            let line = bytes.iter().filter(|&&b| b == b'\n').count() + 1;
+            return Err(ResultsError::Malformed {
+                path: path.to_owned(),
+                message: format!(
+                    "line {line}: the file ends in the middle of a line (it was cut short); \
+                     run the study again to rewrite it"
+                ),
+            });
+        }
+        let mut reader = csv::Reader::from_reader(bytes.as_slice());
         let header = reader
             .headers()
             .map_err(malformed)?
