@@ -166,18 +166,23 @@ scenes = ["beam.toml"]
 
 // 2. A study named `..` or `.`.
 
+/// A one-run trajectory study of the beam named `name`, written into `tmp`.
+fn study_named(tmp: &TempDir, name: &str) -> std::path::PathBuf {
+    tmp.write("beam.toml", &beam(5));
+    tmp.write(
+        "study.toml",
+        &format!(
+            "name = \"{name}\"\nstudy = \"trajectory\"\nscenes = [\"beam.toml\"]\n[grid]\n\
+             \"integrator.method\" = [\"rk4\"]\n"
+        ),
+    )
+}
+
 #[test]
 fn a_study_named_dot_dot_or_dot_is_refused_and_writes_nothing() {
     for name in ["..", "."] {
         let tmp = TempDir::new("dotdot");
-        tmp.write("beam.toml", &beam(5));
-        let study = tmp.write(
-            "study.toml",
-            &format!(
-                "name = \"{name}\"\nstudy = \"trajectory\"\nscenes = [\"beam.toml\"]\n[grid]\n\
-                 \"integrator.method\" = [\"rk4\"]\n"
-            ),
-        );
+        let study = study_named(&tmp, name);
         let out = tmp.path().join("deep/results");
         let o = run_study(&study, &out, &[]);
         assert_bad_input(&o, &["name", "must not start with '.'"]);
@@ -574,14 +579,7 @@ fn coordinates_near_1e308_are_refused() {
 fn a_300_character_study_name_is_refused_before_anything_is_created() {
     let name = "a".repeat(300);
     let tmp = TempDir::new("long-name");
-    tmp.write("beam.toml", &beam(5));
-    let study = tmp.write(
-        "study.toml",
-        &format!(
-            "name = \"{name}\"\nstudy = \"trajectory\"\nscenes = [\"beam.toml\"]\n[grid]\n\
-             \"integrator.method\" = [\"rk4\"]\n"
-        ),
-    );
+    let study = study_named(&tmp, &name);
     let out = tmp.path().join("results");
     let o = run_study(&study, &out, &[]);
     assert_bad_input(&o, &["name", "300 characters"]);

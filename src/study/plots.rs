@@ -39,8 +39,8 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
             for chart in sweep_charts(study, runs, &metric) {
                 let stem = format!("sweep-{}", slug(&metric));
                 let note = if metric == "max_stable_dt" {
-                    " A line at the top of the axis is stable over the whole bracket (up to \
-                     dt_max)."
+                    " A line at the top is stable at the largest step judged (the ceiling, \
+                     horizon / min_steps)."
                 } else {
                     ""
                 };
