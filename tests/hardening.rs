@@ -192,10 +192,13 @@ fn a_study_named_dot_dot_or_dot_is_refused_and_writes_nothing() {
 
 // 3. A crafted TetGen header.
 
+/// Four TetGen points, the corners of the unit tet.
+const TETGEN_NODE: &str = "4 3 0 0\n0 0 0 0\n1 1 0 0\n2 0 1 0\n3 0 0 1\n";
+
 #[test]
 fn a_tetgen_attribute_count_that_wraps_is_an_error_not_a_panic() {
     let tmp = TempDir::new("tetgen-wrap");
-    tmp.write("b.node", "4 3 0 0\n0 0 0 0\n1 1 0 0\n2 0 1 0\n3 0 0 1\n");
+    tmp.write("b.node", TETGEN_NODE);
     tmp.write("b.ele", "1 4 18446744073709551614\n0 0 1\n");
     let node = tmp.path().join("b.node");
     let o = softbench(&["mesh-info", node.to_str().unwrap()]);
@@ -213,7 +216,7 @@ fn a_tetgen_attribute_count_that_wraps_is_an_error_not_a_panic() {
 #[test]
 fn a_tetgen_ele_header_with_a_fourth_field_is_refused() {
     let tmp = TempDir::new("tetgen-four");
-    tmp.write("b.node", "4 3 0 0\n0 0 0 0\n1 1 0 0\n2 0 1 0\n3 0 0 1\n");
+    tmp.write("b.node", TETGEN_NODE);
     tmp.write("b.ele", "1 4 0 7\n0 0 1 2 3\n");
     let o = softbench(&["mesh-info", tmp.path().join("b.ele").to_str().unwrap()]);
     assert_bad_input(&o, &["b.ele:1", "found 4 fields"]);

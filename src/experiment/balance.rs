@@ -211,16 +211,6 @@ impl EnergyBalance {
         self.dissipated
     }
 
-    /// The scene's energy scale.
-    pub fn scale(&self) -> EnergyScale {
-        self.scale
-    }
-
-    /// The limit (0: off).
-    pub fn limit(&self) -> f64 {
-        self.limit
-    }
-
     /// Largest `excess / budget` seen.
     pub fn peak_ratio(&self) -> f64 {
         self.peak_ratio

@@ -108,8 +108,15 @@ fn render(
     if s.quick {
         let _ = writeln!(
             out,
-            "**Quick mode** (`--quick`): horizons and ladders are shortened; these numbers are a \
-             smoke test, not results.\n"
+            "**Quick mode** (`--quick`): {}; these numbers are a smoke test, not results.\n",
+            match s.kind {
+                StudyKind::Stability => {
+                    "the same horizon and criterion, but only the larger steps are judged and \
+                     the bisection is coarser (a verdict at a step is the full study's)"
+                }
+                StudyKind::WorkPrecision => "the horizon and the dt ladders are shortened",
+                _ => "runs are shortened",
+            }
         );
     }
     let m = &meta.machine;
