@@ -45,6 +45,7 @@ pub mod names;
 pub mod parallel;
 pub mod plot;
 pub mod quote;
+pub mod registry;
 pub mod report;
 pub mod rng;
 pub mod scene;
