@@ -80,7 +80,7 @@ fn cases() -> Vec<Case> {
 fn steps(c: &mut Criterion) {
     let mut group = c.benchmark_group("step");
     for mut case in cases() {
-        for method in Method::ALL {
+        for method in Method::all() {
             let mut integ = IntegratorSettings {
                 method,
                 ..Default::default()

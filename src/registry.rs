@@ -112,8 +112,8 @@ impl<E: Entry> Registry<E> {
             });
         }
         let mut added = self.added.write().unwrap_or_else(|e| e.into_inner());
-        let taken = self.builtin.iter().any(|e| e.name() == name)
-            || added.iter().any(|e| e.name() == name);
+        let taken =
+            self.builtin.iter().any(|e| e.name() == name) || added.iter().any(|e| e.name() == name);
         if taken {
             return Err(RegisterError::Duplicate {
                 what: self.what,
@@ -270,6 +270,10 @@ mod tests {
         assert_eq!(ThingHandle::from_name("alpha").unwrap().name(), "alpha");
         THINGS.register(Thing { name: "beta-2" }).unwrap();
         assert_eq!(THINGS.names(), ["alpha", "beta-2"]);
+        assert_eq!(ThingHandle::names(), ["alpha", "beta-2"]);
+        let all = ThingHandle::all();
+        assert_eq!(all[1].entry().name, "beta-2");
+        assert_eq!(all[0].description(), "a thing");
         let beta: ThingHandle = "beta-2".parse().unwrap();
         assert_eq!(beta, ThingHandle::from_name("beta-2").unwrap());
         assert!(matches!(

@@ -55,7 +55,7 @@ const T_END: f64 = 0.2;
 
 fn reference() -> State {
     run(
-        Method::Rk4,
+        Method::from_name("rk4").unwrap(),
         AdaptiveSettings::default(),
         T_END / 200_000.0,
         T_END,
@@ -78,7 +78,10 @@ fn settings(tolerance: f64) -> AdaptiveSettings {
 #[test]
 fn adaptive_control_meets_its_tolerance() {
     let reference = reference();
-    for method in [Method::AdaptiveRk4, Method::Dopri5] {
+    for method in [
+        Method::from_name("adaptive-rk4").unwrap(),
+        Method::from_name("dopri5").unwrap(),
+    ] {
         let errors: Vec<f64> = [1e-5, 1e-7]
             .iter()
             .map(|&tol| {
@@ -104,14 +107,17 @@ fn adaptive_control_meets_its_tolerance() {
 #[test]
 fn adaptive_control_takes_fewer_steps_than_a_fixed_step_of_equal_error() {
     let reference = reference();
-    for method in [Method::AdaptiveRk4, Method::Dopri5] {
+    for method in [
+        Method::from_name("adaptive-rk4").unwrap(),
+        Method::from_name("dopri5").unwrap(),
+    ] {
         let (end, steps, evals) = run(method, settings(1e-8), T_END, T_END);
         let target = error(&end, &reference);
         // The fewest fixed RK4 steps (by doubling) that are at least as accurate.
         let mut fixed = 250;
         let (fixed_steps, fixed_evals) = loop {
             let (s, n, e) = run(
-                Method::Rk4,
+                Method::from_name("rk4").unwrap(),
                 AdaptiveSettings::default(),
                 T_END / fixed as f64,
                 T_END,
@@ -146,7 +152,7 @@ fn adaptive_control_fails_cleanly_below_its_minimum_step() {
         ..Default::default()
     };
     let mut integ = IntegratorSettings {
-        method: Method::AdaptiveRk4,
+        method: Method::from_name("adaptive-rk4").unwrap(),
         adaptive,
         ..Default::default()
     }
@@ -170,7 +176,7 @@ fn adaptive_control_stops_at_its_substep_budget() {
         ..Default::default()
     };
     let mut integ = IntegratorSettings {
-        method: Method::AdaptiveMidpoint,
+        method: Method::from_name("adaptive-midpoint").unwrap(),
         adaptive,
         ..Default::default()
     }

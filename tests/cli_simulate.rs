@@ -12,7 +12,7 @@ use std::path::Path;
 const TRAJECTORY_HEADER: &str = "step,t,dt,kinetic,elastic,gravity,total,momentum_x,momentum_y,momentum_z,newton_iterations,linear_iterations,wall_seconds";
 
 fn methods() -> Vec<String> {
-    softbench::integrate::Method::ALL
+    softbench::integrate::Method::all()
         .iter()
         .map(|m| m.name().to_owned())
         .collect()

@@ -178,16 +178,26 @@ fn every_method_keeps_its_order_with_damping() {
     let t_end = 0.05;
     let mut model = damped_block(damping, 2.0, true);
     let start = kicked(&model);
-    let reference = integrate(&mut model, Method::Rk4, &start, t_end, 6400);
+    let reference = integrate(
+        &mut model,
+        Method::from_name("rk4").unwrap(),
+        &start,
+        t_end,
+        6400,
+    );
     for (method, expected, coarsest) in [
-        (Method::ExplicitEuler, 1.0, 200),
-        (Method::SymplecticEuler, 1.0, 200),
-        (Method::Midpoint, 2.0, 50),
-        (Method::Rk4, 4.0, 25),
-        (Method::LinearlyImplicitEuler, 1.0, 200),
-        (Method::BackwardEuler, 1.0, 200),
-        (Method::ImplicitMidpoint, 2.0, 50),
-        (Method::Bdf2, 2.0, 50),
+        (Method::from_name("explicit-euler").unwrap(), 1.0, 200),
+        (Method::from_name("symplectic-euler").unwrap(), 1.0, 200),
+        (Method::from_name("midpoint").unwrap(), 2.0, 50),
+        (Method::from_name("rk4").unwrap(), 4.0, 25),
+        (
+            Method::from_name("linearly-implicit-euler").unwrap(),
+            1.0,
+            200,
+        ),
+        (Method::from_name("backward-euler").unwrap(), 1.0, 200),
+        (Method::from_name("implicit-midpoint").unwrap(), 2.0, 50),
+        (Method::from_name("bdf2").unwrap(), 2.0, 50),
     ] {
         let errors: Vec<f64> = (0..4)
             .map(|k| {
@@ -212,7 +222,7 @@ fn damping_removes_energy_and_its_absence_keeps_it() {
         let dt = 2.0 / omega_max(model);
         let e0 = metrics.energies(model, &start).unwrap().total();
         let mut integ = IntegratorSettings {
-            method: Method::ImplicitMidpoint,
+            method: Method::from_name("implicit-midpoint").unwrap(),
             ..Default::default()
         }
         .build();

@@ -256,7 +256,13 @@ fn drag_moves_the_picked_vertices_towards_their_targets() {
     };
     // Held from t = 0.2 to 0.6: the picked vertices settle most of the way to their targets,
     // 0.1 m along +x (springs of the body pull back, so not all the way).
-    let held = common::bodies::integrate(&mut model, Method::BackwardEuler, &start, 0.6, 60);
+    let held = common::bodies::integrate(
+        &mut model,
+        Method::from_name("backward-euler").unwrap(),
+        &start,
+        0.6,
+        60,
+    );
     let dx = mean_dx(&model, &held, &picked);
     assert!(dx > 0.05 && dx < 0.1, "picked vertices moved {dx} m");
     // The bottom stays; the vertices far from the drag move less.
@@ -267,7 +273,7 @@ fn drag_moves_the_picked_vertices_towards_their_targets() {
     // After the release at 0.8 s the body swings back towards rest (backward Euler damps it;
     // default Newton settings, which need not converge tightly in the step of the release).
     let mut integ = IntegratorSettings {
-        method: Method::BackwardEuler,
+        method: Method::from_name("backward-euler").unwrap(),
         ..Default::default()
     }
     .build();

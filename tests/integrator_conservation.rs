@@ -24,7 +24,8 @@ fn every_method_conserves_linear_momentum_of_a_free_body() {
     let mass: f64 = model.vertex_masses().iter().sum();
     // Round-off scale: total mass times the largest speed.
     let speed = start.v.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    for method in Method::ALL {
+    // Every time integrator (order 0 is the static solve, which has no velocity to conserve).
+    for method in Method::all().into_iter().filter(|m| m.order() > 0) {
         let mut integ = integrator(method);
         let mut state = start.clone();
         for _ in 0..100 {
@@ -49,7 +50,7 @@ fn symplectic_euler_energy_stays_bounded_over_ten_thousand_steps() {
     let mut model = block(true, false);
     let start = kicked(&model);
     let dt = 0.5 * 2.0 / omega_max(&mut model);
-    let mut integ = integrator(Method::SymplecticEuler);
+    let mut integ = integrator(Method::from_name("symplectic-euler").unwrap());
     let mut metrics = Metrics::default();
     let e0 = total_energy(&mut metrics, &mut model, &start);
     let mut state = start;
@@ -74,7 +75,7 @@ fn symplectic_euler_energy_stays_bounded_over_ten_thousand_steps() {
 fn backward_euler_never_gains_energy() {
     let mut model = block(true, true);
     let start = kicked(&model);
-    let mut integ = integrator(Method::BackwardEuler);
+    let mut integ = integrator(Method::from_name("backward-euler").unwrap());
     let mut metrics = Metrics::default();
     let mut state = start;
     let mut previous = total_energy(&mut metrics, &mut model, &state);
@@ -99,7 +100,7 @@ fn rk4_energy_drift_is_tiny_at_small_dt() {
     let mut model = block(true, false);
     let start = kicked(&model);
     let dt = 0.1 * 2.0 / omega_max(&mut model);
-    let mut integ = integrator(Method::Rk4);
+    let mut integ = integrator(Method::from_name("rk4").unwrap());
     let mut metrics = Metrics::default();
     let e0 = total_energy(&mut metrics, &mut model, &start);
     let mut state = start;
@@ -117,7 +118,7 @@ fn rk4_energy_drift_is_tiny_at_small_dt() {
 fn implicit_midpoint_energy_errors(dt: f64) -> Vec<f64> {
     let mut model = block(true, true);
     let start = kicked(&model);
-    let mut integ = integrator(Method::ImplicitMidpoint);
+    let mut integ = integrator(Method::from_name("implicit-midpoint").unwrap());
     let mut metrics = Metrics::default();
     let e0 = total_energy(&mut metrics, &mut model, &start);
     let mut state = start;

@@ -27,7 +27,13 @@ fn observed_order(method: Method, coarsest_steps: usize) -> (f64, Vec<f64>) {
 
 fn observed_order_on(mut model: Model, method: Method, coarsest_steps: usize) -> (f64, Vec<f64>) {
     let start = kicked(&model);
-    let reference = integrate(&mut model, Method::Rk4, &start, T_END, 6400);
+    let reference = integrate(
+        &mut model,
+        Method::from_name("rk4").unwrap(),
+        &start,
+        T_END,
+        6400,
+    );
     let mut dts = Vec::new();
     let mut errors = Vec::new();
     for k in 0..4 {
@@ -54,42 +60,46 @@ fn assert_order(method: Method, expected: f64, coarsest_steps: usize) {
 
 #[test]
 fn explicit_euler_is_first_order() {
-    assert_order(Method::ExplicitEuler, 1.0, 200);
+    assert_order(Method::from_name("explicit-euler").unwrap(), 1.0, 200);
 }
 
 #[test]
 fn symplectic_euler_is_first_order() {
-    assert_order(Method::SymplecticEuler, 1.0, 200);
+    assert_order(Method::from_name("symplectic-euler").unwrap(), 1.0, 200);
 }
 
 #[test]
 fn explicit_midpoint_is_second_order() {
-    assert_order(Method::Midpoint, 2.0, 50);
+    assert_order(Method::from_name("midpoint").unwrap(), 2.0, 50);
 }
 
 #[test]
 fn rk4_is_fourth_order() {
-    assert_order(Method::Rk4, 4.0, 25);
+    assert_order(Method::from_name("rk4").unwrap(), 4.0, 25);
 }
 
 #[test]
 fn linearly_implicit_euler_is_first_order() {
-    assert_order(Method::LinearlyImplicitEuler, 1.0, 200);
+    assert_order(
+        Method::from_name("linearly-implicit-euler").unwrap(),
+        1.0,
+        200,
+    );
 }
 
 #[test]
 fn backward_euler_is_first_order() {
-    assert_order(Method::BackwardEuler, 1.0, 200);
+    assert_order(Method::from_name("backward-euler").unwrap(), 1.0, 200);
 }
 
 #[test]
 fn implicit_midpoint_is_second_order() {
-    assert_order(Method::ImplicitMidpoint, 2.0, 50);
+    assert_order(Method::from_name("implicit-midpoint").unwrap(), 2.0, 50);
 }
 
 #[test]
 fn bdf2_is_second_order() {
-    assert_order(Method::Bdf2, 2.0, 50);
+    assert_order(Method::from_name("bdf2").unwrap(), 2.0, 50);
 }
 
 /// With a time-dependent potential, a method keeps its order only if it evaluates forces at
@@ -97,18 +107,61 @@ fn bdf2_is_second_order() {
 #[test]
 fn methods_keep_their_order_with_a_moving_anchor() {
     for (method, expected, steps) in [
-        (Method::Rk4, 4.0, 25),
-        (Method::Midpoint, 2.0, 50),
-        (Method::ImplicitMidpoint, 2.0, 50),
-        (Method::Bdf2, 2.0, 50),
-        (Method::BackwardEuler, 1.0, 200),
-        (Method::SymplecticEuler, 1.0, 200),
+        (Method::from_name("rk4").unwrap(), 4.0, 25),
+        (Method::from_name("midpoint").unwrap(), 2.0, 50),
+        (Method::from_name("implicit-midpoint").unwrap(), 2.0, 50),
+        (Method::from_name("bdf2").unwrap(), 2.0, 50),
+        (Method::from_name("backward-euler").unwrap(), 1.0, 200),
+        (Method::from_name("symplectic-euler").unwrap(), 1.0, 200),
     ] {
         let (order, errors) = observed_order_on(block_with_moving_anchor(), method, steps);
         eprintln!("{method} with a moving anchor: observed order {order:.3}");
         assert!(
             (order - expected).abs() <= 0.15,
             "{method}: order {order:.3} with a moving anchor; errors {errors:?}"
+        );
+    }
+}
+
+fn method(name: &str) -> Method {
+    Method::from_name(name).unwrap()
+}
+
+#[test]
+fn velocity_verlet_is_second_order() {
+    assert_order(method("velocity-verlet"), 2.0, 50);
+}
+
+#[test]
+fn newmark_trapezoidal_and_the_alpha_methods_are_second_order() {
+    for name in ["newmark", "generalized-alpha", "hht-alpha"] {
+        assert_order(method(name), 2.0, 50);
+    }
+}
+
+#[test]
+fn bdf_k_reaches_order_k() {
+    assert_order(method("bdf1"), 1.0, 200);
+    assert_order(method("bdf2"), 2.0, 50);
+    assert_order(method("bdf3"), 3.0, 25);
+    // Pre-asymptotic at 25 steps (pairwise 3.59, 3.85, 3.94): start at 50.
+    assert_order(method("bdf4"), 4.0, 50);
+}
+
+#[test]
+fn the_new_methods_keep_their_order_with_a_moving_anchor() {
+    for (name, expected, steps) in [
+        ("velocity-verlet", 2.0, 50),
+        ("newmark", 2.0, 50),
+        ("generalized-alpha", 2.0, 50),
+        ("hht-alpha", 2.0, 50),
+        ("bdf3", 3.0, 25),
+    ] {
+        let (order, errors) = observed_order_on(block_with_moving_anchor(), method(name), steps);
+        eprintln!("{name} with a moving anchor: observed order {order:.3}");
+        assert!(
+            (order - expected).abs() <= 0.15,
+            "{name}: order {order:.3} with a moving anchor; errors {errors:?}"
         );
     }
 }

@@ -629,7 +629,7 @@ fn squashed_stvk_step(solver: LinearSolverKind) -> (softbench::integrate::StepRe
     let mut state = State::at_rest(&model);
     state.q.iter_mut().step_by(3).for_each(|x| *x *= 0.35);
     let mut integ = IntegratorSettings {
-        method: Method::BackwardEuler,
+        method: Method::from_name("backward-euler").unwrap(),
         linear_solver: solver,
         ..Default::default()
     }

@@ -51,6 +51,7 @@ fn newton_converges_quadratically_near_the_solution() {
                 x_ref: &state.q,
                 beta,
                 damping_anchor: &state.q,
+                ..Default::default()
             },
             &mut x,
             &mut report,
@@ -133,6 +134,7 @@ fn line_search_accepts_full_steps_once_the_decrease_is_below_round_off() {
             x_ref: &state.q,
             beta,
             damping_anchor: &state.q,
+            ..Default::default()
         },
         &mut x,
         &mut report,
@@ -161,7 +163,7 @@ fn every_linear_solver_gives_the_same_newton_step() {
         let mut model = block(true, true);
         let mut state = kicked(&model);
         let mut settings = IntegratorSettings {
-            method: Method::BackwardEuler,
+            method: Method::from_name("backward-euler").unwrap(),
             linear_solver: kind,
             ..Default::default()
         };
@@ -210,7 +212,7 @@ fn an_indefinite_system_falls_back_to_projected_hessians() {
     let mut state = State::at_rest(&model);
     state.q.iter_mut().step_by(3).for_each(|x| *x *= 0.35);
     let mut integ = IntegratorSettings {
-        method: Method::BackwardEuler,
+        method: Method::from_name("backward-euler").unwrap(),
         ..Default::default()
     }
     .build();
@@ -227,7 +229,7 @@ fn a_failed_step_is_retried_as_two_half_steps_when_asked() {
         let mut model = block(true, true);
         let mut state = kicked(&model);
         let mut settings = IntegratorSettings {
-            method: Method::BackwardEuler,
+            method: Method::from_name("backward-euler").unwrap(),
             ..Default::default()
         };
         settings.newton.max_iterations = 1;
@@ -256,9 +258,9 @@ fn a_body_exactly_at_rest_without_gravity_takes_a_step() {
     // itself is a difference of O(mu) terms (J^(-2/3) I1 - 3), so its noise is far above the
     // Newton decrement. Newton must recognise the rest state, not fail its line search.
     for method in [
-        Method::BackwardEuler,
-        Method::ImplicitMidpoint,
-        Method::Bdf2,
+        Method::from_name("backward-euler").unwrap(),
+        Method::from_name("implicit-midpoint").unwrap(),
+        Method::from_name("bdf2").unwrap(),
     ] {
         let mut model = block(true, false);
         let mut state = State::at_rest(&model);
@@ -306,9 +308,9 @@ fn a_damped_jello_cube_settles_to_rest_without_newton_failing() {
         }
     });
     for method in [
-        Method::BackwardEuler,
-        Method::ImplicitMidpoint,
-        Method::Bdf2,
+        Method::from_name("backward-euler").unwrap(),
+        Method::from_name("implicit-midpoint").unwrap(),
+        Method::from_name("bdf2").unwrap(),
     ] {
         let mut s = state.clone();
         let mut integ = IntegratorSettings {
@@ -364,9 +366,9 @@ fn a_spring_cube_released_without_gravity_keeps_stepping() {
         Drag::new(&rest, picked, 1000.0, path, Some(0.25)).unwrap(),
     ));
     for method in [
-        Method::BackwardEuler,
-        Method::ImplicitMidpoint,
-        Method::Bdf2,
+        Method::from_name("backward-euler").unwrap(),
+        Method::from_name("implicit-midpoint").unwrap(),
+        Method::from_name("bdf2").unwrap(),
     ] {
         let mut state = State::at_rest(&model);
         let mut integ = IntegratorSettings {
@@ -391,7 +393,7 @@ fn steps_report_the_size_of_their_factor() {
     };
     let mut state = kicked(&model);
     let implicit = IntegratorSettings {
-        method: Method::BackwardEuler,
+        method: Method::from_name("backward-euler").unwrap(),
         ..Default::default()
     }
     .build()
@@ -404,7 +406,7 @@ fn steps_report_the_size_of_their_factor() {
         implicit.factor_nnz
     );
     let explicit = IntegratorSettings {
-        method: Method::Rk4,
+        method: Method::from_name("rk4").unwrap(),
         ..Default::default()
     }
     .build()

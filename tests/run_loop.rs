@@ -22,7 +22,7 @@ fn a_body_driven_from_rest_is_not_a_blow_up() {
     let mut model = block_with_moving_anchor();
     let mut state = State::at_rest(&model);
     let mut integ = IntegratorSettings {
-        method: Method::BackwardEuler,
+        method: Method::from_name("backward-euler").unwrap(),
         ..Default::default()
     }
     .build();
@@ -53,7 +53,7 @@ fn an_unstable_explicit_run_is_stopped_with_its_cause() {
     let mut state = kicked(&model);
     let dt = 3.0 * 2.0 / omega_max(&mut model);
     let mut integ = IntegratorSettings {
-        method: Method::SymplecticEuler,
+        method: Method::from_name("symplectic-euler").unwrap(),
         ..Default::default()
     }
     .build();

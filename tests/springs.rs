@@ -393,11 +393,14 @@ fn a_jello_cube_falls_freely_with_its_centre_of_mass_at_g_t2_over_2() {
     let steps = 500;
     let t = dt * steps as f64;
     for (method, tolerance) in [
-        (Method::Rk4, 1e-10),
-        (Method::Midpoint, 1e-10),
-        (Method::ImplicitMidpoint, 1e-9),
-        (Method::SymplecticEuler, 9.81 * t * dt),
-        (Method::BackwardEuler, 9.81 * t * dt),
+        (Method::from_name("rk4").unwrap(), 1e-10),
+        (Method::from_name("midpoint").unwrap(), 1e-10),
+        (Method::from_name("implicit-midpoint").unwrap(), 1e-9),
+        (
+            Method::from_name("symplectic-euler").unwrap(),
+            9.81 * t * dt,
+        ),
+        (Method::from_name("backward-euler").unwrap(), 9.81 * t * dt),
     ] {
         let mut model = jello_cube_model(0.0, true);
         let start = State::at_rest(&model);
@@ -417,7 +420,8 @@ fn a_jello_cube_falls_freely_with_its_centre_of_mass_at_g_t2_over_2() {
 
 #[test]
 fn every_integrator_runs_a_jello_cube_for_a_few_steps() {
-    for method in Method::ALL {
+    // Every time integrator (order 0 is the static solve: a free cube has no equilibrium).
+    for method in Method::all().into_iter().filter(|m| m.order() > 0) {
         let mut model = jello_cube_model(0.05, true);
         let mut start = State::at_rest(&model);
         // Squeeze it a little so the springs work.

@@ -57,7 +57,7 @@ fn explicit_euler_from_rest_takes_ten_steps_without_a_blow_up_at_any_step_up_to_
         let summary = run_with(
             &mut model,
             &mut state,
-            method(Method::ExplicitEuler),
+            method(Method::from_name("explicit-euler").unwrap()),
             dt,
             10,
         );
@@ -122,7 +122,7 @@ fn symplectic_euler_runs_its_whole_horizon_at_nine_tenths_of_its_limit() {
     let summary = run_with(
         &mut model,
         &mut state,
-        method(Method::SymplecticEuler),
+        method(Method::from_name("symplectic-euler").unwrap()),
         dt,
         5000,
     );
@@ -135,7 +135,11 @@ fn a_stable_neo_hookean_body_at_rest_without_gravity_runs() {
     // Its energy at rest is round-off (about -4e-12 J on the cantilever): the budget must not
     // be that round-off.
     let mut model = block(false, false);
-    for m in [Method::SymplecticEuler, Method::Rk4, Method::BackwardEuler] {
+    for m in [
+        Method::from_name("symplectic-euler").unwrap(),
+        Method::from_name("rk4").unwrap(),
+        Method::from_name("backward-euler").unwrap(),
+    ] {
         let mut state = State::at_rest(&model);
         let summary = run_with(&mut model, &mut state, method(m), 1e-3, 200);
         assert!(summary.outcome.is_completed(), "{m}: {:?}", summary.outcome);
@@ -152,7 +156,7 @@ fn symplectic_euler_above_its_limit_under_a_drag_is_unstable() {
     let summary = run_with(
         &mut model,
         &mut state,
-        method(Method::SymplecticEuler),
+        method(Method::from_name("symplectic-euler").unwrap()),
         1.5 * limit,
         2000,
     );
@@ -167,7 +171,7 @@ fn symplectic_euler_above_its_limit_under_a_drag_is_unstable() {
     let summary = run_with(
         &mut model,
         &mut state,
-        method(Method::SymplecticEuler),
+        method(Method::from_name("symplectic-euler").unwrap()),
         0.5 * limit,
         2000,
     );
@@ -209,7 +213,7 @@ fn symplectic_euler_above_its_limit_under_the_armadillo_drag_is_unstable() {
 #[test]
 fn newton_stopped_by_its_cap_is_solver_failed_when_convergence_is_required() {
     let mut model = block(true, true);
-    let mut settings = method(Method::BackwardEuler);
+    let mut settings = method(Method::from_name("backward-euler").unwrap());
     settings.newton.max_iterations = 1;
     settings.newton.require_convergence = true;
     let mut state = State::at_rest(&model);
@@ -250,7 +254,7 @@ fn an_element_inverted_where_the_material_is_undefined_is_left_material_domain()
     let summary = run_with(
         &mut model,
         &mut state,
-        method(Method::SymplecticEuler),
+        method(Method::from_name("symplectic-euler").unwrap()),
         0.1,
         5,
     );

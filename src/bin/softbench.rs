@@ -461,9 +461,26 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
 
 fn list() -> anyhow::Result<ExitCode> {
     let mut out = std::io::stdout().lock();
-    writeln!(out, "integrators (integrator.method):")?;
-    for m in Method::ALL {
-        writeln!(out, "  {:26} {}", m.name(), m.description())?;
+    writeln!(
+        out,
+        "integrators (integrator.method): name, order, explicit or implicit, description"
+    )?;
+    for m in Method::all() {
+        let order = match m.order() {
+            0 => "-".to_string(),
+            o => o.to_string(),
+        };
+        let kind = if m.is_explicit() {
+            "explicit"
+        } else {
+            "implicit"
+        };
+        writeln!(
+            out,
+            "  {:26} {order:>2}  {kind:8}  {}",
+            m.name(),
+            m.description()
+        )?;
     }
     writeln!(out, "linear solvers (integrator.linear_solver):")?;
     for k in LinearSolverKind::ALL {

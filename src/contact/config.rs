@@ -121,7 +121,8 @@ named_enum! {
         /// (restitution, friction) and moves by dt times it from where it started, so it
         /// never lands inside.
         VelocityFlip = "velocity-flip",
-        /// Backward Euler with linearized non-penetration constraints (a QP per iteration).
+        /// Linearized non-penetration constraints inside the Newton loop (a QP per
+        /// iteration) of backward Euler, BDF-k, the Newmark family or static.
         Constrained = "constrained",
     }
 }
@@ -138,7 +139,7 @@ impl ContactResponse {
                 "predictive: reflect the velocity of a vertex that would penetrate, redo its move"
             }
             Self::Constrained => {
-                "backward Euler with non-penetration constraints (a QP per iteration); exact"
+                "QP-constrained Newton (backward Euler, BDF, Newmark, static); no penetration"
             }
         }
     }
@@ -285,8 +286,8 @@ fn finite(v: &[f64]) -> bool {
 }
 
 impl ContactConfig {
-    /// Check ranges; `method` is the scene's integrator (the constrained response is a
-    /// backward Euler method of its own).
+    /// Check ranges; `method` is the scene's integrator (the constrained response needs one
+    /// whose Newton unknown is the end-of-step position).
     pub fn validate(&self, method: Method) -> Result<(), ConfigError> {
         let unit = |x: f64| (0.0..=1.0).contains(&x);
         if !unit(self.restitution) {
@@ -313,12 +314,18 @@ impl ContactConfig {
                 format!("must be >= 0 (m; got {})", self.margin),
             ));
         }
-        if self.response == ContactResponse::Constrained && method != Method::BackwardEuler {
+        if self.response == ContactResponse::Constrained && !method.entry().constrained_contact {
+            let able: Vec<&str> = Method::all()
+                .into_iter()
+                .filter(|m| m.entry().constrained_contact)
+                .map(|m| m.name())
+                .collect();
             return Err(error(
                 "contact.response",
                 format!(
-                    "`constrained` is a backward Euler step with contact constraints; it needs \
-                     integrator.method = \"backward-euler\" (got `{method}`)"
+                    "`constrained` puts contact constraints on the end-of-step positions inside \
+                     a Newton solve; integrator.method `{method}` has none (methods that can: {})",
+                    able.join(", ")
                 ),
             ));
         }

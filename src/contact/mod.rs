@@ -15,8 +15,9 @@
 //!   are moved to the surface (projection) or to where the new velocity takes them from their
 //!   start-of-step position (velocity-flip, predictive); after implicit methods the body
 //!   follows the correction (`correction.rs`);
-//! - `constrained` ([`ConstrainedBackwardEuler`]): backward Euler whose iterations solve a
-//!   convex QP with linearized non-penetration constraints (clarabel).
+//! - `constrained` ([`ContactConstraints`]): inside the Newton loop of any method whose
+//!   unknown is the end-of-step position, iterations solve a convex QP with linearized
+//!   non-penetration constraints (clarabel) and the line search keeps iterates outside.
 //!
 //! Every response reports contacts (pairs within the margin) and the deepest penetration in
 //! the [`crate::integrate::StepReport`]. A scene without obstacles builds none of this:
@@ -38,7 +39,7 @@ mod sphere;
 
 pub use capsule::Capsule;
 pub use config::{ContactConfig, ContactResponse, ObstacleConfig, ObstacleKind};
-pub use constrained::ConstrainedBackwardEuler;
+pub use constrained::ContactConstraints;
 pub use cuboid::Cuboid;
 pub use half_space::HalfSpace;
 pub use obstacle::{ContactStats, Obstacle, ObstacleSample, Obstacles, Shape, query_count};
@@ -98,9 +99,8 @@ impl Contact {
     }
 
     /// The integrator `settings` describe, with this contact response: the method wrapped in
-    /// [`WithContactResponse`], or for `constrained` a [`ConstrainedBackwardEuler`] with the
-    /// settings' linear solver and Newton settings (whatever the method; scene validation
-    /// requires backward Euler).
+    /// [`WithContactResponse`], or for `constrained` the method with [`ContactConstraints`]
+    /// inside its Newton loop (scene validation requires a method that can take them).
     pub fn integrator(&self, settings: &IntegratorSettings) -> Box<dyn Integrator> {
         let c = &self.config;
         let rule = VelocityRule {
@@ -112,12 +112,10 @@ impl Contact {
             ContactResponse::Projection => Response::Projection(rule),
             ContactResponse::VelocityFlip => Response::VelocityFlip(rule),
             ContactResponse::Constrained => {
-                return Box::new(ConstrainedBackwardEuler::new(
-                    self.obstacles.clone(),
-                    c.margin,
-                    settings.linear_solver.build(&settings.solver),
-                    settings.newton,
-                ));
+                let constraints = ContactConstraints::new(self.obstacles.clone(), c.margin);
+                return settings
+                    .build_constrained(Box::new(constraints))
+                    .expect("scene validation admits constrained contact only for such methods");
             }
         };
         Box::new(WithContactResponse::new(

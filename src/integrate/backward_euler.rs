@@ -3,61 +3,15 @@
 //! `q = x`. First order, unconditionally stable, dissipative. Newton starts from `q + dt v`
 //! (the course's guess: the new velocity equals the old one).
 
-use super::newton::{Newton, NewtonSettings, Problem, with_halving};
-use super::{Integrator, State, StepError, StepReport};
+use super::scheme::{Scheme, StepProblem};
+use super::{State, StepError};
 use crate::model::Model;
-use crate::solve::LinearSolver;
 
-/// A backward Euler integrator.
-pub struct BackwardEuler {
-    newton: Newton,
-    x: Vec<f64>,
-    x_hat: Vec<f64>,
-}
+/// The backward Euler scheme.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct BackwardEuler;
 
-impl BackwardEuler {
-    /// Backward Euler solving its Newton systems with `solver`.
-    pub fn new(solver: Box<dyn LinearSolver>, settings: NewtonSettings) -> Self {
-        Self {
-            newton: Newton::new(solver, settings),
-            x: Vec::new(),
-            x_hat: Vec::new(),
-        }
-    }
-
-    /// One step without retries; leaves `state` unchanged on error.
-    fn single(
-        &mut self,
-        model: &mut Model,
-        state: &mut State,
-        dt: f64,
-        report: &mut StepReport,
-    ) -> Result<(), StepError> {
-        self.x_hat.clear();
-        self.x_hat
-            .extend(state.q.iter().zip(&state.v).map(|(q, v)| q + dt * v));
-        self.x.clone_from(&self.x_hat);
-        // Damping -D v' with D = D(q): the term dt/2 (x - q)^T D (x - q).
-        self.newton
-            .prepare_damping(model, &self.x_hat, &state.q, dt, report)?;
-        model.set_time(state.t + dt);
-        let problem = Problem {
-            x_hat: &self.x_hat,
-            x_ref: &state.q,
-            beta: dt * dt,
-            damping_anchor: &state.q,
-        };
-        self.newton.minimize(model, &problem, &mut self.x, report)?;
-        for ((q, v), x) in state.q.iter_mut().zip(state.v.iter_mut()).zip(&self.x) {
-            *v = (x - *q) / dt;
-            *q = *x;
-        }
-        report.substeps += 1;
-        Ok(())
-    }
-}
-
-impl Integrator for BackwardEuler {
+impl Scheme for BackwardEuler {
     fn name(&self) -> &'static str {
         "backward-euler"
     }
@@ -66,20 +20,30 @@ impl Integrator for BackwardEuler {
         1
     }
 
-    fn is_explicit(&self) -> bool {
-        false
+    fn prepare(
+        &mut self,
+        _model: &mut Model,
+        state: &State,
+        dt: f64,
+        p: &mut StepProblem,
+    ) -> Result<(), StepError> {
+        for (i, (q, v)) in state.q.iter().zip(&state.v).enumerate() {
+            p.x_hat[i] = q + dt * v;
+        }
+        p.beta = dt * dt;
+        p.force_time = state.t + dt;
+        // Damping -D v' with v' = (x - q)/dt: the term dt/2 (x - q)^T D (x - q).
+        p.damping_weight = dt;
+        p.damping_anchor.copy_from_slice(&state.q);
+        p.damping_at.copy_from_slice(&p.x_hat);
+        p.guess.copy_from_slice(&p.x_hat);
+        Ok(())
     }
 
-    fn advance(
-        &mut self,
-        model: &mut Model,
-        state: &mut State,
-        dt: f64,
-        report: &mut StepReport,
-    ) -> Result<(), StepError> {
-        let halvings = self.newton.settings().retry_halvings;
-        with_halving(halvings, state, dt, report, &mut |s, h, r| {
-            self.single(model, s, h, r)
-        })
+    fn finish(&mut self, state: &mut State, dt: f64, x: &[f64], _p: &StepProblem) {
+        for ((q, v), x) in state.q.iter_mut().zip(state.v.iter_mut()).zip(x) {
+            *v = (x - *q) / dt;
+            *q = *x;
+        }
     }
 }

@@ -3,62 +3,17 @@
 //!
 //! Written for the midpoint `y = (q + q')/2` it is a minimization like backward Euler's:
 //! `y = argmin 1/2 (y - (q + dt/2 v))^T M (y - (q + dt/2 v)) + dt^2/4 V(y)`, then
-//! `q' = 2y - q` and `v' = 4 (y - q)/dt - v`; so it runs on the same Newton solver.
+//! `q' = 2y - q` and `v' = 4 (y - q)/dt - v`; so it runs on the same Newton loop.
 
-use super::newton::{Newton, NewtonSettings, Problem, with_halving};
-use super::{Integrator, State, StepError, StepReport};
+use super::scheme::{Scheme, StepProblem};
+use super::{State, StepError};
 use crate::model::Model;
-use crate::solve::LinearSolver;
 
-/// An implicit midpoint integrator.
-pub struct ImplicitMidpoint {
-    newton: Newton,
-    y: Vec<f64>,
-    y_hat: Vec<f64>,
-}
+/// The implicit midpoint scheme.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ImplicitMidpoint;
 
-impl ImplicitMidpoint {
-    /// Implicit midpoint solving its Newton systems with `solver`.
-    pub fn new(solver: Box<dyn LinearSolver>, settings: NewtonSettings) -> Self {
-        Self {
-            newton: Newton::new(solver, settings),
-            y: Vec::new(),
-            y_hat: Vec::new(),
-        }
-    }
-
-    fn single(
-        &mut self,
-        model: &mut Model,
-        state: &mut State,
-        dt: f64,
-        report: &mut StepReport,
-    ) -> Result<(), StepError> {
-        self.y_hat.clear();
-        self.y_hat
-            .extend(state.q.iter().zip(&state.v).map(|(q, v)| q + 0.5 * dt * v));
-        self.y.clone_from(&self.y_hat);
-        // Damping at the midpoint velocity 2 (y - q)/dt: the term dt/4 (y - q)^T D (y - q).
-        self.newton
-            .prepare_damping(model, &self.y_hat, &state.q, 0.5 * dt, report)?;
-        model.set_time(state.t + 0.5 * dt);
-        let problem = Problem {
-            x_hat: &self.y_hat,
-            x_ref: &state.q,
-            beta: 0.25 * dt * dt,
-            damping_anchor: &state.q,
-        };
-        self.newton.minimize(model, &problem, &mut self.y, report)?;
-        for ((q, v), y) in state.q.iter_mut().zip(state.v.iter_mut()).zip(&self.y) {
-            *v = 4.0 * (y - *q) / dt - *v;
-            *q = 2.0 * y - *q;
-        }
-        report.substeps += 1;
-        Ok(())
-    }
-}
-
-impl Integrator for ImplicitMidpoint {
+impl Scheme for ImplicitMidpoint {
     fn name(&self) -> &'static str {
         "implicit-midpoint"
     }
@@ -67,20 +22,34 @@ impl Integrator for ImplicitMidpoint {
         2
     }
 
-    fn is_explicit(&self) -> bool {
+    fn solves_for_end_position(&self) -> bool {
         false
     }
 
-    fn advance(
+    fn prepare(
         &mut self,
-        model: &mut Model,
-        state: &mut State,
+        _model: &mut Model,
+        state: &State,
         dt: f64,
-        report: &mut StepReport,
+        p: &mut StepProblem,
     ) -> Result<(), StepError> {
-        let halvings = self.newton.settings().retry_halvings;
-        with_halving(halvings, state, dt, report, &mut |s, h, r| {
-            self.single(model, s, h, r)
-        })
+        for (i, (q, v)) in state.q.iter().zip(&state.v).enumerate() {
+            p.x_hat[i] = q + 0.5 * dt * v;
+        }
+        p.beta = 0.25 * dt * dt;
+        p.force_time = state.t + 0.5 * dt;
+        // Damping at the midpoint velocity 2 (y - q)/dt: the term dt/4 (y - q)^T D (y - q).
+        p.damping_weight = 0.5 * dt;
+        p.damping_anchor.copy_from_slice(&state.q);
+        p.damping_at.copy_from_slice(&p.x_hat);
+        p.guess.copy_from_slice(&p.x_hat);
+        Ok(())
+    }
+
+    fn finish(&mut self, state: &mut State, dt: f64, y: &[f64], _p: &StepProblem) {
+        for ((q, v), y) in state.q.iter_mut().zip(state.v.iter_mut()).zip(y) {
+            *v = 4.0 * (y - *q) / dt - *v;
+            *q = 2.0 * y - *q;
+        }
     }
 }

@@ -1,36 +1,44 @@
-//! Time integrators behind one trait, [`Integrator`].
+//! Time integrators behind one trait, [`Integrator`], listed in one table ([`methods`]).
 //!
 //! The state is `(q, v)` over the model's free DOFs. Each step returns a [`StepReport`] (what
 //! the step cost) or a typed [`StepError`] (why it could not be taken). Methods, one file each:
-//! - explicit: [`explicit_euler`], [`symplectic_euler`], [`midpoint`] (the seeds' RK2), [`rk4`],
-//!   all but symplectic Euler as Butcher tableaus run by [`runge_kutta`];
+//! - explicit: [`explicit_euler`], [`symplectic_euler`], [`verlet`] (velocity Verlet),
+//!   [`midpoint`] (the seeds' RK2), [`rk4`], the Runge-Kutta ones as Butcher tableaus run by
+//!   [`runge_kutta`];
 //! - adaptive: [`adaptive`] step control (step doubling around any explicit method, or the
 //!   embedded error of [`dopri5`]);
-//! - implicit: [`linearly_implicit_euler`] (one linear solve), and [`backward_euler`],
-//!   [`implicit_midpoint`] and [`bdf2`], which all minimize an incremental potential with the
-//!   one Newton solver in [`newton`].
+//! - implicit: [`linearly_implicit_euler`] (one linear solve), and the [`scheme`]s run by the
+//!   one Newton loop ([`newton`]): [`backward_euler`], [`implicit_midpoint`], [`bdf`] (BDF-k,
+//!   k = 1…6), [`newmark`] (Newmark, generalized-α, HHT-α) and [`static_equilibrium`].
 
 pub mod adaptive;
 pub mod backward_euler;
-pub mod bdf2;
+pub mod bdf;
 pub mod dopri5;
 pub mod explicit_euler;
 pub mod implicit_midpoint;
 mod kind;
 pub mod linearly_implicit_euler;
 mod mass_inverse;
+pub mod methods;
 pub mod midpoint;
+pub mod newmark;
 pub mod newton;
 mod report;
 pub mod rk4;
 pub mod runge_kutta;
+pub mod scheme;
+pub mod static_equilibrium;
 pub mod symplectic_euler;
-pub(crate) mod system;
+pub mod system;
+pub mod verlet;
 
 pub use adaptive::{Adaptive, AdaptiveSettings};
-pub use kind::{IntegratorSettings, Method, UnknownMethodError};
+pub use kind::IntegratorSettings;
+pub use methods::{Method, MethodEntry, register_method};
 pub use newton::NewtonSettings;
 pub use report::{PhaseTimes, StepError, StepReport};
+pub use scheme::{NewtonIntegrator, Scheme, StepProblem};
 
 use crate::model::Model;
 use std::time::Instant;

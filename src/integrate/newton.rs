@@ -1,10 +1,15 @@
 //! Newton's method with backtracking (Armijo) line search on the incremental potential
 //!
-//! `E(x) = 1/2 (x - x_hat)^T M (x - x_hat) + beta V(x)`,
+//! `E(x) = 1/2 (x - x_hat)^T M (x - x_hat) + beta V(x) [+ damping term] [+ l^T x]`,
 //!
-//! whose minimizer is the new position of backward Euler (`x_hat = q + dt v`, `beta = dt^2`),
-//! implicit midpoint (the midpoint, `x_hat = q + dt/2 v`, `beta = dt^2 / 4`) and BDF2
-//! (`beta = 4/9 dt^2`). One loop serves all three.
+//! whose minimizer is the unknown of every implicit scheme ([`super::scheme`]): the new
+//! position of backward Euler (`x_hat = q + dt v`, `beta = dt^2`), BDF-k and the Newmark
+//! family, the midpoint of implicit midpoint, the equilibrium of a static solve (no inertial
+//! term). This is the one Newton loop; schemes only say what to minimize.
+//!
+//! With [`StepConstraints`] (the constrained contact response) the direction is chosen by the
+//! constraints (a QP where they are active) and the line search rejects infeasible points, so
+//! halving retries, damping and every scheme work with contact unchanged.
 //!
 //! Convergence is tested on the gradient relative to the size of the step's own terms:
 //! `‖g‖ <= tolerance * (‖M (x_hat - q)‖ + beta ‖grad V(x0)‖)`, the inertial and force terms at
@@ -14,7 +19,7 @@
 //! round-off; once the predicted decrease (the Newton decrement) is below that round-off
 //! level, the full step is accepted without the test.
 
-use super::system::ImplicitSystem;
+pub use super::system::ImplicitSystem;
 use super::{State, StepError, StepReport};
 use crate::model::{Model, ModelError};
 use crate::solve::LinearSolver;
@@ -97,7 +102,10 @@ impl NewtonSettings {
 }
 
 /// One incremental potential to minimize (see the module docs), plus the damping term
-/// `1/2 gamma (x - x_d)^T D (x - x_d)` when [`Newton::prepare_damping`] set one for the step.
+/// `1/2 gamma (x - x_d)^T D (x - x_d)` when [`Newton::prepare_damping`] set one for the step,
+/// and a constant linear term `l^T x` (a force known at the start of the step, as the
+/// generalized-α family has).
+#[derive(Clone, Copy, Debug, Default)]
 pub struct Problem<'a> {
     /// `x_hat`.
     pub x_hat: &'a [f64],
@@ -107,6 +115,13 @@ pub struct Problem<'a> {
     pub beta: f64,
     /// `x_d`, where the damping term is zero.
     pub damping_anchor: &'a [f64],
+    /// `l`, or empty for none.
+    pub linear: &'a [f64],
+    /// No inertial term: minimize `beta V(x) + l^T x` alone (a static equilibrium).
+    pub quasi_static: bool,
+    /// The size of the forces when the scheme knows it better than `‖grad V‖` at the guess
+    /// (a static solve that starts at equilibrium); 0 for none.
+    pub force_scale: f64,
 }
 
 /// Energies whose predicted decrease is below this many ulps of their scale are treated as
@@ -127,26 +142,28 @@ pub struct NewtonTrace {
     pub converged: bool,
 }
 
-/// The Newton minimizer with its linear system and preallocated vectors.
+/// The Newton minimizer with its linear system, optional constraints and preallocated
+/// vectors.
 pub struct Newton {
     settings: NewtonSettings,
     trace: NewtonTrace,
     system: ImplicitSystem,
     potential: IncrementalPotential,
+    constraints: Option<Box<dyn StepConstraints>>,
     dx: Vec<f64>,
     trial: Vec<f64>,
 }
 
 /// An objective value with the scale of its round-off.
-pub(crate) struct Objective {
+struct Objective {
     pub value: f64,
     pub roundoff: f64,
 }
 
 /// Evaluates the incremental potential `E` of a [`Problem`] and its gradient with reusable
-/// buffers; Newton and the constrained contact step share it.
+/// buffers.
 #[derive(Default)]
-pub(crate) struct IncrementalPotential {
+struct IncrementalPotential {
     /// The gradient `g` after [`Self::gradient`].
     pub g: Vec<f64>,
     /// `grad V(x)` after [`Self::gradient`].
@@ -172,13 +189,17 @@ impl IncrementalPotential {
         }
     }
 
-    /// `‖M (x_hat − x_ref)‖`, the size of the step's inertial term.
+    /// `‖M (x_hat − x_ref)‖ + ‖l‖`, the size of the step's inertial and constant terms.
     pub fn inertial_scale(&mut self, model: &Model, p: &Problem<'_>) -> f64 {
+        let linear = norm(p.linear);
+        if p.quasi_static {
+            return linear;
+        }
         for ((d, a), b) in self.d.iter_mut().zip(p.x_hat).zip(p.x_ref) {
             *d = a - b;
         }
         model.mass().mul_vec(&self.d, &mut self.md);
-        norm(&self.md)
+        norm(&self.md) + linear
     }
 
     /// `1/2 gamma (x - x_d)^T D (x - x_d)` and, into `self.dd`, `gamma D (x - x_d)`.
@@ -210,26 +231,37 @@ impl IncrementalPotential {
         p: &Problem<'_>,
         x: &[f64],
     ) -> Result<Objective, ModelError> {
-        for ((d, xi), xh) in self.d.iter_mut().zip(x).zip(p.x_hat) {
-            *d = xi - xh;
-        }
-        model.mass().mul_vec(&self.d, &mut self.md);
-        let inertia = 0.5 * dot(&self.d, &self.md);
+        let inertia = if p.quasi_static {
+            0.0
+        } else {
+            for ((d, xi), xh) in self.d.iter_mut().zip(x).zip(p.x_hat) {
+                *d = xi - xh;
+            }
+            model.mass().mul_vec(&self.d, &mut self.md);
+            0.5 * dot(&self.d, &self.md)
+        };
         let parts = model.potential_parts(x)?;
         let damping = self.damping_term(damping, x, p.damping_anchor);
-        let value = inertia + p.beta * parts.total() + damping;
+        let linear = if p.linear.is_empty() {
+            0.0
+        } else {
+            dot(p.linear, x)
+        };
+        let value = inertia + p.beta * parts.total() + damping + linear;
         let terms =
             parts.elastic.abs() + parts.springs.abs() + parts.gravity.abs() + parts.vertex.abs();
-        let scale =
-            inertia.abs() + p.beta * (terms + model.energy_roundoff_scale()) + damping.abs();
+        let scale = inertia.abs()
+            + p.beta * (terms + model.energy_roundoff_scale())
+            + damping.abs()
+            + linear.abs();
         Ok(Objective {
             value,
             roundoff: ROUNDOFF_ULPS * f64::EPSILON * scale,
         })
     }
 
-    /// `g = M (x - x_hat) + beta grad V(x) + gamma D (x - x_d)` into `self.g`, and `grad V(x)`
-    /// into `self.grad_v`.
+    /// `g = M (x - x_hat) + beta grad V(x) + gamma D (x - x_d) + l` into `self.g`, and
+    /// `grad V(x)` into `self.grad_v`.
     pub fn gradient(
         &mut self,
         model: &mut Model,
@@ -237,10 +269,14 @@ impl IncrementalPotential {
         p: &Problem<'_>,
         x: &[f64],
     ) -> Result<(), ModelError> {
-        for ((d, xi), xh) in self.d.iter_mut().zip(x).zip(p.x_hat) {
-            *d = xi - xh;
+        if p.quasi_static {
+            self.md.fill(0.0);
+        } else {
+            for ((d, xi), xh) in self.d.iter_mut().zip(x).zip(p.x_hat) {
+                *d = xi - xh;
+            }
+            model.mass().mul_vec(&self.d, &mut self.md);
         }
-        model.mass().mul_vec(&self.d, &mut self.md);
         model.gradient(x, &mut self.grad_v)?;
         self.damping_term(damping, x, p.damping_anchor);
         for (((g, md), gv), dd) in self
@@ -251,6 +287,9 @@ impl IncrementalPotential {
             .zip(&self.dd)
         {
             *g = md + p.beta * gv + dd;
+        }
+        if !p.linear.is_empty() {
+            axpy(1.0, p.linear, &mut self.g);
         }
         Ok(())
     }
@@ -264,9 +303,20 @@ impl Newton {
             trace: NewtonTrace::default(),
             system: ImplicitSystem::new(solver, settings.project_hessian),
             potential: IncrementalPotential::default(),
+            constraints: None,
             dx: Vec::new(),
             trial: Vec::new(),
         }
+    }
+
+    /// Keep every iterate feasible for `constraints` (the constrained contact response).
+    pub fn set_constraints(&mut self, constraints: Box<dyn StepConstraints>) {
+        self.constraints = Some(constraints);
+    }
+
+    /// The constraints, if any.
+    pub fn constraints(&self) -> Option<&dyn StepConstraints> {
+        self.constraints.as_deref()
     }
 
     /// The settings.
@@ -299,6 +349,11 @@ impl Newton {
         }
     }
 
+    /// No damping term for this step.
+    pub fn clear_damping(&mut self) {
+        self.system.clear_damping();
+    }
+
     /// `E(x)` with this step's damping term.
     fn objective(
         &mut self,
@@ -320,8 +375,10 @@ impl Newton {
     }
 
     /// Minimize `E` (see the module docs) starting from the guess in `x`; `x_ref` is the
-    /// start-of-step position that sets the convergence scale. On success `x` holds the
-    /// minimizer; on error its content is unspecified.
+    /// start-of-step position that sets the convergence scale. With [`Self::set_constraints`],
+    /// the direction and the line search keep the iterates feasible (see
+    /// [`StepConstraints`]). On success `x` holds the minimizer; on error its content is
+    /// unspecified.
     pub fn minimize(
         &mut self,
         model: &mut Model,
@@ -329,40 +386,87 @@ impl Newton {
         x: &mut [f64],
         report: &mut StepReport,
     ) -> Result<(), StepError> {
-        let (x_ref, beta) = (p.x_ref, p.beta);
         let n = x.len();
         self.potential.resize(n);
         self.dx.resize(n, 0.0);
         self.trial.resize(n, 0.0);
-        let s = self.settings;
         self.trace.gradient_norms.clear();
         self.trace.roundoff_accepted = false;
         self.trace.converged = false;
+        let t = model.time();
+        self.system.set_mass_term(!p.quasi_static);
+        // A constrained solve starts feasible when it can: at the guess if it is outside every
+        // obstacle, else at the start-of-step positions.
+        if let Some(c) = &self.constraints
+            && c.min_distance(x, t) < 0.0
+        {
+            x.copy_from_slice(p.x_ref);
+        }
         // The guess may invert elements (a large step); the start-of-step state does not.
-        let mut current = match self.objective(model, p, x) {
+        let current = match self.objective(model, p, x) {
             Ok(e) => e,
             Err(ModelError::InvertedElement { .. }) => {
-                x.copy_from_slice(x_ref);
+                x.copy_from_slice(p.x_ref);
                 self.objective(model, p, x)?
             }
             Err(e) => return Err(e.into()),
         };
-        // Scale of the convergence test: the inertial term M (x_hat - x_ref) ...
-        let inertial = self.potential.inertial_scale(model, p);
+        let converged = if self.constraints.is_some() {
+            self.iterate_constrained(model, p, x, current, t, report)?
+        } else {
+            self.iterate(model, p, x, current, report)?
+        };
+        self.trace.converged = converged;
+        if !converged {
+            let s = &self.settings;
+            if s.require_convergence {
+                return Err(StepError::NewtonFailed {
+                    iterations: s.max_iterations,
+                    reason: format!(
+                        "tolerance {:.1e} not met in {} iterations",
+                        s.tolerance, s.max_iterations
+                    ),
+                });
+            }
+            report.newton_unconverged += 1;
+        }
+        Ok(())
+    }
+
+    /// The convergence scale: the inertial (and constant) terms plus the force term at the
+    /// first iterate (call after the first gradient).
+    fn scale(&mut self, model: &Model, p: &Problem<'_>) -> f64 {
+        let forces = norm(&self.potential.grad_v).max(p.force_scale);
+        let scale = self.potential.inertial_scale(model, p) + p.beta * forces;
+        self.trace.scale = scale;
+        scale
+    }
+
+    /// Plain Newton iterations from `x` with objective `current`; returns whether the
+    /// tolerance was met.
+    fn iterate(
+        &mut self,
+        model: &mut Model,
+        p: &Problem<'_>,
+        x: &mut [f64],
+        mut current: Objective,
+        report: &mut StepReport,
+    ) -> Result<bool, StepError> {
+        let s = self.settings;
         let mut scale = None;
-        let mut converged = false;
         let mut iterations = 0;
         while iterations < s.max_iterations {
             self.gradient(model, p, x)?;
-            // ... plus the force term at the first iterate.
-            let scale = *scale.get_or_insert(inertial + beta * norm(&self.potential.grad_v));
-            self.trace.scale = scale;
-            self.trace.gradient_norms.push(norm(&self.potential.g));
-            if norm(&self.potential.g) <= s.tolerance * scale {
-                converged = true;
-                break;
+            let scale = match scale {
+                Some(v) => v,
+                None => *scale.insert(self.scale(model, p)),
+            };
+            let g_norm = norm(&self.potential.g);
+            self.trace.gradient_norms.push(g_norm);
+            if g_norm <= s.tolerance * scale {
+                return Ok(true);
             }
-            self.system.factor(model, x, beta, report)?;
+            self.system.factor(model, x, p.beta, report)?;
             for (dx, g) in self.dx.iter_mut().zip(&self.potential.g) {
                 *dx = -g;
             }
@@ -383,62 +487,182 @@ impl Newton {
                 // and the iterate is converged to working precision.
                 axpy(1.0, &self.dx, x);
                 self.trace.roundoff_accepted = true;
-                converged = true;
-                break;
+                return Ok(true);
             }
-            let mut alpha = s.initial_step;
-            let mut backtracks = 0;
-            loop {
-                for ((t, xi), dx) in self.trial.iter_mut().zip(x.iter()).zip(&self.dx) {
-                    *t = xi + alpha * dx;
+            current = self.line_search(model, p, x, &current, slope, None, iterations, report)?;
+        }
+        // One more gradient tells whether the last iterate met the tolerance.
+        self.gradient(model, p, x)?;
+        let g_norm = norm(&self.potential.g);
+        self.trace.gradient_norms.push(g_norm);
+        Ok(g_norm <= s.tolerance * scale.unwrap_or(0.0))
+    }
+
+    /// Newton iterations whose direction comes from the constraints (a QP where they are
+    /// active) and whose line search keeps feasible iterates feasible. An infeasible iterate
+    /// (a start inside an obstacle) takes the full step, which restores feasibility.
+    /// Convergence is tested on the Lagrangian gradient at a feasible iterate.
+    fn iterate_constrained(
+        &mut self,
+        model: &mut Model,
+        p: &Problem<'_>,
+        x: &mut [f64],
+        mut current: Objective,
+        t: f64,
+        report: &mut StepReport,
+    ) -> Result<bool, StepError> {
+        let s = self.settings;
+        let mut scale = None;
+        for iteration in 0..s.max_iterations {
+            self.gradient(model, p, x)?;
+            let scale = match scale {
+                Some(v) => v,
+                None => *scale.insert(self.scale(model, p)),
+            };
+            self.trace.gradient_norms.push(norm(&self.potential.g));
+            let constraints = self.constraints.as_mut().expect("constrained iteration");
+            let feasible = constraints.min_distance(x, t) >= -PENETRATION_TOLERANCE;
+            let linearization = Linearization {
+                x,
+                gradient: &self.potential.g,
+                beta: p.beta,
+                quasi_static: p.quasi_static,
+                t,
+            };
+            let residual = constraints.direction(
+                model,
+                &mut self.system,
+                &linearization,
+                &mut self.dx,
+                report,
+            )?;
+            report.newton_iterations += 1;
+            let slope = dot(&self.potential.g, &self.dx);
+            let small = residual <= s.tolerance * scale || -slope <= current.roundoff;
+            if !feasible || small || slope >= 0.0 {
+                // Restoration, convergence or no predicted decrease: the full step.
+                for ((t, x), dx) in self.trial.iter_mut().zip(x.iter()).zip(&self.dx) {
+                    *t = x + dx;
                 }
                 let trial = std::mem::take(&mut self.trial);
                 let outcome = self.objective(model, p, &trial);
                 self.trial = trial;
                 match outcome {
+                    Ok(e) => current = e,
+                    Err(ModelError::InvertedElement { .. }) if feasible => {
+                        return Err(StepError::NewtonFailed {
+                            iterations: iteration + 1,
+                            reason: "the constrained step inverts an element".into(),
+                        });
+                    }
+                    Err(e) => return Err(e.into()),
+                }
+                x.copy_from_slice(&self.trial);
+                if small && feasible {
+                    return Ok(true);
+                }
+                continue;
+            }
+            current =
+                self.line_search(model, p, x, &current, slope, Some(t), iteration + 1, report)?;
+        }
+        Ok(false)
+    }
+
+    /// Backtracking (Armijo) from `x` along `self.dx`; moves `x` to the accepted point and
+    /// returns its objective. With `feasible_at`, a trial inside an obstacle at that time is
+    /// rejected like one that inverts an element.
+    #[allow(clippy::too_many_arguments)]
+    fn line_search(
+        &mut self,
+        model: &mut Model,
+        p: &Problem<'_>,
+        x: &mut [f64],
+        current: &Objective,
+        slope: f64,
+        feasible_at: Option<f64>,
+        iterations: u32,
+        report: &mut StepReport,
+    ) -> Result<Objective, StepError> {
+        let s = self.settings;
+        let mut alpha = s.initial_step;
+        let mut backtracks = 0;
+        loop {
+            for ((t, xi), dx) in self.trial.iter_mut().zip(x.iter()).zip(&self.dx) {
+                *t = xi + alpha * dx;
+            }
+            let feasible = match (feasible_at, &self.constraints) {
+                (Some(t), Some(c)) => c.min_distance(&self.trial, t) >= -PENETRATION_TOLERANCE,
+                _ => true,
+            };
+            if feasible {
+                let trial = std::mem::take(&mut self.trial);
+                let outcome = self.objective(model, p, &trial);
+                self.trial = trial;
+                match outcome {
                     Ok(e) if e.value <= current.value + s.sufficient_decrease * alpha * slope => {
-                        current = e;
-                        break;
+                        x.copy_from_slice(&self.trial);
+                        return Ok(e);
                     }
                     Ok(_) | Err(ModelError::InvertedElement { .. }) => {}
                     Err(e) => return Err(e.into()),
                 }
-                backtracks += 1;
-                report.line_search_backtracks += 1;
-                if backtracks > s.max_backtracks {
-                    return Err(StepError::NewtonFailed {
-                        iterations,
-                        reason: format!(
-                            "line search found no sufficient decrease in {} backtracks",
-                            s.max_backtracks
-                        ),
-                    });
-                }
-                alpha *= s.shrink;
             }
-            x.copy_from_slice(&self.trial);
-        }
-        if !converged {
-            // One more gradient tells whether the last iterate met the tolerance.
-            self.gradient(model, p, x)?;
-            self.trace.gradient_norms.push(norm(&self.potential.g));
-            converged = norm(&self.potential.g) <= s.tolerance * scale.unwrap_or(0.0);
-        }
-        self.trace.converged = converged;
-        if !converged {
-            if s.require_convergence {
+            backtracks += 1;
+            report.line_search_backtracks += 1;
+            if backtracks > s.max_backtracks {
                 return Err(StepError::NewtonFailed {
                     iterations,
                     reason: format!(
-                        "tolerance {:.1e} not met in {} iterations",
-                        s.tolerance, s.max_iterations
+                        "line search found no sufficient decrease in {} backtracks",
+                        s.max_backtracks
                     ),
                 });
             }
-            report.newton_unconverged += 1;
+            alpha *= s.shrink;
         }
-        Ok(())
     }
+}
+
+/// Penetration (m) below which an iterate counts as feasible (a QP meets its constraints to
+/// about its solver's tolerance, not exactly).
+pub const PENETRATION_TOLERANCE: f64 = 1e-8;
+
+/// Where a constrained Newton iteration linearizes: the iterate, the gradient of `E` there,
+/// and the weights of the system matrix `M + beta K` (`beta K` alone when quasi-static).
+pub struct Linearization<'a> {
+    /// The iterate.
+    pub x: &'a [f64],
+    /// The gradient of `E` at `x`.
+    pub gradient: &'a [f64],
+    /// `beta`.
+    pub beta: f64,
+    /// Whether the system has no mass term.
+    pub quasi_static: bool,
+    /// The time at which obstacles are evaluated.
+    pub t: f64,
+}
+
+/// Inequality constraints on the positions a Newton solve seeks (non-penetration of
+/// obstacles): they choose the Newton direction and tell the line search which points are
+/// feasible. Implemented by the constrained contact response.
+pub trait StepConstraints: Send {
+    /// The smallest signed distance of any constrained point at `x` (negative inside).
+    fn min_distance(&self, x: &[f64], t: f64) -> f64;
+
+    /// The search direction at `at.x` into `dx`, assembling or factoring `system` as needed;
+    /// returns the norm of the Lagrangian gradient (`‖g‖` when no constraint is active).
+    fn direction(
+        &mut self,
+        model: &mut Model,
+        system: &mut ImplicitSystem,
+        at: &Linearization<'_>,
+        dx: &mut [f64],
+        report: &mut StepReport,
+    ) -> Result<f64, StepError>;
+
+    /// Record the contacts of the end-of-step positions `q` at time `t` in `report`.
+    fn record_contacts(&self, q: &[f64], t: f64, report: &mut StepReport);
 }
 
 /// Run `step(state, dt)`; if it fails and `halvings > 0`, retry from the same state as two

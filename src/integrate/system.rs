@@ -14,7 +14,7 @@ use crate::sparse::SymmetricMatrix;
 use std::time::Instant;
 
 /// `M + beta K(x)` with its solver.
-pub(crate) struct ImplicitSystem {
+pub struct ImplicitSystem {
     solver: Box<dyn LinearSolver>,
     matrix: Option<SymmetricMatrix>,
     /// Project element Hessians always (not only as a fallback).
@@ -28,6 +28,8 @@ pub(crate) struct ImplicitSystem {
     damping: Option<SymmetricMatrix>,
     gamma: f64,
     damping_active: bool,
+    /// Whether the matrix has the mass term (false for a static solve: `beta K` alone).
+    mass_term: bool,
 }
 
 fn is_indefinite(e: &SolveError) -> bool {
@@ -51,7 +53,14 @@ impl ImplicitSystem {
             damping: None,
             gamma: 0.0,
             damping_active: false,
+            mass_term: true,
         }
+    }
+
+    /// Assemble `M + beta K` (the default) or, without the mass term, `beta K` (a static
+    /// solve, whose matrix is singular unless something holds the body).
+    pub fn set_mass_term(&mut self, on: bool) {
+        self.mass_term = on;
     }
 
     fn assemble(
@@ -75,7 +84,12 @@ impl ImplicitSystem {
                 project_elements: project,
             },
         )?;
-        model.mass().scale_and_add_to(self.beta, h);
+        if self.mass_term {
+            model.mass().scale_and_add_to(self.beta, h);
+        } else {
+            let beta = self.beta;
+            h.values_mut().iter_mut().for_each(|v| *v *= beta);
+        }
         if self.damping_active {
             h.axpby(
                 1.0,
@@ -139,6 +153,11 @@ impl ImplicitSystem {
         self.gamma = gamma;
         report.times.assemble += start.elapsed().as_secs_f64();
         Ok(())
+    }
+
+    /// No damping term for this step (a scheme without one, e.g. a static solve).
+    pub fn clear_damping(&mut self) {
+        self.damping_active = false;
     }
 
     /// The current step's damping matrix and weight, if any.

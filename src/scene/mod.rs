@@ -303,7 +303,6 @@ fn validate(c: &SceneConfig, path: &Path) -> Result<(), SceneError> {
         ));
     }
     c.integrator
-        .newton
         .validate()
         .map_err(|m| invalid("integrator", m))?;
     for (i, o) in c.obstacles.iter().enumerate() {
@@ -505,20 +504,6 @@ pub fn build(
         key: e.key,
         message: e.message,
     })?;
-    // The constrained step's SQP loop has no damping term (yet): refuse rather than drop it.
-    if !c.obstacles.is_empty()
-        && c.contact.response == crate::contact::ContactResponse::Constrained
-        && model.has_damping()
-    {
-        return Err(SceneError::Invalid {
-            path: path.clone(),
-            key: "contact.response".into(),
-            message:
-                "\"constrained\" does not support damping yet ([damping] or spring dashpots); \
-                      use \"penalty\" with damping, or remove the damping"
-                    .into(),
-        });
-    }
     let contact = Contact::build(&c.obstacles, &c.contact, &mut model);
     let initial = initial_state(&model, &c.initial);
     Ok(Scene {

@@ -383,10 +383,11 @@ impl Shared {
                 let method = w.reference.method.unwrap_or_else(|| {
                     // RK4 where it is stable at dt (its limit is 2.83 / omega_max), else the
                     // second-order implicit midpoint rule.
-                    match omega.get(&spec.physics).copied().flatten() {
-                        Some(w) if dt < 2.5 / w => Method::Rk4,
-                        _ => Method::ImplicitMidpoint,
-                    }
+                    let name = match omega.get(&spec.physics).copied().flatten() {
+                        Some(w) if dt < 2.5 / w => "rk4",
+                        _ => "implicit-midpoint",
+                    };
+                    Method::from_name(name).expect("a built-in method")
                 });
                 let task = format!(
                     "reference for {}: {} at dt = {dt:e} s and dt/2",

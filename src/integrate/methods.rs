@@ -1,0 +1,181 @@
+//! The integration methods: one table, one line per method. Parsing, "did you mean",
+//! `softbench list`, the README's method table and the checks of the rest of the code all
+//! read it. A program that depends on softbench adds its own with [`register_method`].
+//!
+//! A new built-in method is its file plus one line here: an explicit method builds an
+//! [`Integrator`]; an implicit one is usually a [`Scheme`] run by [`NewtonIntegrator`]
+//! (see [`newton_scheme`]), which gives it line search, halving retries, damping and
+//! constrained contact.
+
+use super::adaptive::Adaptive;
+use super::backward_euler::BackwardEuler;
+use super::bdf::Bdf;
+use super::implicit_midpoint::ImplicitMidpoint;
+use super::linearly_implicit_euler::LinearlyImplicitEuler;
+use super::newmark::{Newmark, NewmarkParameters};
+use super::newton::StepConstraints;
+use super::scheme::{NewtonIntegrator, Scheme};
+use super::static_equilibrium::Static;
+use super::symplectic_euler::SymplecticEuler;
+use super::verlet::VelocityVerlet;
+use super::{Integrator, IntegratorSettings, dopri5, explicit_euler, midpoint, rk4};
+use crate::registry::{Entry, RegisterError, Registry};
+
+/// How a method is built from its settings; `constraints` is `Some` only for methods whose
+/// entry allows constrained contact.
+pub type BuildMethod =
+    fn(&IntegratorSettings, Option<Box<dyn StepConstraints>>) -> Box<dyn Integrator>;
+
+/// Everything the rest of the code asks about a method.
+pub struct MethodEntry {
+    /// The name scene files use.
+    pub name: &'static str,
+    /// One line on what it is.
+    pub description: &'static str,
+    /// Formal order of accuracy with default settings (0: no time discretization, a static
+    /// solve).
+    pub order: u32,
+    /// Never solves a linear system with the stiffness (a linear solver means nothing).
+    pub explicit: bool,
+    /// Solves a nonlinear system by Newton (so Newton's cap and tolerance can decide results).
+    pub newton: bool,
+    /// Can run the constrained contact response (Newton on the end-of-step positions).
+    pub constrained_contact: bool,
+    /// Builds it.
+    pub build: BuildMethod,
+}
+
+impl Entry for MethodEntry {
+    fn name(&self) -> &'static str {
+        self.name
+    }
+    fn description(&self) -> &'static str {
+        self.description
+    }
+}
+
+/// An explicit method.
+pub const fn explicit(
+    name: &'static str,
+    order: u32,
+    description: &'static str,
+    build: BuildMethod,
+) -> MethodEntry {
+    MethodEntry {
+        name,
+        description,
+        order,
+        explicit: true,
+        newton: false,
+        constrained_contact: false,
+        build,
+    }
+}
+
+/// An implicit method solved by Newton; `end_position`: its unknown is the end-of-step
+/// position (so it can take constrained contact).
+pub const fn implicit(
+    name: &'static str,
+    order: u32,
+    end_position: bool,
+    description: &'static str,
+    build: BuildMethod,
+) -> MethodEntry {
+    MethodEntry {
+        name,
+        description,
+        order,
+        explicit: false,
+        newton: true,
+        constrained_contact: end_position,
+        build,
+    }
+}
+
+/// `scheme` on the one Newton loop with the settings' linear solver and Newton settings.
+pub fn newton_scheme<S: Scheme + 'static>(
+    s: &IntegratorSettings,
+    constraints: Option<Box<dyn StepConstraints>>,
+    scheme: S,
+) -> Box<dyn Integrator> {
+    let solver = s.linear_solver.build(&s.solver);
+    Box::new(NewtonIntegrator::new(scheme, solver, s.newton).constrained(constraints))
+}
+
+fn adaptive(
+    name: &'static str,
+    s: &IntegratorSettings,
+    inner: Box<dyn Integrator>,
+) -> Box<dyn Integrator> {
+    Box::new(Adaptive::step_doubling(name, inner, s.adaptive))
+}
+
+fn bdf(
+    name: &'static str,
+    k: u32,
+    s: &IntegratorSettings,
+    c: Option<Box<dyn StepConstraints>>,
+) -> Box<dyn Integrator> {
+    let solver = s.linear_solver.build(&s.solver);
+    Box::new(Bdf::new(name, k, s.bdf, solver, s.newton, c))
+}
+
+/// The built-in methods, in the order `softbench list` shows them: one line each.
+#[rustfmt::skip]
+static BUILTIN: [MethodEntry; 23] = [
+    explicit("explicit-euler", 1, "forward Euler; unstable for undamped oscillation", |_, _| Box::new(explicit_euler::explicit_euler())),
+    explicit("symplectic-euler", 1, "semi-implicit Euler, symplectic (bounded energy error)", |_, _| Box::new(SymplecticEuler::new())),
+    explicit("velocity-verlet", 2, "central differences / Störmer-Verlet, symplectic, momentum-conserving", |_, _| Box::new(VelocityVerlet::new())),
+    explicit("midpoint", 2, "explicit midpoint (RK2)", |_, _| Box::new(midpoint::midpoint())),
+    explicit("rk4", 4, "classic Runge-Kutta", |_, _| Box::new(rk4::rk4())),
+    explicit("adaptive-explicit-euler", 1, "explicit Euler with step-doubling error control", |s, _| adaptive("adaptive-explicit-euler", s, Box::new(explicit_euler::explicit_euler()))),
+    explicit("adaptive-symplectic-euler", 1, "symplectic Euler with step-doubling error control", |s, _| adaptive("adaptive-symplectic-euler", s, Box::new(SymplecticEuler::new()))),
+    explicit("adaptive-midpoint", 2, "explicit midpoint with step-doubling error control", |s, _| adaptive("adaptive-midpoint", s, Box::new(midpoint::midpoint()))),
+    explicit("adaptive-rk4", 4, "RK4 with step-doubling error control", |s, _| adaptive("adaptive-rk4", s, Box::new(rk4::rk4()))),
+    explicit("dopri5", 5, "Dormand-Prince 5(4) with embedded error control", |s, _| Box::new(Adaptive::embedded(dopri5::dopri5(), s.adaptive))),
+    MethodEntry { name: "linearly-implicit-euler", description: "one Newton step of backward Euler per step", order: 1, explicit: false, newton: false, constrained_contact: false, build: |s, _| Box::new(LinearlyImplicitEuler::new(s.linear_solver.build(&s.solver), s.newton.project_hessian)) },
+    implicit("backward-euler", 1, true, "Newton with line search; unconditionally stable, dissipative", |s, c| newton_scheme(s, c, BackwardEuler)),
+    implicit("implicit-midpoint", 2, false, "Newton on the midpoint; symplectic, no numerical damping", |s, c| newton_scheme(s, c, ImplicitMidpoint)),
+    implicit("bdf1", 1, true, "BDF order 1 (= backward Euler)", |s, c| bdf("bdf1", 1, s, c)),
+    implicit("bdf2", 2, true, "BDF order 2, A-stable", |s, c| bdf("bdf2", 2, s, c)),
+    implicit("bdf3", 3, true, "BDF order 3, A(86°)-stable; extrapolated-midpoint start-up", |s, c| bdf("bdf3", 3, s, c)),
+    implicit("bdf4", 4, true, "BDF order 4, A(73°)-stable; can amplify lightly damped modes", |s, c| bdf("bdf4", 4, s, c)),
+    implicit("bdf5", 5, true, "BDF order 5, A(52°)-stable; can amplify lightly damped modes", |s, c| bdf("bdf5", 5, s, c)),
+    implicit("bdf6", 6, true, "BDF order 6, A(18°)-stable; can amplify lightly damped modes", |s, c| bdf("bdf6", 6, s, c)),
+    implicit("newmark", 2, true, "Newmark(β, γ); default trapezoidal (1/4, 1/2), order 1 if γ ≠ 1/2", |s, c| newton_scheme(s, c, Newmark::new("newmark", NewmarkParameters::newmark(s.newmark)))),
+    implicit("generalized-alpha", 2, true, "generalized-α (Chung-Hulbert), high frequencies damped to ρ∞", |s, c| newton_scheme(s, c, Newmark::new("generalized-alpha", NewmarkParameters::generalized_alpha(s.generalized_alpha)))),
+    implicit("hht-alpha", 2, true, "Hilber-Hughes-Taylor α, high-frequency dissipation", |s, c| newton_scheme(s, c, Newmark::new("hht-alpha", NewmarkParameters::hht(s.hht)))),
+    implicit("static", 0, true, "equilibrium under each time's loads (no inertia); gravity ramped if Newton fails", |s, c| Box::new(Static::new(s.static_solve, s.linear_solver.build(&s.solver), s.newton, c))),
+];
+
+/// Every method: the built-in ones and those a program registered.
+pub static METHODS: Registry<MethodEntry> = Registry::new("integrator", &BUILTIN);
+
+crate::registry_handle! {
+    /// An integration method, by the name scene files use.
+    pub struct Method(MethodEntry) in METHODS;
+}
+
+impl Method {
+    /// Formal order of accuracy with default settings.
+    pub fn order(self) -> u32 {
+        self.entry().order
+    }
+
+    /// Whether the method never solves a linear system (so a linear solver means nothing).
+    pub fn is_explicit(self) -> bool {
+        self.entry().explicit
+    }
+
+    /// Whether the method solves a nonlinear system by Newton (so Newton's iteration cap and
+    /// tolerance can decide its result).
+    pub fn uses_newton(self) -> bool {
+        self.entry().newton
+    }
+}
+
+/// Register a method of a program's own under `entry.name`, for scenes and studies to use
+/// like the built-in ones. Call it before loading scenes.
+pub fn register_method(entry: MethodEntry) -> Result<Method, RegisterError> {
+    METHODS.register(entry).map(Method)
+}
