@@ -388,10 +388,10 @@ fn an_interrupted_study_resumes_where_it_stopped() {
     let o = softbench(&args);
     assert!(o.status.success(), "{}", stderr(&o));
     let total = Table::read(&dir.join("runs.csv")).unwrap().unwrap();
-    assert_eq!(total.rows.len(), 32);
-    let message = format!("{} of 32 runs already complete", recorded.rows.len());
+    assert_eq!(total.rows.len(), 52);
+    let message = format!("{} of 52 runs already complete", recorded.rows.len());
     if finished_early {
-        assert!(stderr(&o).contains("32 of 32 runs already complete"));
+        assert!(stderr(&o).contains("52 of 52 runs already complete"));
     } else {
         assert!(
             stderr(&o).contains(&message),
