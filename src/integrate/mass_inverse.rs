@@ -6,15 +6,17 @@ use super::StepError;
 use crate::model::{MassInverse, Model};
 
 /// The accelerations of explicit methods, `a = M^{-1} (-grad V(q) - D(q) v)`, with the mass
-/// inverse built on first use and a reusable buffer for the damping force.
+/// inverse built on first use and a reusable buffer for the damping force. Public so a method
+/// written outside the crate gets the same forces, damping and mass solve as the built-in ones.
 #[derive(Default)]
-pub(crate) struct Dynamics {
+pub struct Dynamics {
     mass: Option<MassInverse>,
     damping_force: Vec<f64>,
 }
 
 impl Dynamics {
-    /// `a = M^{-1} (-grad V(q) - D(q) v)`; the damping term only when the model has damping.
+    /// `a = M^{-1} (-grad V(q) - D(q) v)` at the model's current time (set it with
+    /// [`Model::set_time`]); the damping term only when the model has damping.
     pub fn acceleration(
         &mut self,
         model: &mut Model,

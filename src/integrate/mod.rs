@@ -35,6 +35,7 @@ pub mod verlet;
 
 pub use adaptive::{Adaptive, AdaptiveSettings};
 pub use kind::IntegratorSettings;
+pub use mass_inverse::Dynamics;
 pub use methods::{Method, MethodEntry, register_method};
 pub use newton::NewtonSettings;
 pub use report::{PhaseTimes, StepError, StepReport};
