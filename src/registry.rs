@@ -112,8 +112,8 @@ impl<E: Entry> Registry<E> {
             });
         }
         let mut added = self.added.write().unwrap_or_else(|e| e.into_inner());
-        let taken = self.builtin.iter().any(|e| e.name() == name)
-            || added.iter().any(|e| e.name() == name);
+        let taken =
+            self.builtin.iter().any(|e| e.name() == name) || added.iter().any(|e| e.name() == name);
         if taken {
             return Err(RegisterError::Duplicate {
                 what: self.what,

@@ -17,16 +17,16 @@ use serde::Serialize;
 use softbench::console;
 use softbench::contact::ContactResponse;
 use softbench::data::{DataError, DataPaths};
-use softbench::experiment::{self, OutcomeKind};
 use softbench::export::{DisplayError, ExportFormat, FrameContent, FrameWriter, load_display};
 use softbench::integrate::Method;
 use softbench::interrupt::{self, Signal};
+use softbench::io::{AtomicFile, write_atomic};
 use softbench::lock::{FolderLock, Holder, LockError, Wait};
 use softbench::material::MaterialModel;
 use softbench::mesh::{AnyMesh, MeshError, MeshFormat, MeshReport, TetMesh, read_mesh};
 use softbench::model::Model;
 use softbench::parallel::Parallelism;
-use softbench::report::{AtomicFile, write_atomic};
+use softbench::run::{self, OutcomeKind};
 use softbench::scene::{self, LoadedScene, SceneError};
 use softbench::solve::LinearSolverKind;
 use softbench::study::{self, StudyError};
@@ -324,7 +324,7 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
     let mut csv = csv::Writer::from_writer(trajectory.writer());
     let mut state = built.initial.clone();
     let mut rows = 0usize;
-    let mut write_row = |row: &experiment::Sample| {
+    let mut write_row = |row: &run::Sample| {
         rows += 1;
         csv.serialize(row)
             .map_err(|e| std::io::Error::other(format!("{}: {e}", trajectory_path.display())))
@@ -332,7 +332,7 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
     let frames_dir = args.out.join("frames");
     let mut frames_written = 0;
     let summary = match content {
-        None => experiment::run(
+        None => run::run(
             &mut built.model,
             integrator.as_mut(),
             &mut state,
@@ -349,7 +349,7 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
                 &mut write_row,
             )
             .context("cannot write the frames")?;
-            let summary = experiment::run(
+            let summary = run::run(
                 &mut built.model,
                 integrator.as_mut(),
                 &mut state,

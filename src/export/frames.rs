@@ -16,12 +16,12 @@ use nalgebra::Vector3;
 use super::obj::write_obj;
 use super::pvd::write_pvd;
 use super::vtu::{VtuGrid, write_vtu};
-use crate::experiment::{Observer, Sample};
 use crate::integrate::State;
+use crate::io::write_atomic;
 use crate::mesh::Skinning;
 use crate::mesh::surface::boundary_faces;
 use crate::model::Model;
-use crate::report::write_atomic;
+use crate::run::{Observer, Sample};
 
 /// The name of the VTU collection in the frames folder.
 pub const SERIES_FILE: &str = "series.pvd";

@@ -224,7 +224,7 @@ pub struct RunConfig {
     /// A run is stopped as unstable when, after any step, its mechanical energy exceeds the
     /// initial energy plus the net work done on the body (time-dependent potentials, less
     /// damping) by more than this many times the energy budget: the scene's energy scale plus
-    /// the work put in (see `experiment::balance`). 0 turns the check off. Default 1.
+    /// the work put in (see `run::balance`). 0 turns the check off. Default 1.
     #[serde(default = "default_energy_limit")]
     pub energy_limit: f64,
 }

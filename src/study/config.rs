@@ -88,7 +88,7 @@ pub struct StabilitySettings {
     pub horizon: f64,
     /// A trial is unstable when the energy balance's excess (energy gained beyond the work
     /// done on the body) exceeds this many times the energy budget (see
-    /// `experiment::balance`). Default 1.
+    /// `run::balance`). Default 1.
     #[serde(default = "default_energy_factor")]
     pub energy_factor: f64,
     /// Bisection stops when `hi/lo - 1` is below this. Default 0.01.

@@ -6,7 +6,7 @@ use super::format::now_utc;
 use super::load::Study;
 use super::machine::Machine;
 use super::runner::{RunOptions, parameter_columns};
-use crate::report::write_atomic;
+use crate::io::write_atomic;
 use std::path::PathBuf;
 
 /// `meta.json`: what ran, where, when.

@@ -8,7 +8,7 @@ use super::meta::Meta;
 use super::plots::Plot;
 use super::table::Table;
 use super::work_precision::Reference;
-use crate::report::write_atomic;
+use crate::io::write_atomic;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -210,7 +210,7 @@ fn render(
         let verdict = runs.get(row, "stability");
         let message = runs.get(row, "message").unwrap_or_default();
         let bad = !super::measured::is_clean(runs, row);
-        let completed = outcome == crate::experiment::OutcomeKind::Completed.name();
+        let completed = outcome == crate::run::OutcomeKind::Completed.name();
         let unscored = runs.get(row, "scored") == Some("no") && completed;
         let unconverged = runs
             .number(row, "newton_unconverged_steps")

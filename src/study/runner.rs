@@ -15,9 +15,9 @@ use super::work_precision::Reference;
 use super::{report, stability, trajectory, work_precision};
 use crate::integrate::Method;
 use crate::interrupt;
+use crate::io::write_atomic;
 use crate::lock::{FolderLock, Wait};
 use crate::parallel::Parallelism;
-use crate::report::write_atomic;
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 

@@ -4,7 +4,7 @@
 //!
 //! A trial at `dt` is stable when it covers the whole horizon in at least `min_steps` and at
 //! most `max_steps` steps with every step taken and the energy balance holding (see
-//! [`crate::experiment::balance`]). Steps outside `[lowest_dt, highest_dt]` are never
+//! [`crate::run::balance`]). Steps outside `[lowest_dt, highest_dt]` are never
 //! judged, so no cap decides a verdict. The search: try `dt_max`; if it is stable, widen
 //! upward (x4) to the ceiling; otherwise bisect in log dt between a presumed-stable `dt_min`
 //! (tried once the bracket closes in on it, widened downward by 10x to `lowest_dt` if it
@@ -22,10 +22,10 @@ use super::load::RunSpec;
 use super::measured::{Measured, build, cap_cells, outcome_of, summary_cells};
 use super::table::Table;
 use super::work_precision::Reference;
-use crate::experiment::{self, Observer, Outcome, OutcomeKind, RunSummary, Sample};
 use crate::integrate::State;
 use crate::model::{HighestMode, Model, SpectrumSettings, highest_mode};
 use crate::parallel::Parallelism;
+use crate::run::{self, Observer, Outcome, OutcomeKind, RunSummary, Sample};
 use crate::scene::{RunConfig, Scene};
 
 /// Columns of a stability study's `runs.csv` after the run's identity.
@@ -203,7 +203,7 @@ pub fn measure(
         let mut integrator = scene.integrator();
         let mut state = scene.initial.clone();
         let mut output = DenseOutput::new(sample_times.clone());
-        let mut summary = experiment::run(
+        let mut summary = run::run(
             &mut scene.model,
             integrator.as_mut(),
             &mut state,

@@ -4,8 +4,8 @@
 use super::format::cell;
 use super::load::RunSpec;
 use super::measured::{Measured, build, cap_cells, outcome_of, run_rows, summary_cells};
-use crate::experiment::Sample;
 use crate::parallel::Parallelism;
+use crate::run::Sample;
 
 /// Columns of a trajectory study's `runs.csv` after the run's identity.
 pub const COLUMNS: &[&str] = &[

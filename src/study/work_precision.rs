@@ -13,10 +13,10 @@ use super::config::WorkPrecisionSettings;
 use super::format::cell;
 use super::load::RunSpec;
 use super::measured::{Measured, build, cap_cells, outcome_of, summary_cells};
-use crate::experiment::{self, Energies, Observer, RunSummary, Sample};
 use crate::integrate::{Method, State};
 use crate::model::Model;
 use crate::parallel::Parallelism;
+use crate::run::{self, Energies, Observer, RunSummary, Sample};
 use crate::scene::{RunConfig, Scene};
 
 /// Columns of a work-precision study's `runs.csv` after the run's identity.
@@ -144,7 +144,7 @@ fn sampled_run(
             energies: Vec::new(),
         },
     };
-    let summary = experiment::run(
+    let summary = run::run(
         &mut scene.model,
         integrator.as_mut(),
         &mut state,
