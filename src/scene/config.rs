@@ -44,7 +44,7 @@ pub struct SceneConfig {
     pub run: RunConfig,
     /// A display mesh that OBJ frames show instead of the tet mesh's boundary.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub display: Option<crate::export::DisplayConfig>,
+    pub display: Option<DisplayConfig>,
     /// Obstacles (`[[obstacles]]`); none means no contact code runs.
     #[serde(default)]
     pub obstacles: Vec<ObstacleConfig>,
@@ -276,4 +276,13 @@ impl DampingConfig {
             strain_rate: self.strain_rate.map(|s| (s.phi, s.psi)),
         }
     }
+}
+
+/// `[display]`: the display mesh file (a triangle surface that follows the body in exported
+/// frames; `export::load_display` reads it).
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DisplayConfig {
+    /// A triangle surface (OBJ), in the same frame and units as the tet mesh at rest.
+    pub file: String,
 }

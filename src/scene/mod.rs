@@ -11,8 +11,8 @@ mod springs;
 
 pub use budget::{MAX_DENSITY, MAX_GRAVITY, MAX_LENGTH};
 pub use config::{
-    Axis, BoxConfig, DampingConfig, FixedConfig, ForcesConfig, GenerateConfig, InitialConfig,
-    MaterialConfig, MeshConfig, RayleighConfig, RuleConfig, RunConfig, SceneConfig,
+    Axis, BoxConfig, DampingConfig, DisplayConfig, FixedConfig, ForcesConfig, GenerateConfig,
+    InitialConfig, MaterialConfig, MeshConfig, RayleighConfig, RuleConfig, RunConfig, SceneConfig,
     StrainRateConfig,
 };
 pub use overrides::{OverrideError, apply as apply_override, set_value};
