@@ -7,6 +7,11 @@ use crate::integrate::Method;
 use std::collections::BTreeMap;
 use toml::Spanned;
 
+/// The scene key of the integration method (a grid axis of its own).
+pub(super) const METHOD_KEY: &str = "integrator.method";
+/// The scene key of the linear solver (a grid axis of its own).
+pub(super) const SOLVER_KEY: &str = "integrator.linear_solver";
+
 /// What a study measures.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]

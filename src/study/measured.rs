@@ -2,7 +2,7 @@
 //! sampled series; plus the pieces every kind shares (building the run, summary columns).
 
 use super::format::cell;
-use super::load::RunSpec;
+use super::spec::RunSpec;
 use super::table::Table;
 use crate::data::DataPaths;
 use crate::integrate::State;

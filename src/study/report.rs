@@ -3,9 +3,9 @@
 
 use super::config::StudyKind;
 use super::format::short;
-use super::load::Study;
 use super::meta::Meta;
 use super::plots::Plot;
+use super::spec::Study;
 use super::table::Table;
 use super::work_precision::Reference;
 use crate::io::write_atomic;

@@ -18,8 +18,8 @@
 
 use super::config::StabilitySettings;
 use super::format::{cell, short};
-use super::load::RunSpec;
 use super::measured::{Measured, build, cap_cells, outcome_of, summary_cells};
+use super::spec::RunSpec;
 use super::table::Table;
 use super::work_precision::Reference;
 use crate::integrate::State;

@@ -2,8 +2,8 @@
 //! time per step and evaluation counts.
 
 use super::format::cell;
-use super::load::RunSpec;
 use super::measured::{Measured, build, cap_cells, outcome_of, run_rows, summary_cells};
+use super::spec::RunSpec;
 use crate::parallel::Parallelism;
 use crate::run::Sample;
 

@@ -11,8 +11,8 @@
 
 use super::config::WorkPrecisionSettings;
 use super::format::cell;
-use super::load::RunSpec;
 use super::measured::{Measured, build, cap_cells, outcome_of, summary_cells};
+use super::spec::RunSpec;
 use crate::integrate::{Method, State};
 use crate::model::Model;
 use crate::parallel::Parallelism;
