@@ -15,20 +15,21 @@ use anyhow::Context;
 use clap::{Args, Parser, Subcommand};
 use serde::Serialize;
 use softbench::console;
-use softbench::contact::ContactResponse;
+use softbench::contact::{ContactResponse, ObstacleKind};
 use softbench::data::{DataError, DataPaths};
 use softbench::export::{DisplayError, ExportFormat, FrameContent, FrameWriter, load_display};
 use softbench::integrate::Method;
 use softbench::interrupt::{self, Signal};
 use softbench::io::{AtomicFile, write_atomic};
 use softbench::lock::{FolderLock, Holder, LockError, Wait};
-use softbench::material::MaterialModel;
+use softbench::material::MaterialKind;
 use softbench::mesh::{AnyMesh, MeshError, MeshFormat, MeshReport, TetMesh, read_mesh};
 use softbench::model::Model;
 use softbench::parallel::Parallelism;
+use softbench::registry::{Listing, NamedEnum};
 use softbench::run::{self, OutcomeKind};
 use softbench::scene::{self, LoadedScene, SceneError};
-use softbench::solve::LinearSolverKind;
+use softbench::solve::LINEAR_SOLVERS;
 use softbench::study::{self, StudyError};
 
 /// A harness for research on time integrators and solvers for deformable bodies.
@@ -465,17 +466,34 @@ fn list() -> anyhow::Result<ExitCode> {
     for m in Method::ALL {
         writeln!(out, "  {:26} {}", m.name(), m.description())?;
     }
-    writeln!(out, "linear solvers (integrator.linear_solver):")?;
-    for k in LinearSolverKind::ALL {
-        writeln!(out, "  {:26} {}", k.name(), k.description())?;
-    }
-    writeln!(out, "materials (material.model):")?;
-    for name in MaterialModel::NAMES {
-        writeln!(out, "  {:26} {}", name, MaterialModel::description_of(name))?;
-    }
-    writeln!(out, "contact responses (contact.response):")?;
-    for r in ContactResponse::ALL {
-        writeln!(out, "  {:26} {}", r.name(), r.description())?;
+    let families: [(&str, Vec<Listing>); 5] = [
+        (
+            "linear solvers (integrator.linear_solver)",
+            LINEAR_SOLVERS.listing(),
+        ),
+        ("materials (material.model)", MaterialKind::listing()),
+        (
+            "contact responses (contact.response)",
+            ContactResponse::listing(),
+        ),
+        (
+            "obstacle kinds ([[obstacles]] kind)",
+            ObstacleKind::listing(),
+        ),
+        (
+            "export formats (simulate --export)",
+            ExportFormat::listing(),
+        ),
+    ];
+    for (title, entries) in families {
+        writeln!(out, "{title}:")?;
+        for e in entries {
+            writeln!(out, "  {:26} {}", e.name, e.description)?;
+            let facts = e.facts_text();
+            if !facts.is_empty() {
+                writeln!(out, "  {:26} [{facts}]", "")?;
+            }
+        }
     }
     for (title, folder) in [
         ("scenes (experiments/scenes)", "experiments/scenes"),

@@ -145,7 +145,7 @@ pub struct MaterialConfig {
 }
 
 fn default_model() -> String {
-    "neo-hookean".into()
+    crate::material::MaterialKind::NeoHookean.name().into()
 }
 
 /// `[fixed]`: the union of explicit vertex indices, an axis rule and a box.
