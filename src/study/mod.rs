@@ -12,6 +12,8 @@ mod error;
 pub mod format;
 mod grid;
 mod identity;
+mod kind;
+mod kinds;
 mod load;
 mod machine;
 mod measured;
@@ -68,11 +70,7 @@ fn check_runs_table(
         path: path.to_owned(),
         message,
     };
-    let kind_columns = match study.kind {
-        StudyKind::Stability => stability::COLUMNS,
-        StudyKind::WorkPrecision => work_precision::COLUMNS,
-        _ => trajectory::COLUMNS,
-    };
+    let kind_columns = kinds::spec(study.kind).columns;
     let required = [
         "run_id",
         "scene",

@@ -79,11 +79,7 @@ const IDENTITY: [&str; 4] = ["run_id", "scene", "method", "linear_solver"];
 
 /// The header of the study's `runs.csv`.
 pub fn header(study: &Study) -> Vec<String> {
-    let kind_columns = match study.kind {
-        StudyKind::Stability => stability::COLUMNS,
-        StudyKind::WorkPrecision => work_precision::COLUMNS,
-        _ => trajectory::COLUMNS,
-    };
+    let kind_columns = super::kinds::spec(study.kind).columns;
     IDENTITY
         .iter()
         .map(|s| (*s).to_owned())
@@ -310,22 +306,7 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
 
 /// One line per finished run.
 fn summary_line(kind: StudyKind, m: &Measured) -> String {
-    let number = |name: &str| {
-        m.get(name)
-            .and_then(|s| s.parse::<f64>().ok())
-            .map(super::format::short)
-    };
-    let extra = match kind {
-        StudyKind::Stability => Some(format!(
-            ", {}{}",
-            m.get("stability").unwrap_or_default(),
-            number("max_stable_dt")
-                .map(|dt| format!(" at dt {dt} s"))
-                .unwrap_or_default()
-        )),
-        StudyKind::WorkPrecision => number("error").map(|e| format!(", error {e}")),
-        _ => number("energy_drift_max").map(|d| format!(", energy drift {d}")),
-    };
+    let extra = (super::kinds::spec(kind).progress)(m);
     format!("{}{}", m.outcome, extra.unwrap_or_default())
 }
 

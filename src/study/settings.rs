@@ -64,11 +64,7 @@ pub(super) fn check_settings(file: &StudyFile, ctx: &Context) -> Result<StudyKin
                     ),
                 });
             }
-            let columns = match sweep.kind {
-                StudyKind::Stability => super::stability::COLUMNS,
-                StudyKind::WorkPrecision => super::work_precision::COLUMNS,
-                _ => super::trajectory::COLUMNS,
-            };
+            let columns = super::kinds::spec(sweep.kind).columns;
             if let Some(unknown) = sweep
                 .metrics
                 .iter()

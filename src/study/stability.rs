@@ -18,6 +18,7 @@
 
 use super::config::StabilitySettings;
 use super::format::{cell, short};
+use super::kind::{KindSpec, number};
 use super::measured::{Measured, build, cap_cells, outcome_of, summary_cells};
 use super::spec::RunSpec;
 use super::table::Table;
@@ -70,6 +71,35 @@ pub const COLUMNS: &[&str] = &[
     "solve_seconds",
     "qp_seconds",
 ];
+
+/// What the rest of the study code asks of a stability study.
+pub(super) const SPEC: KindSpec = KindSpec {
+    columns: COLUMNS,
+    summary_columns: &[
+        "stability",
+        "max_stable_dt",
+        "outcome",
+        "first_unstable_dt",
+        "stable_over_theory",
+        "cost_per_simulated_second",
+        "evaluations_per_simulated_second",
+        "error_at_stable_dt",
+        "non_monotone_dt",
+        "energy_growth_rate",
+        "newton_unconverged_steps",
+        "trials",
+    ],
+    sweep_metrics: &["max_stable_dt", "newton_iterations_per_step"],
+    progress: |m| {
+        Some(format!(
+            ", {}{}",
+            m.get("stability").unwrap_or_default(),
+            number(m, "max_stable_dt")
+                .map(|dt| format!(" at dt {dt} s"))
+                .unwrap_or_default()
+        ))
+    },
+};
 
 /// The verdicts of the `stability` column.
 pub const VERDICTS: [&str; 4] = [
