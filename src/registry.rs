@@ -8,7 +8,7 @@
 //! found by name exactly like the built-in ones.
 //!
 //! A family's value type is a [`Handle`]: a `Copy` reference to its entry that compares,
-//! hashes, prints and (de)serializes by name. [`registry_handle!`] declares one.
+//! hashes, prints and (de)serializes by name. [`registry_handle!`](crate::registry_handle) declares one.
 
 use std::sync::RwLock;
 
@@ -281,7 +281,7 @@ impl<E: Entry> Registry<E> {
     }
 }
 
-/// The facts of a closed family's variants (see [`named_enum!`]), as listed.
+/// The facts of a closed family's variants (see [`named_enum!`](crate::named_enum)), as listed.
 pub trait ListFacts {
     /// The facts as `(what, value)` pairs.
     fn list(&self) -> Vec<Fact>;
@@ -293,7 +293,7 @@ impl ListFacts for () {
     }
 }
 
-/// A closed family declared with [`named_enum!`]: the enum is the table.
+/// A closed family declared with [`named_enum!`](crate::named_enum): the enum is the table.
 pub trait NamedEnum: Copy + 'static {
     /// What the family is called in messages ("obstacle kind", ...).
     const WHAT: &'static str;

@@ -46,7 +46,7 @@ pub use kind::{
 /// A solver for symmetric systems over a fixed sparsity pattern: analyze once, factor per
 /// matrix, solve per right-hand side.
 pub trait LinearSolver: Send {
-    /// Short name, as accepted by [`LinearSolverKind::from_str`].
+    /// Short name, as accepted by [`LinearSolverKind::from_name`].
     fn name(&self) -> &'static str;
 
     /// Symbolic analysis of `pattern` (ordering, fill, scratch sizes) and allocation of all
