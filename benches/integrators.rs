@@ -112,7 +112,9 @@ fn backward_euler_system(c: &mut Criterion) {
             .hessian(&case.state.q, &mut h, HessianOptions::default())
             .unwrap();
         case.model.mass().scale_and_add_to(1e-4, &mut h);
-        let mut solver = LinearSolverKind::Cholesky.build(&SolverSettings::default());
+        let mut solver = LinearSolverKind::from_name("cholesky")
+            .unwrap()
+            .build(&SolverSettings::default());
         solver.analyze(h.pattern()).unwrap();
         solver.factor(&h).unwrap();
         eprintln!(

@@ -19,8 +19,8 @@
 //! - [`solve`]: sparse Cholesky and LDLᵀ (faer), preconditioned CG, dense Cholesky;
 //! - [`integrate`]: explicit, adaptive and implicit integrators, and Newton's method;
 //! - [`contact`]: obstacles (signed distances) and four contact responses;
-//! - [`experiment`]: running a scene and measuring it (energies, momenta, blow-up detection);
-//! - [`report`]: writing results atomically;
+//! - [`run`]: running a scene and measuring it (energies, momenta, blow-up detection);
+//! - [`io`]: writing results atomically;
 //! - [`plot`]: charts of the experiment runner (PNG and SVG);
 //! - [`export`]: frames for viewers (VTU + PVD, OBJ; skinned display meshes).
 //!
@@ -31,11 +31,11 @@
 pub mod console;
 pub mod contact;
 pub mod data;
-pub mod experiment;
 pub mod export;
 pub mod fem;
 pub mod integrate;
 pub mod interrupt;
+pub mod io;
 pub mod limits;
 pub mod lock;
 pub mod material;
@@ -46,8 +46,8 @@ pub mod parallel;
 pub mod plot;
 pub mod quote;
 pub mod registry;
-pub mod report;
 pub mod rng;
+pub mod run;
 pub mod scene;
 pub mod solve;
 pub mod sparse;

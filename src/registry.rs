@@ -8,7 +8,7 @@
 //! found by name exactly like the built-in ones.
 //!
 //! A family's value type is a [`Handle`]: a `Copy` reference to its entry that compares,
-//! hashes, prints and (de)serializes by name. [`registry_handle!`] declares one.
+//! hashes, prints and (de)serializes by name. [`registry_handle!`](crate::registry_handle) declares one.
 
 use std::sync::RwLock;
 
@@ -18,6 +18,10 @@ pub trait Entry: Send + Sync + 'static {
     fn name(&self) -> &'static str;
     /// One line on what it is, for `softbench list` and the README.
     fn description(&self) -> &'static str;
+    /// The facts the rest of the code asks of it, for `softbench list` ("order", "2").
+    fn facts(&self) -> Vec<Fact> {
+        Vec::new()
+    }
 }
 
 /// An unknown name in a family: the message suggests the closest name and lists the valid ones.
@@ -241,6 +245,200 @@ macro_rules! registry_handle {
     };
 }
 
+/// A fact about an entry, for `softbench list`: what it is and its value ("order", "2").
+pub type Fact = (&'static str, String);
+
+/// One entry of a family as `softbench list` shows it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Listing {
+    pub name: &'static str,
+    pub description: &'static str,
+    pub facts: Vec<Fact>,
+}
+
+impl Listing {
+    /// The facts as `key=value` words, space-separated (empty when there are none).
+    pub fn facts_text(&self) -> String {
+        self.facts
+            .iter()
+            .map(|(k, v)| format!("{k}={v}"))
+            .collect::<Vec<_>>()
+            .join(" ")
+    }
+}
+
+impl<E: Entry> Registry<E> {
+    /// Every entry with its description and facts, in the order of [`Self::all`].
+    pub fn listing(&self) -> Vec<Listing> {
+        self.all()
+            .into_iter()
+            .map(|e| Listing {
+                name: e.name(),
+                description: e.description(),
+                facts: e.facts(),
+            })
+            .collect()
+    }
+}
+
+/// The facts of a closed family's variants (see [`named_enum!`](crate::named_enum)), as listed.
+pub trait ListFacts {
+    /// The facts as `(what, value)` pairs.
+    fn list(&self) -> Vec<Fact>;
+}
+
+impl ListFacts for () {
+    fn list(&self) -> Vec<Fact> {
+        Vec::new()
+    }
+}
+
+/// A closed family declared with [`named_enum!`](crate::named_enum): the enum is the table.
+pub trait NamedEnum: Copy + 'static {
+    /// What the family is called in messages ("obstacle kind", ...).
+    const WHAT: &'static str;
+    /// Every value, in table order.
+    fn all_values() -> &'static [Self];
+    /// The name files use.
+    fn name(self) -> &'static str;
+    /// One line on what it is.
+    fn description(self) -> &'static str;
+    /// The facts, for listing.
+    fn listed_facts(self) -> Vec<Fact>;
+
+    /// Every value with its description and facts.
+    fn listing() -> Vec<Listing> {
+        Self::all_values()
+            .iter()
+            .map(|&v| Listing {
+                name: v.name(),
+                description: v.description(),
+                facts: v.listed_facts(),
+            })
+            .collect()
+    }
+}
+
+/// Declares a closed family as an enum from one table: each variant's name, one-line
+/// description and (optionally) a facts value of the type named after the error type. It
+/// generates `ALL`, `name`, `description`, `facts`, `names`, parsing (`FromStr`, serde) with
+/// "did you mean", `Display`, the unknown-name error type and [`NamedEnum`] (for listing).
+///
+/// ```ignore
+/// named_enum! {
+///     /// The shape of an obstacle.
+///     pub enum ObstacleKind: "obstacle kind", UnknownObstacleKind {
+///         /// A half-space below a plane.
+///         Plane = "plane", "a half-space below a plane (point, outward normal)",
+///     }
+/// }
+/// ```
+#[macro_export]
+macro_rules! named_enum {
+    ($(#[$doc:meta])* $vis:vis enum $ty:ident : $what:literal, $err:ident {
+        $($(#[$vdoc:meta])* $variant:ident = $name:literal, $desc:literal,)+
+    }) => {
+        $crate::named_enum! {
+            $(#[$doc])* $vis enum $ty : $what, $err, () {
+                $($(#[$vdoc])* $variant = $name, $desc, (),)+
+            }
+        }
+    };
+    ($(#[$doc:meta])* $vis:vis enum $ty:ident : $what:literal, $err:ident, $facts:ty {
+        $($(#[$vdoc:meta])* $variant:ident = $name:literal, $desc:literal, $fact:expr,)+
+    }) => {
+        $(#[$doc])*
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+        #[serde(try_from = "String", into = "String")]
+        $vis enum $ty {
+            $($(#[$vdoc])* $variant,)+
+        }
+
+        impl $ty {
+            /// Every value, in table order.
+            pub const ALL: &'static [$ty] = &[$($ty::$variant,)+];
+
+            /// The name files use.
+            pub fn name(self) -> &'static str {
+                match self {
+                    $($ty::$variant => $name,)+
+                }
+            }
+
+            /// One line on what it is (for `softbench list`).
+            pub fn description(self) -> &'static str {
+                match self {
+                    $($ty::$variant => $desc,)+
+                }
+            }
+
+            /// The facts the rest of the code asks of it.
+            #[allow(clippy::unused_unit)]
+            pub fn facts(self) -> $facts {
+                match self {
+                    $($ty::$variant => $fact,)+
+                }
+            }
+
+            /// Every name, for messages.
+            pub fn names() -> Vec<&'static str> {
+                Self::ALL.iter().map(|v| v.name()).collect()
+            }
+        }
+
+        impl $crate::registry::NamedEnum for $ty {
+            const WHAT: &'static str = $what;
+            fn all_values() -> &'static [Self] {
+                Self::ALL
+            }
+            fn name(self) -> &'static str {
+                $ty::name(self)
+            }
+            fn description(self) -> &'static str {
+                $ty::description(self)
+            }
+            fn listed_facts(self) -> Vec<$crate::registry::Fact> {
+                $crate::registry::ListFacts::list(&self.facts())
+            }
+        }
+
+        #[doc = concat!("An unknown ", $what, " name; the message lists the valid ones.")]
+        #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+        #[error("{}", $crate::names::unknown_name_message($what, .0, &$ty::names()))]
+        $vis struct $err(pub String);
+
+        impl std::str::FromStr for $ty {
+            type Err = $err;
+            fn from_str(s: &str) -> Result<Self, Self::Err> {
+                Self::ALL
+                    .iter()
+                    .copied()
+                    .find(|v| v.name() == s)
+                    .ok_or_else(|| $err(s.to_owned()))
+            }
+        }
+
+        impl TryFrom<String> for $ty {
+            type Error = $err;
+            fn try_from(s: String) -> Result<Self, Self::Error> {
+                s.parse()
+            }
+        }
+
+        impl From<$ty> for String {
+            fn from(v: $ty) -> String {
+                v.name().to_owned()
+            }
+        }
+
+        impl std::fmt::Display for $ty {
+            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str(self.name())
+            }
+        }
+    };
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -286,5 +484,17 @@ mod tests {
         ));
         let err = ThingHandle::from_name("alpa").unwrap_err().to_string();
         assert!(err.contains("did you mean `alpha`?"), "{err}");
+    }
+
+    #[test]
+    fn a_handle_lists_its_family_and_describes_its_entry() {
+        let alpha = ThingHandle::from_name("alpha").unwrap();
+        assert_eq!(alpha.description(), "a thing");
+        assert_eq!(alpha.entry().name, "alpha");
+        assert!(ThingHandle::all().contains(&alpha));
+        assert_eq!(ThingHandle::names()[0], "alpha");
+        let listing = THINGS.listing();
+        assert_eq!(listing[0].name, "alpha");
+        assert_eq!(listing[0].facts_text(), "");
     }
 }

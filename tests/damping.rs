@@ -6,12 +6,12 @@ mod common;
 
 use common::bodies::{distance, kicked, omega_max};
 use nalgebra::{Vector3, Vector3 as V3};
-use softbench::experiment::Metrics;
 use softbench::integrate::{IntegratorSettings, Method, State};
 use softbench::material::{LameParameters, MaterialModel};
 use softbench::mesh::generate::box_mesh;
 use softbench::model::{AxisRule, Damping, FixedSelection, Model, ModelSpec, Side, Spring};
 use softbench::rng::Rng;
+use softbench::run::Metrics;
 
 /// The rubber block of the other integrator tests with the given damping and, if `dashpot`
 /// is non-zero, two springs with dashpots across it.

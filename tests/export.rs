@@ -9,7 +9,6 @@ use std::process::Command;
 
 use common::TempDir;
 use nalgebra::Vector3;
-use softbench::experiment::Observer;
 use softbench::export::{FrameContent, FrameWriter, SERIES_FILE};
 use softbench::integrate::State;
 use softbench::material::{LameParameters, MaterialModel, NeoHookean};
@@ -18,6 +17,7 @@ use softbench::mesh::surface::boundary_faces;
 use softbench::mesh::{Skinning, read_surface_mesh};
 use softbench::model::{AxisRule, FixedSelection, Model, ModelSpec, Side};
 use softbench::rng::Rng;
+use softbench::run::Observer;
 
 /// A 3×2×2 box (1×0.5×0.5 m) clamped at x = 0.
 fn clamped_box() -> Model {
@@ -53,7 +53,7 @@ fn moving_state(model: &Model, t: f64) -> State {
 
 /// An observer that ignores rows.
 fn no_rows() -> impl Observer {
-    |_: &softbench::experiment::Sample| Ok(())
+    |_: &softbench::run::Sample| Ok(())
 }
 
 /// Runs `script` (Python, with `meshio` and `json` imported) and returns its stdout. When

@@ -7,7 +7,7 @@ mod common;
 
 use common::bodies::{block, integrator, kicked, omega_max};
 use nalgebra::Vector3;
-use softbench::experiment::Metrics;
+use softbench::run::Metrics;
 use softbench::integrate::bdf::{BdfSettings, BdfStartup};
 use softbench::integrate::{Integrator, IntegratorSettings, Method, State, StepReport};
 use softbench::material::{LameParameters, MaterialModel};

@@ -4,9 +4,9 @@
 mod common;
 
 use common::bodies::{block, integrator, kicked, omega_max};
-use softbench::experiment::Metrics;
 use softbench::integrate::{Method, State};
 use softbench::model::Model;
+use softbench::run::Metrics;
 
 fn total_energy(metrics: &mut Metrics, model: &mut Model, state: &State) -> f64 {
     metrics.energies(model, state).unwrap().total()

@@ -4,8 +4,8 @@
 mod common;
 
 use common::bodies::{block, block_with_moving_anchor, kicked, omega_max};
-use softbench::experiment::{OutcomeKind, Sample, run};
 use softbench::integrate::{IntegratorSettings, Method, State};
+use softbench::run::{OutcomeKind, Sample, run};
 use softbench::scene::RunConfig;
 
 fn config(dt: f64, steps: usize) -> RunConfig {

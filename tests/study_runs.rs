@@ -43,7 +43,7 @@ fn assert_complete(dir: &Path, required_columns: &[&str]) -> Table {
         assert!(series.is_file(), "missing {}", series.display());
         let outcome = runs.get(row, "outcome").unwrap();
         assert!(
-            softbench::experiment::OutcomeKind::from_name(outcome).is_some(),
+            softbench::run::OutcomeKind::from_name(outcome).is_some(),
             "{id}: outcome `{outcome}` is not in the vocabulary"
         );
     }

@@ -6,11 +6,11 @@ mod common;
 
 use common::bodies::{block, block_with_moving_anchor, clamped_at_min_x, omega_max};
 use common::{TempDir, run_study_ok, scene, simulate};
-use softbench::experiment::{OutcomeKind, RunSummary, Sample, run};
 use softbench::integrate::{IntegratorSettings, Method, State};
 use softbench::material::{LameParameters, MaterialModel};
 use softbench::mesh::generate::box_mesh;
 use softbench::model::{Model, ModelSpec};
+use softbench::run::{OutcomeKind, RunSummary, Sample, run};
 use softbench::scene::RunConfig;
 use softbench::study::table::Table;
 

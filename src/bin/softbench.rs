@@ -15,20 +15,21 @@ use anyhow::Context;
 use clap::{Args, Parser, Subcommand};
 use serde::Serialize;
 use softbench::console;
-use softbench::contact::ContactResponse;
+use softbench::contact::{ContactResponse, ObstacleKind};
 use softbench::data::{DataError, DataPaths};
-use softbench::experiment::{self, OutcomeKind};
 use softbench::export::{DisplayError, ExportFormat, FrameContent, FrameWriter, load_display};
-use softbench::integrate::Method;
+use softbench::integrate::methods::METHODS;
 use softbench::interrupt::{self, Signal};
+use softbench::io::{AtomicFile, write_atomic};
 use softbench::lock::{FolderLock, Holder, LockError, Wait};
-use softbench::material::MaterialModel;
+use softbench::material::MaterialKind;
 use softbench::mesh::{AnyMesh, MeshError, MeshFormat, MeshReport, TetMesh, read_mesh};
 use softbench::model::Model;
 use softbench::parallel::Parallelism;
-use softbench::report::{AtomicFile, write_atomic};
+use softbench::registry::{Listing, NamedEnum};
+use softbench::run::{self, OutcomeKind};
 use softbench::scene::{self, LoadedScene, SceneError};
-use softbench::solve::LinearSolverKind;
+use softbench::solve::LINEAR_SOLVERS;
 use softbench::study::{self, StudyError};
 
 /// A harness for research on time integrators and solvers for deformable bodies.
@@ -324,7 +325,7 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
     let mut csv = csv::Writer::from_writer(trajectory.writer());
     let mut state = built.initial.clone();
     let mut rows = 0usize;
-    let mut write_row = |row: &experiment::Sample| {
+    let mut write_row = |row: &run::Sample| {
         rows += 1;
         csv.serialize(row)
             .map_err(|e| std::io::Error::other(format!("{}: {e}", trajectory_path.display())))
@@ -332,7 +333,7 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
     let frames_dir = args.out.join("frames");
     let mut frames_written = 0;
     let summary = match content {
-        None => experiment::run(
+        None => run::run(
             &mut built.model,
             integrator.as_mut(),
             &mut state,
@@ -349,7 +350,7 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
                 &mut write_row,
             )
             .context("cannot write the frames")?;
-            let summary = experiment::run(
+            let summary = run::run(
                 &mut built.model,
                 integrator.as_mut(),
                 &mut state,
@@ -461,38 +462,35 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
 
 fn list() -> anyhow::Result<ExitCode> {
     let mut out = std::io::stdout().lock();
-    writeln!(
-        out,
-        "integrators (integrator.method): name, order, explicit or implicit, description"
-    )?;
-    for m in Method::all() {
-        let order = match m.order() {
-            0 => "-".to_string(),
-            o => o.to_string(),
-        };
-        let kind = if m.is_explicit() {
-            "explicit"
-        } else {
-            "implicit"
-        };
-        writeln!(
-            out,
-            "  {:26} {order:>2}  {kind:8}  {}",
-            m.name(),
-            m.description()
-        )?;
-    }
-    writeln!(out, "linear solvers (integrator.linear_solver):")?;
-    for k in LinearSolverKind::ALL {
-        writeln!(out, "  {:26} {}", k.name(), k.description())?;
-    }
-    writeln!(out, "materials (material.model):")?;
-    for name in MaterialModel::NAMES {
-        writeln!(out, "  {:26} {}", name, MaterialModel::description_of(name))?;
-    }
-    writeln!(out, "contact responses (contact.response):")?;
-    for r in ContactResponse::ALL {
-        writeln!(out, "  {:26} {}", r.name(), r.description())?;
+    let families: [(&str, Vec<Listing>); 6] = [
+        ("integrators (integrator.method)", METHODS.listing()),
+        (
+            "linear solvers (integrator.linear_solver)",
+            LINEAR_SOLVERS.listing(),
+        ),
+        ("materials (material.model)", MaterialKind::listing()),
+        (
+            "contact responses (contact.response)",
+            ContactResponse::listing(),
+        ),
+        (
+            "obstacle kinds ([[obstacles]] kind)",
+            ObstacleKind::listing(),
+        ),
+        (
+            "export formats (simulate --export)",
+            ExportFormat::listing(),
+        ),
+    ];
+    for (title, entries) in families {
+        writeln!(out, "{title}:")?;
+        for e in entries {
+            writeln!(out, "  {:26} {}", e.name, e.description)?;
+            let facts = e.facts_text();
+            if !facts.is_empty() {
+                writeln!(out, "  {:26} [{facts}]", "")?;
+            }
+        }
     }
     for (title, folder) in [
         ("scenes (experiments/scenes)", "experiments/scenes"),

@@ -25,123 +25,92 @@ use super::path::Path;
 use super::{Capsule, Cuboid, HalfSpace, Sphere};
 use crate::integrate::Method;
 use nalgebra::{Isometry3, Rotation3, Translation3, Unit, UnitQuaternion, Vector3};
-use std::fmt;
-use std::str::FromStr;
 
-/// Declares a name-keyed enum that (de)serializes as its name and rejects unknown names with
-/// the valid ones listed and the closest suggested.
-macro_rules! named_enum {
-    ($(#[$doc:meta])* $ty:ident, $what:literal, $err:ident { $($(#[$vdoc:meta])* $variant:ident = $name:literal,)+ }) => {
-        $(#[$doc])*
-        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
-        #[serde(try_from = "String", into = "String")]
-        pub enum $ty {
-            $($(#[$vdoc])* $variant,)+
-        }
-
-        impl $ty {
-            /// Every value, in documentation order.
-            pub const ALL: &'static [$ty] = &[$($ty::$variant,)+];
-
-            /// The name scene files use.
-            pub fn name(self) -> &'static str {
-                match self {
-                    $($ty::$variant => $name,)+
-                }
-            }
-
-            /// Every name, for messages.
-            pub fn names() -> Vec<&'static str> {
-                Self::ALL.iter().map(|v| v.name()).collect()
-            }
-        }
-
-        #[doc = concat!("An unknown ", $what, " name; the message lists the valid ones.")]
-        #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
-        #[error("{}", crate::names::unknown_name_message($what, .0, &$ty::names()))]
-        pub struct $err(pub String);
-
-        impl FromStr for $ty {
-            type Err = $err;
-            fn from_str(s: &str) -> Result<Self, Self::Err> {
-                Self::ALL
-                    .iter()
-                    .copied()
-                    .find(|v| v.name() == s)
-                    .ok_or_else(|| $err(s.to_owned()))
-            }
-        }
-
-        impl TryFrom<String> for $ty {
-            type Error = $err;
-            fn try_from(s: String) -> Result<Self, Self::Error> {
-                s.parse()
-            }
-        }
-
-        impl From<$ty> for String {
-            fn from(v: $ty) -> String {
-                v.name().to_owned()
-            }
-        }
-
-        impl fmt::Display for $ty {
-            fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-                f.write_str(self.name())
-            }
-        }
-    };
+/// What the code asks of an obstacle kind: the keys of its `[[obstacles]]` table.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ObstacleFacts {
+    /// The keys that apply to it (besides `kind`, `transform` and `path`).
+    pub fields: &'static [&'static str],
+    /// The keys it cannot do without.
+    pub required: &'static [&'static str],
 }
 
-named_enum! {
-    /// The shape of an obstacle (`kind` in `[[obstacles]]`).
-    ObstacleKind, "obstacle kind", UnknownObstacleKind {
-        /// A half-space below a plane: `point`, `normal` (outward).
-        Plane = "plane",
-        /// `center`, `radius`.
-        Sphere = "sphere",
-        /// An oriented box: `center`, `half_extents`, optional `rotation`.
-        Box = "box",
-        /// A segment from `a` to `b` thickened by `radius`.
-        Capsule = "capsule",
-        /// The union of `members` (obstacle tables): the minimum distance.
-        Group = "group",
+impl crate::registry::ListFacts for ObstacleFacts {
+    fn list(&self) -> Vec<crate::registry::Fact> {
+        vec![("fields", self.fields.join(","))]
     }
 }
 
-named_enum! {
+crate::named_enum! {
+    /// The shape of an obstacle (`kind` in `[[obstacles]]`).
+    pub enum ObstacleKind: "obstacle kind", UnknownObstacleKind, ObstacleFacts {
+        /// A half-space below a plane: `point`, `normal` (outward).
+        Plane = "plane", "the half-space below a plane (point, outward normal)",
+            ObstacleFacts { fields: &["point", "normal"], required: &["normal"] },
+        /// `center`, `radius`.
+        Sphere = "sphere", "a ball (center, radius)",
+            ObstacleFacts { fields: &["center", "radius"], required: &["radius"] },
+        /// An oriented box: `center`, `half_extents`, optional `rotation`.
+        Box = "box", "an oriented box (center, half extents, rotation)",
+            ObstacleFacts {
+                fields: &["center", "half_extents", "rotation"],
+                required: &["half_extents"],
+            },
+        /// A segment from `a` to `b` thickened by `radius`.
+        Capsule = "capsule", "a segment from a to b thickened by a radius",
+            ObstacleFacts { fields: &["a", "b", "radius"], required: &["a", "b", "radius"] },
+        /// The union of `members` (obstacle tables): the minimum distance.
+        Group = "group", "the union of member obstacles (the minimum distance)",
+            ObstacleFacts { fields: &["members"], required: &["members"] },
+    }
+}
+
+/// What the code asks of a contact response.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ResponseFacts {
+    /// It is a potential inside the model (any integrator handles it unchanged).
+    pub in_model: bool,
+    /// It works inside the Newton loop (only with a method whose unknown is the end-of-step
+    /// position); otherwise it wraps the scene's integrator or lives in the model.
+    pub in_newton_loop: bool,
+}
+
+impl crate::registry::ListFacts for ResponseFacts {
+    fn list(&self) -> Vec<crate::registry::Fact> {
+        let how = if self.in_model {
+            "potential"
+        } else if self.in_newton_loop {
+            "newton-constraints"
+        } else {
+            "wraps-integrator"
+        };
+        vec![("acts-as", how.to_owned())]
+    }
+}
+
+crate::named_enum! {
     /// How contact is resolved (`response` in `[contact]`).
-    ContactResponse, "contact response", UnknownContactResponse {
+    pub enum ContactResponse: "contact response", UnknownContactResponse, ResponseFacts {
         /// A stiff spring `1/2 k d^2` on the penetration depth, inside the model.
         Penalty = "penalty",
+            "spring 1/2 k d^2 on the depth; any integrator, penetrates ~ load/k",
+            ResponseFacts { in_model: true, in_newton_loop: false },
         /// After each step, move penetrating vertices to the surface (the body following
         /// as in a backward Euler step) and change their velocity (restitution, friction).
         Projection = "projection",
+            "move to the surface after the step, restitution/friction; any integrator",
+            ResponseFacts { in_model: false, in_newton_loop: false },
         /// Predictive: a vertex that would end the step inside gets the new velocity
         /// (restitution, friction) and moves by dt times it from where it started, so it
         /// never lands inside.
         VelocityFlip = "velocity-flip",
+            "predictive: reflect the velocity of a vertex that would penetrate, redo its move",
+            ResponseFacts { in_model: false, in_newton_loop: false },
         /// Linearized non-penetration constraints inside the Newton loop (a QP per
         /// iteration) of backward Euler, BDF-k, the Newmark family or static.
         Constrained = "constrained",
-    }
-}
-
-impl ContactResponse {
-    /// One line on what the response is good for.
-    pub fn description(self) -> &'static str {
-        match self {
-            Self::Penalty => "spring 1/2 k d^2 on the depth; any integrator, penetrates ~ load/k",
-            Self::Projection => {
-                "move to the surface after the step, restitution/friction; any integrator"
-            }
-            Self::VelocityFlip => {
-                "predictive: reflect the velocity of a vertex that would penetrate, redo its move"
-            }
-            Self::Constrained => {
-                "QP-constrained Newton (backward Euler, BDF, Newmark, static); no penetration"
-            }
-        }
+            "QP-constrained Newton (backward Euler, BDF, Newmark, static); no penetration",
+            ResponseFacts { in_model: false, in_newton_loop: true },
     }
 }
 
@@ -314,7 +283,7 @@ impl ContactConfig {
                 format!("must be >= 0 (m; got {})", self.margin),
             ));
         }
-        if self.response == ContactResponse::Constrained && !method.entry().constrained_contact {
+        if self.response.facts().in_newton_loop && !method.entry().constrained_contact {
             let able: Vec<&str> = Method::all()
                 .into_iter()
                 .filter(|m| m.entry().constrained_contact)
@@ -334,17 +303,6 @@ impl ContactConfig {
 }
 
 impl ObstacleConfig {
-    /// The fields that apply to this kind (besides `kind`, `transform` and `path`).
-    fn fields(kind: ObstacleKind) -> &'static [&'static str] {
-        match kind {
-            ObstacleKind::Plane => &["point", "normal"],
-            ObstacleKind::Sphere => &["center", "radius"],
-            ObstacleKind::Box => &["center", "half_extents", "rotation"],
-            ObstacleKind::Capsule => &["a", "b", "radius"],
-            ObstacleKind::Group => &["members"],
-        }
-    }
-
     /// Check that the fields fit the kind and their values; `key` names this table in
     /// messages (`obstacles[0]`).
     pub fn validate(&self, key: &str) -> Result<(), ConfigError> {
@@ -360,7 +318,7 @@ impl ObstacleConfig {
             ("b", self.b.is_some()),
             ("members", self.members.is_some()),
         ];
-        let allowed = Self::fields(kind);
+        let allowed = kind.facts().fields;
         if let Some((name, _)) = present
             .iter()
             .find(|(name, set)| *set && !allowed.contains(name))
@@ -373,13 +331,7 @@ impl ObstacleConfig {
                 ),
             ));
         }
-        let required: &[&str] = match kind {
-            ObstacleKind::Plane => &["normal"],
-            ObstacleKind::Sphere => &["radius"],
-            ObstacleKind::Box => &["half_extents"],
-            ObstacleKind::Capsule => &["a", "b", "radius"],
-            ObstacleKind::Group => &["members"],
-        };
+        let required = kind.facts().required;
         if let Some(name) = required
             .iter()
             .find(|name| !present.iter().any(|(n, set)| n == *name && *set))

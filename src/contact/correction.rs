@@ -51,7 +51,7 @@ impl Correction {
     pub fn new(explicit: bool) -> Self {
         let system = (!explicit).then(|| {
             ImplicitSystem::new(
-                LinearSolverKind::Cholesky.build(&SolverSettings::default()),
+                LinearSolverKind::cholesky().build(&SolverSettings::default()),
                 false,
             )
         });

@@ -13,15 +13,8 @@ use std::path::PathBuf;
 
 use crate::data::{DataError, DataPaths};
 use crate::mesh::{MeshError, Skinning, SkinningError, SurfaceMesh, TetMesh, read_surface_mesh};
+pub use crate::scene::DisplayConfig;
 use crate::scene::LoadedScene;
-
-/// `[display]`: the display mesh file.
-#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct DisplayConfig {
-    /// A triangle surface (OBJ), in the same frame and units as the tet mesh at rest.
-    pub file: String,
-}
 
 /// Why the display mesh could not be set up (bad input: the scene names something unusable).
 #[derive(Debug, thiserror::Error)]

@@ -16,50 +16,30 @@ use nalgebra::Vector3;
 use super::obj::write_obj;
 use super::pvd::write_pvd;
 use super::vtu::{VtuGrid, write_vtu};
-use crate::experiment::{Observer, Sample};
 use crate::integrate::State;
+use crate::io::write_atomic;
 use crate::mesh::Skinning;
 use crate::mesh::surface::boundary_faces;
 use crate::model::Model;
-use crate::report::write_atomic;
+use crate::run::{Observer, Sample};
 
 /// The name of the VTU collection in the frames folder.
 pub const SERIES_FILE: &str = "series.pvd";
 
-/// A frame file format.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum ExportFormat {
-    /// VTK XML unstructured grid of the tets, with a `series.pvd`.
-    Vtu,
-    /// Wavefront OBJ triangle surface (boundary surface or skinned display mesh).
-    Obj,
+crate::named_enum! {
+    /// A frame file format (`--export`); the name is also the file extension.
+    pub enum ExportFormat: "export format", UnknownExportFormat {
+        /// VTK XML unstructured grid of the tets, with a `series.pvd`.
+        Vtu = "vtu", "VTK XML unstructured grid of the tets per frame, with a series.pvd",
+        /// Wavefront OBJ triangle surface (boundary surface or skinned display mesh).
+        Obj = "obj", "Wavefront OBJ surface per frame (boundary surface or skinned [display] mesh)",
+    }
 }
 
-/// An export format name that is not `vtu` or `obj`.
-#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
-#[error("{}", crate::names::unknown_name_message("export format", .0, &ExportFormat::NAMES))]
-pub struct UnknownExportFormat(pub String);
-
 impl ExportFormat {
-    /// The names `--export` accepts.
-    pub const NAMES: [&str; 2] = ["vtu", "obj"];
-
     /// The format called `name`.
     pub fn from_name(name: &str) -> Result<Self, UnknownExportFormat> {
-        match name {
-            "vtu" => Ok(Self::Vtu),
-            "obj" => Ok(Self::Obj),
-            _ => Err(UnknownExportFormat(name.to_owned())),
-        }
-    }
-
-    /// The name, which is also the file extension.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Vtu => "vtu",
-            Self::Obj => "obj",
-        }
+        name.parse()
     }
 }
 

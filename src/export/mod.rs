@@ -2,7 +2,7 @@
 //! collection (`.pvd`), and Wavefront OBJ surfaces (the tet mesh's boundary, or a display mesh
 //! skinned onto the tets), numbered frame by frame during a run.
 //!
-//! - [`frames`]: the run [`crate::experiment::Observer`] that writes frames ([`FrameWriter`])
+//! - [`frames`]: the run [`crate::run::Observer`] that writes frames ([`FrameWriter`])
 //!   and what a frame holds ([`FrameContent`]);
 //! - [`display`]: the scene's `[display]` section and loading + skinning its mesh;
 //! - [`vtu`], [`pvd`], [`obj`]: the three file writers (plain functions over slices);

@@ -40,7 +40,7 @@ impl Default for IntegratorSettings {
     fn default() -> Self {
         Self {
             method: Method::from_name("backward-euler").expect("a built-in method"),
-            linear_solver: LinearSolverKind::Cholesky,
+            linear_solver: LinearSolverKind::cholesky(),
             newton: NewtonSettings::default(),
             adaptive: AdaptiveSettings::default(),
             solver: SolverSettings::default(),

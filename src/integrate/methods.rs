@@ -19,7 +19,7 @@ use super::static_equilibrium::Static;
 use super::symplectic_euler::SymplecticEuler;
 use super::verlet::VelocityVerlet;
 use super::{Integrator, IntegratorSettings, dopri5, explicit_euler, midpoint, rk4};
-use crate::registry::{Entry, RegisterError, Registry};
+use crate::registry::{Entry, Fact, RegisterError, Registry};
 
 /// How a method is built from its settings; `constraints` is `Some` only for methods whose
 /// entry allows constrained contact.
@@ -51,6 +51,24 @@ impl Entry for MethodEntry {
     }
     fn description(&self) -> &'static str {
         self.description
+    }
+    fn facts(&self) -> Vec<Fact> {
+        let yes_no = |b: bool| if b { "yes" } else { "no" }.to_owned();
+        let order = match self.order {
+            0 => "-".to_owned(),
+            o => o.to_string(),
+        };
+        let kind = if self.explicit {
+            "explicit"
+        } else {
+            "implicit"
+        };
+        vec![
+            ("order", order),
+            ("kind", kind.to_owned()),
+            ("newton", yes_no(self.newton)),
+            ("constrained-contact", yes_no(self.constrained_contact)),
+        ]
     }
 }
 

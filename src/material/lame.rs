@@ -3,7 +3,7 @@
 /// An invalid material description: bad constants or an unknown model name.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum MaterialError {
-    #[error("{}", crate::names::unknown_name_message("material model", .0, &super::MaterialModel::NAMES))]
+    #[error("{}", crate::names::unknown_name_message("material model", .0, &super::MaterialKind::names()))]
     UnknownModel(String),
     #[error("youngs_modulus must be positive and finite (got {0})")]
     YoungsModulus(f64),

@@ -17,7 +17,8 @@ mod svd;
 
 pub use corotated::{Corotated, TWIST_DENOMINATOR_FLOOR};
 pub use lame::{LameParameters, MaterialError};
-pub use material_model::MaterialModel;
+pub use material_model::{MaterialFacts, MaterialKind, MaterialModel, UnknownMaterialKind};
+pub(crate) use material_model::{dispatch_material, material_table, with_material};
 pub use neo_hookean::NeoHookean;
 pub use stable_neo_hookean::StableNeoHookean;
 pub use stvk::StVenantKirchhoff;

@@ -2,7 +2,7 @@
 //! material so the per-element code has no dynamic dispatch.
 
 use crate::fem::{ProjectToPsd, TetRest, pack_matrix12, unpack_matrix12};
-use crate::material::{Material, MaterialModel};
+use crate::material::{Material, MaterialModel, with_material};
 use crate::parallel::{Parallelism, for_each_chunk};
 use nalgebra::Vector3;
 
@@ -22,18 +22,6 @@ pub(crate) struct ElasticBody {
     pub material: MaterialModel,
     pub tets: Vec<[usize; 4]>,
     pub rest: Vec<TetRest>,
-}
-
-/// Run `$body` with `$m` bound to the concrete material inside `$model`.
-macro_rules! with_material {
-    ($model:expr, |$m:ident| $body:expr) => {
-        match $model {
-            MaterialModel::NeoHookean($m) => $body,
-            MaterialModel::StableNeoHookean($m) => $body,
-            MaterialModel::StVenantKirchhoff($m) => $body,
-            MaterialModel::Corotated($m) => $body,
-        }
-    };
 }
 
 #[inline]

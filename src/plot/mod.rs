@@ -24,7 +24,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
-use crate::report::write_atomic;
+use crate::io::write_atomic;
 
 pub use style::{HEIGHT, WIDTH};
 

@@ -44,7 +44,7 @@ pub struct SceneConfig {
     pub run: RunConfig,
     /// A display mesh that OBJ frames show instead of the tet mesh's boundary.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub display: Option<crate::export::DisplayConfig>,
+    pub display: Option<DisplayConfig>,
     /// Obstacles (`[[obstacles]]`); none means no contact code runs.
     #[serde(default)]
     pub obstacles: Vec<ObstacleConfig>,
@@ -145,7 +145,7 @@ pub struct MaterialConfig {
 }
 
 fn default_model() -> String {
-    "neo-hookean".into()
+    crate::material::MaterialKind::NeoHookean.name().into()
 }
 
 /// `[fixed]`: the union of explicit vertex indices, an axis rule and a box.
@@ -224,7 +224,7 @@ pub struct RunConfig {
     /// A run is stopped as unstable when, after any step, its mechanical energy exceeds the
     /// initial energy plus the net work done on the body (time-dependent potentials, less
     /// damping) by more than this many times the energy budget: the scene's energy scale plus
-    /// the work put in (see `experiment::balance`). 0 turns the check off. Default 1.
+    /// the work put in (see `run::balance`). 0 turns the check off. Default 1.
     #[serde(default = "default_energy_limit")]
     pub energy_limit: f64,
 }
@@ -276,4 +276,13 @@ impl DampingConfig {
             strain_rate: self.strain_rate.map(|s| (s.phi, s.psi)),
         }
     }
+}
+
+/// `[display]`: the display mesh file (a triangle surface that follows the body in exported
+/// frames; `export::load_display` reads it).
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DisplayConfig {
+    /// A triangle surface (OBJ), in the same frame and units as the tet mesh at rest.
+    pub file: String,
 }

@@ -11,8 +11,8 @@ mod springs;
 
 pub use budget::{MAX_DENSITY, MAX_GRAVITY, MAX_LENGTH};
 pub use config::{
-    Axis, BoxConfig, DampingConfig, FixedConfig, ForcesConfig, GenerateConfig, InitialConfig,
-    MaterialConfig, MeshConfig, RayleighConfig, RuleConfig, RunConfig, SceneConfig,
+    Axis, BoxConfig, DampingConfig, DisplayConfig, FixedConfig, ForcesConfig, GenerateConfig,
+    InitialConfig, MaterialConfig, MeshConfig, RayleighConfig, RuleConfig, RunConfig, SceneConfig,
     StrainRateConfig,
 };
 pub use overrides::{OverrideError, apply as apply_override, set_value};
@@ -21,7 +21,7 @@ pub use springs::{DragConfig, JelloConfig, JelloShape, KindTable, SpringsConfig,
 use crate::contact::Contact;
 use crate::data::{DataError, DataPaths};
 use crate::integrate::{Integrator, State};
-use crate::material::{LameParameters, MaterialError, MaterialModel, NeoHookean};
+use crate::material::{LameParameters, MaterialError, MaterialKind, MaterialModel, NeoHookean};
 use crate::mesh::{MeshError, TetMesh, generate};
 use crate::model::{
     AxisRule, FixedSelection, InvertedTets, MassKind, Model, ModelError, ModelSpec,
@@ -387,7 +387,7 @@ fn scene_material(m: &MaterialConfig, path: &Path) -> Result<MaterialModel, Scen
         message: message.into(),
     };
     if let (Some(c), Some(d)) = (m.c, m.d) {
-        if m.model != "neo-hookean" {
+        if m.model != MaterialKind::NeoHookean.name() {
             return Err(invalid(
                 "`c` and `d` are the course Neo-Hookean's constants; use them with model = \"neo-hookean\"",
             ));

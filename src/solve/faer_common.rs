@@ -15,7 +15,7 @@ use crate::sparse::SparsityPattern;
 
 /// Which numeric factorization the scratch memory must fit.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Factorization {
+pub enum ScratchKind {
     Llt,
     Ldlt,
 }
@@ -23,7 +23,7 @@ pub(crate) enum Factorization {
 /// The symbolic factorization of one pattern plus everything the numeric phase writes into:
 /// the factor's values (`len_val` f64) and a scratch buffer big enough for both the numeric
 /// factorization and a one-column solve.
-pub(crate) struct FaerFactor {
+pub struct FaerFactor {
     pub symbolic: SymbolicCholesky<usize>,
     pub values: Vec<f64>,
     pub mem: MemBuffer,
@@ -38,7 +38,7 @@ impl FaerFactor {
     pub fn analyze(
         pattern: &SparsityPattern,
         settings: &DirectSettings,
-        kind: Factorization,
+        kind: ScratchKind,
     ) -> Result<Self, SolveError> {
         // Identity goes through a custom identity permutation: with `SymmetricOrdering::Identity`
         // faer's numeric phase transposes A instead of extracting the `Side` triangle, so the
@@ -69,10 +69,10 @@ impl FaerFactor {
             Parallelism::Rayon => Par::rayon(0),
         };
         let factor_req = match kind {
-            Factorization::Llt => {
+            ScratchKind::Llt => {
                 symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default())
             }
-            Factorization::Ldlt => {
+            ScratchKind::Ldlt => {
                 symbolic.factorize_numeric_ldlt_scratch::<f64>(par, Default::default())
             }
         };

@@ -1,13 +1,11 @@
 //! Choosing a solver: [`LinearSolverKind`] by name (as written in a config), and the settings
 //! each backend reads.
 
-use std::fmt;
-use std::str::FromStr;
-
 use serde::{Deserialize, Serialize};
 
 use super::{CgSettings, CgSolver, CholeskySolver, DenseCholeskySolver, LdltSolver, LinearSolver};
 use crate::parallel::Parallelism;
+use crate::registry::{Entry, Fact, Registry};
 
 /// Settings for faer's sparse direct solvers (Cholesky and LDLᵀ).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -65,87 +63,90 @@ pub struct SolverSettings {
     pub cg: CgSettings,
 }
 
-/// The linear solvers, by name: `"cholesky" | "ldlt" | "cg" | "dense"`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(try_from = "String", into = "String")]
-pub enum LinearSolverKind {
-    /// Sparse LLᵀ (faer, supernodal): SPD systems.
-    Cholesky,
-    /// Sparse LDLᵀ (faer): symmetric systems, reports the inertia.
-    Ldlt,
-    /// Preconditioned conjugate gradient: SPD systems.
-    Cg,
-    /// Dense LLᵀ: tiny SPD systems and tests.
-    Dense,
+/// A linear solver in the registry: its name, what it is, the facts the rest of the code asks
+/// and how to build it.
+pub struct SolverEntry {
+    /// The name scene files use (`integrator.linear_solver`).
+    pub name: &'static str,
+    /// One line on the solver (for `softbench list`).
+    pub description: &'static str,
+    /// A direct factorization (exact up to round-off) rather than an iterative method.
+    pub direct: bool,
+    /// Whether `factor` reports the inertia ([`super::FactorReport::negative_pivots`]) of an
+    /// indefinite matrix instead of failing on it.
+    pub reports_inertia: bool,
+    /// A new solver, configured by its part of the settings.
+    pub build: fn(&SolverSettings) -> Box<dyn LinearSolver>,
+}
+
+impl Entry for SolverEntry {
+    fn name(&self) -> &'static str {
+        self.name
+    }
+    fn description(&self) -> &'static str {
+        self.description
+    }
+    fn facts(&self) -> Vec<Fact> {
+        let yes_no = |b: bool| if b { "yes" } else { "no" }.to_owned();
+        vec![
+            (
+                "kind",
+                if self.direct { "direct" } else { "iterative" }.to_owned(),
+            ),
+            ("inertia", yes_no(self.reports_inertia)),
+        ]
+    }
+}
+
+/// The built-in linear solvers, one line each. A new backend adds its line here; a program
+/// that depends on softbench can instead [`Registry::register`] its own in [`LINEAR_SOLVERS`].
+static BUILTIN: [SolverEntry; 4] = [
+    SolverEntry {
+        name: "cholesky",
+        description: "sparse LL^T (faer, supernodal), symbolic analysis reused; SPD systems",
+        direct: true,
+        reports_inertia: false,
+        build: |s| Box::new(CholeskySolver::new(s.direct)),
+    },
+    SolverEntry {
+        name: "ldlt",
+        description: "sparse LDL^T (faer); symmetric systems, reports the inertia",
+        direct: true,
+        reports_inertia: true,
+        build: |s| Box::new(LdltSolver::new(s.direct)),
+    },
+    SolverEntry {
+        name: "cg",
+        description: "preconditioned conjugate gradient (block-Jacobi by default); SPD systems",
+        direct: false,
+        reports_inertia: false,
+        build: |s| Box::new(CgSolver::new(s.cg)),
+    },
+    SolverEntry {
+        name: "dense",
+        description: "dense LL^T, for tiny systems and tests",
+        direct: true,
+        reports_inertia: false,
+        build: |_| Box::new(DenseCholeskySolver::new()),
+    },
+];
+
+/// Every linear solver: the built-in ones, then those a program registered.
+pub static LINEAR_SOLVERS: Registry<SolverEntry> = Registry::new("linear solver", &BUILTIN);
+
+crate::registry_handle! {
+    /// A linear solver by name (`"cholesky" | "ldlt" | "cg" | "dense"`, or a registered one).
+    pub struct LinearSolverKind(SolverEntry) in LINEAR_SOLVERS;
 }
 
 impl LinearSolverKind {
-    /// Every kind, in the order of the valid-names list.
-    pub const ALL: [LinearSolverKind; 4] = [Self::Cholesky, Self::Ldlt, Self::Cg, Self::Dense];
-
-    /// The name accepted by `from_str`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Cholesky => "cholesky",
-            Self::Ldlt => "ldlt",
-            Self::Cg => "cg",
-            Self::Dense => "dense",
-        }
-    }
-
-    /// One line on the solver (for `softbench list`).
-    pub fn description(self) -> &'static str {
-        match self {
-            Self::Cholesky => {
-                "sparse LL^T (faer, supernodal), symbolic analysis reused; SPD systems"
-            }
-            Self::Ldlt => "sparse LDL^T (faer); symmetric systems, reports the inertia",
-            Self::Cg => "preconditioned conjugate gradient (block-Jacobi by default); SPD systems",
-            Self::Dense => "dense LL^T, for tiny systems and tests",
-        }
+    /// Sparse Cholesky, the integrator settings' default.
+    pub fn cholesky() -> Self {
+        Self(&BUILTIN[0])
     }
 
     /// A new solver of this kind, configured by its part of `settings`.
     pub fn build(self, settings: &SolverSettings) -> Box<dyn LinearSolver> {
-        match self {
-            Self::Cholesky => Box::new(CholeskySolver::new(settings.direct)),
-            Self::Ldlt => Box::new(LdltSolver::new(settings.direct)),
-            Self::Cg => Box::new(CgSolver::new(settings.cg)),
-            Self::Dense => Box::new(DenseCholeskySolver::new()),
-        }
-    }
-}
-
-impl fmt::Display for LinearSolverKind {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-/// An unknown linear solver name.
-#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
-#[error("{}", crate::names::unknown_name_message("linear solver", .0, &["cholesky", "ldlt", "cg", "dense"]))]
-pub struct UnknownSolverError(pub String);
-
-impl FromStr for LinearSolverKind {
-    type Err = UnknownSolverError;
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        Self::ALL
-            .into_iter()
-            .find(|k| k.name() == s)
-            .ok_or_else(|| UnknownSolverError(s.to_owned()))
-    }
-}
-
-impl TryFrom<String> for LinearSolverKind {
-    type Error = UnknownSolverError;
-    fn try_from(s: String) -> Result<Self, Self::Error> {
-        s.parse()
-    }
-}
-
-impl From<LinearSolverKind> for String {
-    fn from(k: LinearSolverKind) -> String {
-        k.name().to_owned()
+        (self.entry().build)(settings)
     }
 }

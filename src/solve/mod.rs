@@ -8,21 +8,22 @@
 //!    into storage allocated by `analyze`);
 //! 3. [`LinearSolver::solve`] per right-hand side.
 //!
-//! Backends, one file each: [`cholesky`] (faer sparse LLᵀ), [`ldlt`] (faer sparse LDLᵀ, reports
-//! inertia), [`cg`] (preconditioned conjugate gradient; preconditioners in `precond.rs`),
-//! [`dense`] (dense LLᵀ for tiny systems and tests). [`LinearSolverKind`] picks one by name.
+//! Backends, one file each: [`faer_direct`] (faer sparse LLᵀ and LDLᵀ, one backend over both
+//! factorizations; LDLᵀ reports the inertia), [`cg`] (preconditioned conjugate gradient;
+//! preconditioners in `precond.rs`), [`dense`] (dense LLᵀ for tiny systems and tests).
+//! [`LinearSolverKind`] picks one by name from the registry in `kind.rs`, where a new backend
+//! adds its line (or a program registers its own with [`LINEAR_SOLVERS`]`.register`).
 //!
 //! Failures are values, never panics: a matrix that is not positive definite, a pattern that
 //! differs from the analyzed one, NaN input, or CG running out of iterations each come back as
 //! a [`SolveError`] the caller can act on.
 
 pub mod cg;
-pub mod cholesky;
 mod common;
 pub mod dense;
 mod faer_common;
+pub mod faer_direct;
 mod kind;
-pub mod ldlt;
 mod precond;
 
 use std::sync::Arc;
@@ -31,21 +32,21 @@ use std::time::Duration;
 use crate::sparse::{SparsityPattern, SymmetricMatrix};
 
 pub use cg::{CgSettings, CgSolver, Preconditioner};
-pub use cholesky::CholeskySolver;
 pub use common::symmetric_mul_vec;
 pub(crate) use common::{
     Analyzed, ResidualCheck, check_rhs, dot, finish_direct_solve, norm, record_factor,
 };
 pub use dense::DenseCholeskySolver;
+pub use faer_direct::{CholeskySolver, FaerDirectSolver, LdltSolver};
 pub use kind::{
-    DirectSettings, LinearSolverKind, Ordering, SolverSettings, Supernodal, UnknownSolverError,
+    DirectSettings, LINEAR_SOLVERS, LinearSolverKind, Ordering, SolverEntry, SolverSettings,
+    Supernodal,
 };
-pub use ldlt::LdltSolver;
 
 /// A solver for symmetric systems over a fixed sparsity pattern: analyze once, factor per
 /// matrix, solve per right-hand side.
 pub trait LinearSolver: Send {
-    /// Short name, as accepted by [`LinearSolverKind::from_str`].
+    /// Short name, as accepted by [`LinearSolverKind::from_name`].
     fn name(&self) -> &'static str;
 
     /// Symbolic analysis of `pattern` (ordering, fill, scratch sizes) and allocation of all

@@ -6,10 +6,27 @@
 //! non-positive diagonal entry is reported as `NotPositiveDefinite` at that column.
 
 use nalgebra::Matrix3;
+use serde::{Deserialize, Serialize};
 
-use super::cg::Preconditioner;
 use super::{FactorReport, SolveError};
 use crate::sparse::{SparsityPattern, SymmetricMatrix};
+
+/// CG preconditioners, all SPD when `A` is.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Preconditioner {
+    /// No preconditioning.
+    None,
+    /// `M = diag(A)`.
+    Jacobi,
+    /// `M` = the 3×3 diagonal blocks of `A` (DOFs `3v..3v+3`), each inverted once per factor;
+    /// a block that is not SPD falls back to its diagonal. Trailing `n mod 3` DOFs use Jacobi.
+    #[default]
+    BlockJacobi3,
+    /// Zero fill-in incomplete Cholesky IC(0) in the caller's ordering; if it breaks down,
+    /// of `A + α·diag(A)` for the smallest α in 1e-3·2^k that works (reported per factor).
+    IncompleteCholesky,
+}
 
 const NONE: usize = usize::MAX;
 

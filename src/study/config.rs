@@ -7,6 +7,11 @@ use crate::integrate::Method;
 use std::collections::BTreeMap;
 use toml::Spanned;
 
+/// The scene key of the integration method (a grid axis of its own).
+pub(super) const METHOD_KEY: &str = "integrator.method";
+/// The scene key of the linear solver (a grid axis of its own).
+pub(super) const SOLVER_KEY: &str = "integrator.linear_solver";
+
 /// What a study measures.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -88,7 +93,7 @@ pub struct StabilitySettings {
     pub horizon: f64,
     /// A trial is unstable when the energy balance's excess (energy gained beyond the work
     /// done on the body) exceeds this many times the energy budget (see
-    /// `experiment::balance`). Default 1.
+    /// `run::balance`). Default 1.
     #[serde(default = "default_energy_factor")]
     pub energy_factor: f64,
     /// Bisection stops when `hi/lo - 1` is below this. Default 0.01.

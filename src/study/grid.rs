@@ -1,9 +1,10 @@
 //! The grid: axes of dotted scene keys and their values, per-method options, and every
 //! combination of them.
 
+use super::config::METHOD_KEY;
 use super::config::{StudyFile, line_of};
+use super::context::Context;
 use super::error::StudyError;
-use super::load::{Context, METHOD_KEY};
 use toml::Value;
 
 /// One axis of the grid: a dotted key and its values.

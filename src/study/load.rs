@@ -1,11 +1,13 @@
 //! Loading a study: parse the file, resolve its scenes, expand the grid into runs and check
 //! every run's scene before anything is run or written.
 
-use super::config::{StudyFile, StudyKind, line_of};
+use super::config::{METHOD_KEY, SOLVER_KEY, StudyFile, StudyKind, line_of};
+use super::context::Context;
 use super::error::StudyError;
 use super::grid::{Axis, grid_axes, method_entries, product};
 use super::identity::{float, physics_hash, run_hash, sanitize, value_text};
 use super::settings::check_settings;
+use super::spec::{RunSpec, Study};
 use crate::data::DataPaths;
 use crate::integrate::Method;
 use crate::parallel::Parallelism;
@@ -14,47 +16,6 @@ use crate::solve::LinearSolverKind;
 use std::collections::{BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
 use toml::Value;
-
-/// A study ready to run: its settings and the runs of its grid.
-#[derive(Clone, Debug)]
-pub struct Study {
-    /// The study file.
-    pub path: PathBuf,
-    /// The study as written, with `--quick` applied.
-    pub file: StudyFile,
-    /// What each run measures (a sweep's inner kind).
-    pub kind: StudyKind,
-    /// Whether `--quick` shortened it.
-    pub quick: bool,
-    /// The study file as written.
-    pub text: String,
-    /// Swept scene keys other than the method and linear solver: the parameter columns.
-    pub parameters: Vec<String>,
-    /// The runs, in grid order.
-    pub runs: Vec<RunSpec>,
-}
-
-/// One run of the grid.
-#[derive(Clone, Debug)]
-pub struct RunSpec {
-    /// Unique within the study; names its series file.
-    pub id: String,
-    /// The scene's name.
-    pub scene: String,
-    pub method: Method,
-    /// `None` for explicit methods (which need no linear solver of their own).
-    pub linear_solver: Option<LinearSolverKind>,
-    /// The value of each of [`Study::parameters`] (`None` where this run does not set it).
-    pub parameters: Vec<Option<Value>>,
-    /// The resolved scene: file plus `set`, the grid values and quick settings.
-    pub loaded: LoadedScene,
-    /// Identifies the resolved run (scene, settings of the study kind, softbench version):
-    /// a finished run with the same hash is not run again.
-    pub hash: String,
-    /// Identifies the physics (everything but integrator and run settings), for the caches of
-    /// reference solutions and eigenvalues.
-    pub physics: u64,
-}
 
 /// A scene named by the study, before the grid.
 struct SceneSource {
@@ -69,9 +30,6 @@ struct SceneSource {
 
 /// Longest run id (a file name, with `-trials.csv` appended, must stay under 255 bytes).
 const MAX_RUN_ID: usize = 200;
-
-pub(super) const METHOD_KEY: &str = "integrator.method";
-const SOLVER_KEY: &str = "integrator.linear_solver";
 
 /// Read, expand and check a study. `quick` applies its `[quick]` settings.
 pub fn load(path: &Path, quick: bool) -> Result<Study, StudyError> {
@@ -226,40 +184,6 @@ pub fn load(path: &Path, quick: bool) -> Result<Study, StudyError> {
         parameters,
         runs,
     })
-}
-
-/// The study file and its text, for error messages.
-pub(super) struct Context<'a> {
-    pub path: &'a Path,
-    pub text: &'a str,
-}
-
-impl Context<'_> {
-    pub fn invalid(&self, at: usize, key: &str, message: impl Into<String>) -> StudyError {
-        StudyError::Invalid {
-            path: self.path.to_owned(),
-            line: line_of(self.text, at),
-            key: key.to_owned(),
-            message: message.into(),
-        }
-    }
-
-    /// The line of the first `key` (optionally quoted) at the start of a line, for keys
-    /// whose span the parser does not keep.
-    pub fn line_of_key(&self, key: &str) -> usize {
-        let quoted = format!("\"{key}\"");
-        self.text
-            .lines()
-            .position(|l| {
-                let l = l.trim_start();
-                (l.starts_with(&quoted) || l.starts_with(key))
-                    && l.split_once('=').is_some_and(|(k, _)| {
-                        let k = k.trim();
-                        k == key || k == quoted
-                    })
-            })
-            .map_or(1, |i| i + 1)
-    }
 }
 
 /// The scenes the study names, read and parsed (not yet validated: the grid may complete them).

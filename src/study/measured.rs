@@ -2,12 +2,12 @@
 //! sampled series; plus the pieces every kind shares (building the run, summary columns).
 
 use super::format::cell;
-use super::load::RunSpec;
+use super::spec::RunSpec;
 use super::table::Table;
 use crate::data::DataPaths;
-use crate::experiment::{self, Outcome, OutcomeKind, RunSummary, Sample};
 use crate::integrate::State;
 use crate::parallel::Parallelism;
+use crate::run::{self, Outcome, OutcomeKind, RunSummary, Sample};
 use crate::scene::{self, RunConfig, Scene};
 
 /// The result of one run.
@@ -141,7 +141,7 @@ pub fn run_rows(scene: &mut Scene, run: &RunConfig) -> (RunSummary, Vec<Sample>)
         rows.push(s.clone());
         Ok(())
     };
-    let summary = experiment::run(
+    let summary = run::run(
         &mut scene.model,
         integrator.as_mut(),
         &mut state,

@@ -3,10 +3,9 @@
 
 use super::config::StudyKind;
 use super::format::now_utc;
-use super::load::Study;
 use super::machine::Machine;
-use super::runner::{RunOptions, parameter_columns};
-use crate::report::write_atomic;
+use super::spec::Study;
+use crate::io::write_atomic;
 use std::path::PathBuf;
 
 /// `meta.json`: what ran, where, when.
@@ -42,7 +41,8 @@ pub struct StudyMeta {
 impl Meta {
     pub(super) fn of(
         study: &Study,
-        options: &RunOptions,
+        jobs: usize,
+        only: Option<&str>,
         machine: &Machine,
         started: &str,
         elapsed: Option<std::time::Duration>,
@@ -72,7 +72,8 @@ impl Meta {
                 quick: study.quick,
                 sweep_parameter: sweep.map(|s| s.parameter.clone()),
                 sweep_metrics: sweep.map(|s| s.metrics.clone()).unwrap_or_default(),
-                parameters: parameter_columns(study)
+                parameters: study
+                    .parameter_columns()
                     .into_iter()
                     .map(|(_, c)| c)
                     .collect(),
@@ -84,8 +85,8 @@ impl Meta {
             command: std::env::args().collect(),
             config: serde_json::json!({
                 "study_file": study.text,
-                "jobs": options.jobs,
-                "only": options.only,
+                "jobs": jobs,
+                "only": only,
                 "stability": study.file.stability,
                 "work_precision": study.file.work_precision,
                 "sweep": study.file.sweep,

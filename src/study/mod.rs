@@ -7,10 +7,13 @@
 //! draws the plots again from the CSVs.
 
 pub mod config;
+mod context;
 mod error;
 pub mod format;
 mod grid;
 mod identity;
+mod kind;
+mod kinds;
 mod load;
 mod machine;
 mod measured;
@@ -20,6 +23,7 @@ mod progress;
 mod report;
 mod runner;
 mod settings;
+mod spec;
 pub mod stability;
 pub mod table;
 pub mod trajectory;
@@ -28,11 +32,12 @@ pub mod work_precision;
 pub use config::{StudyFile, StudyKind};
 pub use error::{ResultsError, StudyError};
 pub use identity::{fnv1a, value_text};
-pub use load::{RunSpec, Study, load};
+pub use load::load;
 pub use machine::Machine;
 pub use measured::Measured;
 pub use meta::{Meta, StudyMeta};
 pub use runner::{RunError, RunOptions, StudyRun, matches, run};
+pub use spec::{RunSpec, Study};
 
 /// Redraw the plots of a results folder from its `runs.csv`, series files and `meta.json`.
 pub fn redraw(dir: &std::path::Path) -> Result<Vec<plots::Plot>, RedrawError> {
@@ -65,11 +70,7 @@ fn check_runs_table(
         path: path.to_owned(),
         message,
     };
-    let kind_columns = match study.kind {
-        StudyKind::Stability => stability::COLUMNS,
-        StudyKind::WorkPrecision => work_precision::COLUMNS,
-        _ => trajectory::COLUMNS,
-    };
+    let kind_columns = kinds::spec(study.kind).columns;
     let required = [
         "run_id",
         "scene",

@@ -574,11 +574,11 @@ pub fn sweep_metrics(study: &StudyMeta) -> Vec<String> {
     if !study.sweep_metrics.is_empty() {
         return study.sweep_metrics.clone();
     }
-    match study.kind {
-        StudyKind::Stability => vec!["max_stable_dt".into(), "newton_iterations_per_step".into()],
-        StudyKind::WorkPrecision => vec!["error".into(), "wall_seconds".into()],
-        _ => vec!["energy_drift_max".into(), "step_seconds_median".into()],
-    }
+    super::kinds::spec(study.kind)
+        .sweep_metrics
+        .iter()
+        .map(|m| (*m).to_owned())
+        .collect()
 }
 
 fn sweep_charts(study: &StudyMeta, runs: &Table, metric: &str) -> Vec<LineChart> {

@@ -3,58 +3,15 @@
 
 use super::config::StudyKind;
 use super::format::short;
-use super::load::Study;
 use super::meta::Meta;
 use super::plots::Plot;
+use super::spec::Study;
 use super::table::Table;
 use super::work_precision::Reference;
-use crate::report::write_atomic;
+use crate::io::write_atomic;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
-
-/// The summary table's columns per kind (those present in runs.csv are shown).
-fn summary_columns(kind: StudyKind) -> &'static [&'static str] {
-    match kind {
-        StudyKind::Stability => &[
-            "stability",
-            "max_stable_dt",
-            "outcome",
-            "first_unstable_dt",
-            "stable_over_theory",
-            "cost_per_simulated_second",
-            "evaluations_per_simulated_second",
-            "error_at_stable_dt",
-            "non_monotone_dt",
-            "energy_growth_rate",
-            "newton_unconverged_steps",
-            "trials",
-        ],
-        StudyKind::WorkPrecision => &[
-            "dt",
-            "outcome",
-            "error",
-            "energy_error",
-            "wall_seconds",
-            "force_evaluations",
-            "hessian_evaluations",
-            "factorizations",
-            "linear_iterations",
-            "newton_unconverged_steps",
-        ],
-        _ => &[
-            "dt",
-            "outcome",
-            "energy_drift_max",
-            "energy_drift_final",
-            "momentum_drift",
-            "step_seconds_median",
-            "step_seconds_p95",
-            "newton_iterations_per_step",
-            "newton_unconverged_steps",
-        ],
-    }
-}
 
 /// The study's reference solutions by physics (scene name first), and those that failed
 /// (with why).
@@ -167,7 +124,8 @@ fn render(
     let mut columns: Vec<&str> = vec!["scene", "method", "linear_solver"];
     columns.extend(s.parameters.iter().map(String::as_str));
     columns.extend(
-        summary_columns(s.kind)
+        super::kinds::spec(s.kind)
+            .summary_columns
             .iter()
             .copied()
             .filter(|c| runs.column(c).is_some()),
@@ -210,7 +168,7 @@ fn render(
         let verdict = runs.get(row, "stability");
         let message = runs.get(row, "message").unwrap_or_default();
         let bad = !super::measured::is_clean(runs, row);
-        let completed = outcome == crate::experiment::OutcomeKind::Completed.name();
+        let completed = outcome == crate::run::OutcomeKind::Completed.name();
         let unscored = runs.get(row, "scored") == Some("no") && completed;
         let unconverged = runs
             .number(row, "newton_unconverged_steps")

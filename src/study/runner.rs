@@ -5,19 +5,19 @@
 use super::config::StudyKind;
 use super::format::now_utc;
 use super::identity::value_text;
-use super::load::{RunSpec, Study};
 use super::machine::Machine;
 use super::measured::{Measured, is_clean};
 use super::meta::Meta;
 use super::progress::Progress;
+use super::spec::{RunSpec, Study};
 use super::table::Table;
 use super::work_precision::Reference;
 use super::{report, stability, trajectory, work_precision};
 use crate::integrate::Method;
 use crate::interrupt;
+use crate::io::write_atomic;
 use crate::lock::{FolderLock, Wait};
 use crate::parallel::Parallelism;
-use crate::report::write_atomic;
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 
@@ -79,29 +79,13 @@ const IDENTITY: [&str; 4] = ["run_id", "scene", "method", "linear_solver"];
 
 /// The header of the study's `runs.csv`.
 pub fn header(study: &Study) -> Vec<String> {
-    let kind_columns = match study.kind {
-        StudyKind::Stability => stability::COLUMNS,
-        StudyKind::WorkPrecision => work_precision::COLUMNS,
-        _ => trajectory::COLUMNS,
-    };
+    let kind_columns = super::kinds::spec(study.kind).columns;
     IDENTITY
         .iter()
         .map(|s| (*s).to_owned())
-        .chain(parameter_columns(study).into_iter().map(|(_, c)| c))
+        .chain(study.parameter_columns().into_iter().map(|(_, c)| c))
         .chain(kind_columns.iter().map(|s| (*s).to_owned()))
         .chain(["message".to_owned(), "config_hash".to_owned()])
-        .collect()
-}
-
-/// The swept parameters that get a column (the time step has its own `dt` column), with the
-/// index into [`RunSpec::parameters`].
-pub(super) fn parameter_columns(study: &Study) -> Vec<(usize, String)> {
-    study
-        .parameters
-        .iter()
-        .enumerate()
-        .filter(|(_, p)| !(p.as_str() == "run.dt" && study.kind != StudyKind::Stability))
-        .map(|(i, p)| (i, p.clone()))
         .collect()
 }
 
@@ -166,9 +150,16 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
     let pending: Vec<&RunSpec> = selected.iter().copied().filter(|r| !done(r)).collect();
     let reused = selected.len() - pending.len();
     let machine = Machine::current();
-    Meta::of(study, options, &machine, &started, None)
-        .write(dir)
-        .map_err(io(&dir.join("meta.json")))?;
+    Meta::of(
+        study,
+        options.jobs,
+        options.only.as_deref(),
+        &machine,
+        &started,
+        None,
+    )
+    .write(dir)
+    .map_err(io(&dir.join("meta.json")))?;
 
     let progress = Progress::new(options.progress, pending.len() as u64);
     if reused > 0 {
@@ -279,7 +270,14 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
             not_ok.push((row[0].clone(), what.to_owned()));
         }
     }
-    let meta = Meta::of(study, options, &machine, &started, Some(clock.elapsed()));
+    let meta = Meta::of(
+        study,
+        options.jobs,
+        options.only.as_deref(),
+        &machine,
+        &started,
+        Some(clock.elapsed()),
+    );
     let plots = super::plots::draw_all(dir, &meta.study, &table)
         .map_err(|e| RunError::Run(format!("cannot draw the plots: {e}")))?;
     report::write(
@@ -308,22 +306,7 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
 
 /// One line per finished run.
 fn summary_line(kind: StudyKind, m: &Measured) -> String {
-    let number = |name: &str| {
-        m.get(name)
-            .and_then(|s| s.parse::<f64>().ok())
-            .map(super::format::short)
-    };
-    let extra = match kind {
-        StudyKind::Stability => Some(format!(
-            ", {}{}",
-            m.get("stability").unwrap_or_default(),
-            number("max_stable_dt")
-                .map(|dt| format!(" at dt {dt} s"))
-                .unwrap_or_default()
-        )),
-        StudyKind::WorkPrecision => number("error").map(|e| format!(", error {e}")),
-        _ => number("energy_drift_max").map(|d| format!(", energy drift {d}")),
-    };
+    let extra = (super::kinds::spec(kind).progress)(m);
     format!("{}{}", m.outcome, extra.unwrap_or_default())
 }
 
@@ -552,7 +535,8 @@ fn record(
             .write(&path)
             .map_err(|error| RunError::Io { path, error })?;
     }
-    let params: HashMap<String, String> = parameter_columns(study)
+    let params: HashMap<String, String> = study
+        .parameter_columns()
         .into_iter()
         .map(|(i, name)| {
             (

@@ -1,8 +1,8 @@
 //! Checking a study's kind and its settings tables before anything runs.
 
 use super::config::{StudyFile, StudyKind};
+use super::context::Context;
 use super::error::StudyError;
-use super::load::Context;
 
 /// Longest study name: it is a folder name, and run ids and file names are built from it.
 pub const MAX_NAME: usize = 100;
@@ -64,11 +64,7 @@ pub(super) fn check_settings(file: &StudyFile, ctx: &Context) -> Result<StudyKin
                     ),
                 });
             }
-            let columns = match sweep.kind {
-                StudyKind::Stability => super::stability::COLUMNS,
-                StudyKind::WorkPrecision => super::work_precision::COLUMNS,
-                _ => super::trajectory::COLUMNS,
-            };
+            let columns = super::kinds::spec(sweep.kind).columns;
             if let Some(unknown) = sweep
                 .metrics
                 .iter()

@@ -4,7 +4,7 @@
 //!
 //! A trial at `dt` is stable when it covers the whole horizon in at least `min_steps` and at
 //! most `max_steps` steps with every step taken and the energy balance holding (see
-//! [`crate::experiment::balance`]). Steps outside `[lowest_dt, highest_dt]` are never
+//! [`crate::run::balance`]). Steps outside `[lowest_dt, highest_dt]` are never
 //! judged, so no cap decides a verdict. The search: try `dt_max`; if it is stable, widen
 //! upward (x4) to the ceiling; otherwise bisect in log dt between a presumed-stable `dt_min`
 //! (tried once the bracket closes in on it, widened downward by 10x to `lowest_dt` if it
@@ -18,14 +18,15 @@
 
 use super::config::StabilitySettings;
 use super::format::{cell, short};
-use super::load::RunSpec;
+use super::kind::{KindSpec, number};
 use super::measured::{Measured, build, cap_cells, outcome_of, summary_cells};
+use super::spec::RunSpec;
 use super::table::Table;
 use super::work_precision::Reference;
-use crate::experiment::{self, Observer, Outcome, OutcomeKind, RunSummary, Sample};
 use crate::integrate::State;
 use crate::model::{HighestMode, Model, SpectrumSettings, highest_mode};
 use crate::parallel::Parallelism;
+use crate::run::{self, Observer, Outcome, OutcomeKind, RunSummary, Sample};
 use crate::scene::{RunConfig, Scene};
 
 /// Columns of a stability study's `runs.csv` after the run's identity.
@@ -70,6 +71,35 @@ pub const COLUMNS: &[&str] = &[
     "solve_seconds",
     "qp_seconds",
 ];
+
+/// What the rest of the study code asks of a stability study.
+pub(super) const SPEC: KindSpec = KindSpec {
+    columns: COLUMNS,
+    summary_columns: &[
+        "stability",
+        "max_stable_dt",
+        "outcome",
+        "first_unstable_dt",
+        "stable_over_theory",
+        "cost_per_simulated_second",
+        "evaluations_per_simulated_second",
+        "error_at_stable_dt",
+        "non_monotone_dt",
+        "energy_growth_rate",
+        "newton_unconverged_steps",
+        "trials",
+    ],
+    sweep_metrics: &["max_stable_dt", "newton_iterations_per_step"],
+    progress: |m| {
+        Some(format!(
+            ", {}{}",
+            m.get("stability").unwrap_or_default(),
+            number(m, "max_stable_dt")
+                .map(|dt| format!(" at dt {dt} s"))
+                .unwrap_or_default()
+        ))
+    },
+};
 
 /// The verdicts of the `stability` column.
 pub const VERDICTS: [&str; 4] = [
@@ -203,7 +233,7 @@ pub fn measure(
         let mut integrator = scene.integrator();
         let mut state = scene.initial.clone();
         let mut output = DenseOutput::new(sample_times.clone());
-        let mut summary = experiment::run(
+        let mut summary = run::run(
             &mut scene.model,
             integrator.as_mut(),
             &mut state,

@@ -2,7 +2,7 @@
 //! read back for resuming, plotting and reporting.
 
 use super::error::ResultsError;
-use crate::report::write_atomic;
+use crate::io::write_atomic;
 use std::path::Path;
 
 /// A CSV table.

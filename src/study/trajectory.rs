@@ -2,10 +2,11 @@
 //! time per step and evaluation counts.
 
 use super::format::cell;
-use super::load::RunSpec;
+use super::kind::{KindSpec, number};
 use super::measured::{Measured, build, cap_cells, outcome_of, run_rows, summary_cells};
-use crate::experiment::Sample;
+use super::spec::RunSpec;
 use crate::parallel::Parallelism;
+use crate::run::Sample;
 
 /// Columns of a trajectory study's `runs.csv` after the run's identity.
 pub const COLUMNS: &[&str] = &[
@@ -36,6 +37,24 @@ pub const COLUMNS: &[&str] = &[
     "solve_seconds",
     "qp_seconds",
 ];
+
+/// What the rest of the study code asks of a trajectory (and the runs of a sweep) study.
+pub(super) const SPEC: KindSpec = KindSpec {
+    columns: COLUMNS,
+    summary_columns: &[
+        "dt",
+        "outcome",
+        "energy_drift_max",
+        "energy_drift_final",
+        "momentum_drift",
+        "step_seconds_median",
+        "step_seconds_p95",
+        "newton_iterations_per_step",
+        "newton_unconverged_steps",
+    ],
+    sweep_metrics: &["energy_drift_max", "step_seconds_median"],
+    progress: |m| number(m, "energy_drift_max").map(|d| format!(", energy drift {d}")),
+};
 
 /// Run one trajectory.
 pub fn measure(spec: &RunSpec, parallelism: Parallelism) -> Result<Measured, String> {

@@ -11,12 +11,13 @@
 
 use super::config::WorkPrecisionSettings;
 use super::format::cell;
-use super::load::RunSpec;
+use super::kind::{KindSpec, number};
 use super::measured::{Measured, build, cap_cells, outcome_of, summary_cells};
-use crate::experiment::{self, Energies, Observer, RunSummary, Sample};
+use super::spec::RunSpec;
 use crate::integrate::{Method, State};
 use crate::model::Model;
 use crate::parallel::Parallelism;
+use crate::run::{self, Energies, Observer, RunSummary, Sample};
 use crate::scene::{RunConfig, Scene};
 
 /// Columns of a work-precision study's `runs.csv` after the run's identity.
@@ -49,6 +50,25 @@ pub const COLUMNS: &[&str] = &[
     "solve_seconds",
     "qp_seconds",
 ];
+
+/// What the rest of the study code asks of a work-precision study.
+pub(super) const SPEC: KindSpec = KindSpec {
+    columns: COLUMNS,
+    summary_columns: &[
+        "dt",
+        "outcome",
+        "error",
+        "energy_error",
+        "wall_seconds",
+        "force_evaluations",
+        "hessian_evaluations",
+        "factorizations",
+        "linear_iterations",
+        "newton_unconverged_steps",
+    ],
+    sweep_metrics: &["error", "wall_seconds"],
+    progress: |m| number(m, "error").map(|e| format!(", error {e}")),
+};
 
 /// The state at each sample time.
 #[derive(Clone, Debug)]
@@ -144,7 +164,7 @@ fn sampled_run(
             energies: Vec::new(),
         },
     };
-    let summary = experiment::run(
+    let summary = run::run(
         &mut scene.model,
         integrator.as_mut(),
         &mut state,

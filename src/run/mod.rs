@@ -5,9 +5,9 @@
 pub mod balance;
 mod metrics;
 mod outcome;
-mod run;
+mod run_loop;
 
 pub use balance::{EnergyBalance, EnergyScale};
 pub use metrics::{Energies, Metrics};
 pub use outcome::{Outcome, OutcomeKind};
-pub use run::{Observer, RunSummary, Sample, run};
+pub use run_loop::{Observer, RunSummary, Sample, run};

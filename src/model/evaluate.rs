@@ -1,0 +1,205 @@
+//! Evaluating a [`Model`]: the potential (split by source), its gradient and its sparse
+//! Hessian at a state `q`. Element quantities are computed into the model's preallocated
+//! buffers (in parallel chunks when asked) and gathered in a fixed order, so results are
+//! bitwise identical for any thread count; every evaluation is counted.
+
+use super::elastic::ElementFailure;
+use super::pattern::{gather_matrix, gather_vector};
+use super::{FIXED, HessianOptions, Model, ModelError, PotentialParts};
+use crate::sparse::SymmetricMatrix;
+use std::sync::Arc;
+
+impl Model {
+    pub(super) fn load_state(&mut self, q: &[f64]) -> Result<(), ModelError> {
+        if q.len() != self.num_dofs() {
+            return Err(ModelError::StateLength {
+                got: q.len(),
+                expected: self.num_dofs(),
+            });
+        }
+        self.dofs.scatter(q, &mut self.positions);
+        Ok(())
+    }
+
+    /// Sum the element vectors in the buffers (tets, springs) into `out` over free DOFs.
+    pub(super) fn gather_element_vectors(&self, out: &mut [f64]) {
+        let b = &self.buffers;
+        let families = [
+            (&self.tet_gather, b.tet_vectors.as_slice()),
+            (&self.spring_gather, b.spring_vectors.as_slice()),
+        ];
+        gather_vector(self.parallelism, &families, out);
+    }
+
+    /// Sum the element matrices in the buffers (tets, springs) into `values` over the pattern.
+    pub(super) fn gather_element_matrices(&self, values: &mut [f64]) {
+        let b = &self.buffers;
+        let families = [
+            (&self.tet_gather, b.tet_matrices.as_slice()),
+            (&self.spring_gather, b.spring_matrices.as_slice()),
+        ];
+        gather_matrix(self.parallelism, &self.pattern, &families, values);
+    }
+
+    pub(super) fn element_error(&self, f: ElementFailure) -> ModelError {
+        let material = self.material().map_or("material", |m| m.name());
+        ModelError::InvertedElement {
+            tet: f.tet,
+            det_f: f.det_f,
+            material,
+        }
+    }
+
+    /// The potential at `q`, split by source.
+    pub fn potential_parts(&mut self, q: &[f64]) -> Result<PotentialParts, ModelError> {
+        self.load_state(q)?;
+        self.counters.potential += 1;
+        let x = &self.positions;
+        let elastic = match &self.elastic {
+            Some(body) => {
+                self.buffers.partial.resize(body.num_chunks(), 0.0);
+                body.energy(self.parallelism, x, &mut self.buffers.partial)
+                    .map_err(|f| self.element_error(f))?
+            }
+            None => 0.0,
+        };
+        let springs = self
+            .springs
+            .iter()
+            .map(|s| s.energy(&x[s.i], &x[s.j]))
+            .sum();
+        let gravity = self.gravity.map_or(0.0, |g| {
+            -x.iter()
+                .zip(&self.vertex_mass)
+                .map(|(p, m)| m * g.dot(p))
+                .sum::<f64>()
+        });
+        let vertex = self
+            .vertex_potentials
+            .iter()
+            .map(|p| p.energy(self.time, x))
+            .sum();
+        Ok(PotentialParts {
+            elastic,
+            springs,
+            gravity,
+            vertex,
+        })
+    }
+
+    /// The total potential at `q` (J).
+    pub fn potential(&mut self, q: &[f64]) -> Result<f64, ModelError> {
+        Ok(self.potential_parts(q)?.total())
+    }
+
+    /// The gradient of the potential at `q`, written to `g` (length [`Self::num_dofs`]).
+    pub fn gradient(&mut self, q: &[f64], g: &mut [f64]) -> Result<(), ModelError> {
+        self.load_state(q)?;
+        assert_eq!(
+            g.len(),
+            self.num_dofs(),
+            "gradient output has the wrong length"
+        );
+        self.counters.gradient += 1;
+        let par = self.parallelism;
+        let b = &mut self.buffers;
+        if let Some(body) = &self.elastic {
+            b.tet_vectors.resize(12 * body.tets.len(), 0.0);
+            let res = body.gradients(par, &self.positions, &mut b.tet_vectors);
+            if let Err(f) = res {
+                return Err(self.element_error(f));
+            }
+        }
+        b.spring_vectors.resize(6 * self.springs.len(), 0.0);
+        for (s, out) in self
+            .springs
+            .iter()
+            .zip(b.spring_vectors.chunks_exact_mut(6))
+        {
+            s.gradient(&self.positions[s.i], &self.positions[s.j], out);
+        }
+        self.gather_element_vectors(g);
+        if let Some(gr) = self.gravity {
+            for (f, &v) in self.dofs.free_vertices().iter().enumerate() {
+                for i in 0..3 {
+                    g[3 * f + i] -= self.vertex_mass[v] * gr[i];
+                }
+            }
+        }
+        let dofs = &self.dofs;
+        for p in &self.vertex_potentials {
+            p.gradient(self.time, &self.positions, &mut |v, gv| {
+                let f = dofs.free_index(v);
+                if f != FIXED {
+                    let f = f as usize;
+                    for i in 0..3 {
+                        g[3 * f + i] += gv[i];
+                    }
+                }
+            });
+        }
+        Ok(())
+    }
+
+    /// The Hessian of the potential at `q`, written into `h` (which must be over
+    /// [`Self::hessian_pattern`]; see [`Self::new_hessian`]).
+    pub fn hessian(
+        &mut self,
+        q: &[f64],
+        h: &mut SymmetricMatrix,
+        options: HessianOptions,
+    ) -> Result<(), ModelError> {
+        self.load_state(q)?;
+        assert!(
+            Arc::ptr_eq(h.pattern(), self.pattern.scalar()),
+            "the Hessian must be created by Model::new_hessian"
+        );
+        self.counters.hessian += 1;
+        let par = self.parallelism;
+        let b = &mut self.buffers;
+        if let Some(body) = &self.elastic {
+            b.tet_matrices.resize(144 * body.tets.len(), 0.0);
+            let res = body.hessians(
+                par,
+                &self.positions,
+                options.project_elements,
+                &mut b.tet_matrices,
+            );
+            if let Err(f) = res {
+                return Err(self.element_error(f));
+            }
+        }
+        b.spring_matrices.resize(36 * self.springs.len(), 0.0);
+        for (s, out) in self
+            .springs
+            .iter()
+            .zip(b.spring_matrices.chunks_exact_mut(36))
+        {
+            s.hessian(
+                &self.positions[s.i],
+                &self.positions[s.j],
+                options.project_elements,
+                out,
+            );
+        }
+        self.gather_element_matrices(h.values_mut());
+        let values = h.values_mut();
+        let (dofs, slots) = (&self.dofs, &self.diagonal_slots);
+        for p in &self.vertex_potentials {
+            p.hessian(
+                self.time,
+                &self.positions,
+                options.project_elements,
+                &mut |v, block| {
+                    let f = dofs.free_index(v);
+                    if f != FIXED {
+                        for (slot, value) in slots[f as usize].iter().zip(block.iter()) {
+                            values[*slot] += value;
+                        }
+                    }
+                },
+            );
+        }
+        Ok(())
+    }
+}

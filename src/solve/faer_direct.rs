@@ -1,0 +1,241 @@
+//! faer's sparse direct solvers, one backend over both factorizations: `A = L Lᵀ`
+//! ([`Llt`], the workhorse for the SPD systems of implicit integrators with projected
+//! Hessians) and `A = L D Lᵀ` without pivoting ([`Ldlt`], for symmetric systems that may be
+//! indefinite). AMD ordering, supernodal when it pays.
+//!
+//! `analyze` orders and symbolically factors the pattern once and allocates the factor's
+//! values, the scratch memory (sized from faer's `*_scratch` functions) and the residual
+//! buffers; `factor` and `solve` then allocate nothing (the very first numeric factorization
+//! on a thread lets faer's dense kernels set up per-thread state once). What differs between
+//! the two is a [`Factorization`]: the numeric phase, how a failed pivot is reported and the
+//! triangular solves.
+//!
+//! LDLᵀ succeeds on indefinite matrices without saying so, so every LDLᵀ `factor` counts the
+//! negative entries of D ([`FactorReport::negative_pivots`]): by Sylvester's law of inertia
+//! that is the number of negative eigenvalues of `A`. Its contract is to factor any symmetric
+//! nonsingular matrix and report its inertia; a caller that needs `A` positive definite acts
+//! on the count (the implicit integrators' system falls back to projected Hessians, as on a
+//! failed Cholesky pivot). Without pivoting the factorization can be unstable on strongly
+//! indefinite matrices; the residual in each [`SolveReport`] shows it.
+
+use std::marker::PhantomData;
+use std::sync::Arc;
+use std::time::Instant;
+
+use faer::dyn_stack::MemStack;
+use faer::linalg::cholesky::ldlt::factor::{LdltError, LdltRegularization};
+use faer::linalg::cholesky::llt::factor::{LltError, LltRegularization};
+use faer::sparse::linalg::cholesky::supernodal::SupernodalLdltRef;
+use faer::sparse::linalg::cholesky::{LdltRef, LltRef, SymbolicCholeskyRaw};
+use faer::{Conj, MatMut, Side};
+
+use super::faer_common::{FaerFactor, ScratchKind};
+use super::{
+    Analyzed, DirectSettings, FactorReport, LinearSolver, ResidualCheck, SolveError, SolveReport,
+    SolverStats, check_rhs, finish_direct_solve, record_factor,
+};
+use crate::sparse::{SparsityPattern, SymmetricMatrix};
+
+/// A numeric factorization of faer's symbolic Cholesky structure.
+pub trait Factorization: Send + 'static {
+    /// The solver's name (as in the registry).
+    const NAME: &'static str;
+    /// Which numeric phase the scratch memory must fit.
+    const SCRATCH: ScratchKind;
+    /// Numeric factorization of `a` into `f`'s storage; the report of a success (LDLᵀ: the
+    /// inertia), or the typed failure with the column in the original ordering.
+    fn factor(f: &mut FaerFactor, a: &SymmetricMatrix) -> Result<FactorReport, SolveError>;
+    /// Solves in place with the factor in `f`.
+    fn solve(f: &mut FaerFactor, x: MatMut<'_, f64>);
+}
+
+/// `A = L Lᵀ`. A non-positive pivot is `NotPositiveDefinite` with the column in the original
+/// ordering.
+pub struct Llt;
+
+impl Factorization for Llt {
+    const NAME: &'static str = "cholesky";
+    const SCRATCH: ScratchKind = ScratchKind::Llt;
+
+    fn factor(f: &mut FaerFactor, a: &SymmetricMatrix) -> Result<FactorReport, SolveError> {
+        let result = f.symbolic.factorize_numeric_llt(
+            &mut f.values,
+            a.as_faer(),
+            Side::Lower,
+            LltRegularization::default(),
+            f.par,
+            MemStack::new(&mut f.mem),
+            Default::default(),
+        );
+        match result {
+            Ok(_) => Ok(FactorReport::default()),
+            Err(LltError::NonPositivePivot { index }) => Err(SolveError::NotPositiveDefinite {
+                column: f.original_column(index),
+            }),
+        }
+    }
+
+    fn solve(f: &mut FaerFactor, x: MatMut<'_, f64>) {
+        LltRef::new(&f.symbolic, &f.values).solve_in_place_with_conj(
+            Conj::No,
+            x,
+            f.par,
+            MemStack::new(&mut f.mem),
+        );
+    }
+}
+
+/// `A = L D Lᵀ` without pivoting, reporting the inertia. An exactly zero (or non-finite)
+/// pivot is `SingularMatrix` with the column in the original ordering.
+pub struct Ldlt;
+
+impl Factorization for Ldlt {
+    const NAME: &'static str = "ldlt";
+    const SCRATCH: ScratchKind = ScratchKind::Ldlt;
+
+    fn factor(f: &mut FaerFactor, a: &SymmetricMatrix) -> Result<FactorReport, SolveError> {
+        let result = f.symbolic.factorize_numeric_ldlt(
+            &mut f.values,
+            a.as_faer(),
+            Side::Lower,
+            LdltRegularization::default(),
+            f.par,
+            MemStack::new(&mut f.mem),
+            Default::default(),
+        );
+        if let Err(LdltError::ZeroPivot { index }) = result {
+            return Err(SolveError::SingularMatrix {
+                column: f.original_column(index),
+            });
+        }
+        Ok(FactorReport {
+            negative_pivots: Some(negative_pivots(f)),
+            ..Default::default()
+        })
+    }
+
+    fn solve(f: &mut FaerFactor, x: MatMut<'_, f64>) {
+        LdltRef::new(&f.symbolic, &f.values).solve_in_place_with_conj(
+            Conj::No,
+            x,
+            f.par,
+            MemStack::new(&mut f.mem),
+        );
+    }
+}
+
+/// Negative entries of D. D sits on the diagonal of L's storage: first entry of each column
+/// (simplicial), diagonal of each supernode's leading block (supernodal).
+fn negative_pivots(f: &FaerFactor) -> usize {
+    match f.symbolic.raw() {
+        SymbolicCholeskyRaw::Simplicial(s) => s.col_ptr()[..s.ncols()]
+            .iter()
+            .filter(|&&p| f.values[p] < 0.0)
+            .count(),
+        SymbolicCholeskyRaw::Supernodal(s) => {
+            let l = SupernodalLdltRef::new(s, &f.values);
+            (0..s.n_supernodes())
+                .map(|k| {
+                    let block = l.supernode(k).val();
+                    (0..block.ncols()).filter(|&j| block[(j, j)] < 0.0).count()
+                })
+                .sum()
+        }
+    }
+}
+
+/// A faer sparse direct solver with the factorization `F`.
+pub struct FaerDirectSolver<F: Factorization> {
+    settings: DirectSettings,
+    analyzed: Analyzed,
+    factor: Option<FaerFactor>,
+    /// Copy of `b` and `A x` for the residual check.
+    b: Vec<f64>,
+    ax: Vec<f64>,
+    stats: SolverStats,
+    factorization: PhantomData<F>,
+}
+
+/// Sparse LLᵀ (`cholesky`).
+pub type CholeskySolver = FaerDirectSolver<Llt>;
+
+/// Sparse LDLᵀ (`ldlt`), reporting the inertia.
+pub type LdltSolver = FaerDirectSolver<Ldlt>;
+
+impl<F: Factorization> FaerDirectSolver<F> {
+    /// A solver with the given settings; nothing is allocated before `analyze`.
+    pub fn new(settings: DirectSettings) -> Self {
+        Self {
+            settings,
+            analyzed: Analyzed::default(),
+            factor: None,
+            b: Vec::new(),
+            ax: Vec::new(),
+            stats: SolverStats::default(),
+            factorization: PhantomData,
+        }
+    }
+
+    fn factor_inner(&mut self, a: &SymmetricMatrix) -> Result<FactorReport, SolveError> {
+        let a = self.analyzed.load(a)?;
+        let f = self
+            .factor
+            .as_mut()
+            .expect("load succeeds only after an analysis");
+        let report = F::factor(f, a)?;
+        self.analyzed.factored = true;
+        Ok(report)
+    }
+}
+
+impl<F: Factorization> LinearSolver for FaerDirectSolver<F> {
+    fn name(&self) -> &'static str {
+        F::NAME
+    }
+
+    fn analyze(&mut self, pattern: &Arc<SparsityPattern>) -> Result<(), SolveError> {
+        let start = Instant::now();
+        if self.analyzed.is_current(pattern) {
+            self.stats.analyses_reused += 1;
+        } else {
+            let f = FaerFactor::analyze(pattern, &self.settings, F::SCRATCH)?;
+            self.stats.factor_nnz = f.nnz;
+            self.stats.factor_storage = f.values.len();
+            self.factor = Some(f);
+            self.analyzed.set(pattern);
+            self.b = vec![0.0; pattern.dim()];
+            self.ax = vec![0.0; pattern.dim()];
+            self.stats.analyses += 1;
+        }
+        self.stats.analyze_time += start.elapsed();
+        Ok(())
+    }
+
+    fn factor(&mut self, a: &SymmetricMatrix) -> Result<FactorReport, SolveError> {
+        let start = Instant::now();
+        let result = self.factor_inner(a);
+        record_factor(&mut self.stats, start.elapsed(), result)
+    }
+
+    fn solve(&mut self, x: &mut [f64]) -> Result<SolveReport, SolveError> {
+        let start = Instant::now();
+        let a = self.analyzed.factored_matrix()?;
+        check_rhs(x, a.dim())?;
+        let f = self.factor.as_mut().expect("factored implies analyzed");
+        self.b.copy_from_slice(x);
+        let n = x.len();
+        F::solve(f, MatMut::from_column_major_slice_mut(x, n, 1));
+        let check = ResidualCheck {
+            a,
+            b: &self.b,
+            x,
+            ax: &mut self.ax,
+            parallelism: self.settings.parallelism,
+        };
+        Ok(finish_direct_solve(check, start, &mut self.stats))
+    }
+
+    fn stats(&self) -> &SolverStats {
+        &self.stats
+    }
+}
