@@ -38,6 +38,9 @@ fn the_cow_drop_study_runs_without_downloaded_data() {
     );
     let runs = std::fs::read_to_string(tmp.path().join("cow_drop/runs.csv")).unwrap();
     assert_eq!(runs.lines().count(), 4, "{runs}");
-    assert!(runs.lines().skip(1).all(|l| l.contains(",completed,")), "{runs}");
+    assert!(
+        runs.lines().skip(1).all(|l| l.contains(",completed,")),
+        "{runs}"
+    );
     assert!(runs.contains("cow-rk4,cow,rk4"));
 }

@@ -110,7 +110,10 @@ fn files_written_by_meshio_read_back_with_the_same_points_and_tets() {
         for (v, (a, b)) in read.positions.iter().zip(&mesh.positions).enumerate() {
             if name == "ascii.vtu" {
                 // meshio's ASCII VTU writer prints 12 significant digits.
-                assert!((a - b).amax() <= 1e-11 * b.amax().max(1.0), "{name}: vertex {v}");
+                assert!(
+                    (a - b).amax() <= 1e-11 * b.amax().max(1.0),
+                    "{name}: vertex {v}"
+                );
             } else {
                 // Binary files are exact; the other ASCII writers print 17 significant
                 // digits, which round-trip.
@@ -382,8 +385,8 @@ fn mutated_files_never_panic() {
         p.iter().for_each(|x: &f64| binary.extend(x.to_le_bytes()));
     }
     binary.extend(b"\n$EndNodes\n$Elements\n1\n");
-    for v in [4, 1, 2, 1, 0, 0, 1, 2, 3, 4] {
-        binary.extend((v as i32).to_le_bytes());
+    for v in [4i32, 1, 2, 1, 0, 0, 1, 2, 3, 4] {
+        binary.extend(v.to_le_bytes());
     }
     binary.extend(b"\n$EndElements\n");
     let seeds: [(&str, Vec<u8>); 4] = [

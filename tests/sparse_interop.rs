@@ -47,7 +47,10 @@ fn assert_same(csc: &CscMatrix<f64>, dense: &DMatrix<f64>, what: &str) {
     assert_eq!((csc.nrows(), csc.ncols()), dense.shape(), "{what}");
     let back = DMatrix::from(csc);
     assert_eq!(&back, dense, "{what}");
-    assert!(dense.iter().any(|&x| x != 0.0), "{what}: compared a zero matrix");
+    assert!(
+        dense.iter().any(|&x| x != 0.0),
+        "{what}: compared a zero matrix"
+    );
 }
 
 #[test]
@@ -55,7 +58,9 @@ fn csc_hessian_equals_the_dense_hessian() {
     let mut model = damped_block(MassKind::Consistent);
     let q = deformed(&model);
     let mut h = model.new_hessian();
-    model.hessian(&q, &mut h, HessianOptions::default()).unwrap();
+    model
+        .hessian(&q, &mut h, HessianOptions::default())
+        .unwrap();
     let csc = h.to_csc();
     assert_same(&csc, &h.to_dense(), "Hessian");
     // Both triangles are stored, with the pattern's row order.
@@ -70,7 +75,11 @@ fn csc_hessian_equals_the_dense_hessian() {
         model.hessian(&q, &mut p, options).unwrap();
         p
     };
-    assert_same(&projected.to_csc(), &projected.to_dense(), "projected Hessian");
+    assert_same(
+        &projected.to_csc(),
+        &projected.to_dense(),
+        "projected Hessian",
+    );
 }
 
 #[test]
