@@ -559,12 +559,17 @@ fn unpack(raw: &[u8], enc: Encoding) -> Result<Vec<u8>, String> {
         .saturating_sub(1)
         .saturating_mul(block_size)
         .saturating_add(if blocks > 0 { last_size } else { 0 });
-    if total > 64 * raw.len() as u64 + 1024 {
+    // zlib can shrink an array of zeros a thousandfold, so the announced size is bounded by
+    // the mesh budget (every entry of a point or cell array of a budget-sized mesh, nine
+    // 8-byte components), not by the compressed size; memory grows with what decompresses.
+    let budget = crate::limits::MESH.limit().saturating_mul(9 * 8);
+    if total > budget {
         return Err(format!(
-            "compressed DataArray announces {total} bytes, far more than its data could hold"
+            "compressed DataArray announces {total} bytes, more than an array of a mesh within \
+             the mesh budget can hold"
         ));
     }
-    let mut out = Vec::with_capacity(total as usize);
+    let mut out = Vec::with_capacity((total as usize).min(raw.len().saturating_mul(4)));
     let mut at = table_end as usize;
     for b in 0..blocks as usize {
         let size = header(3 + b)? as usize;
