@@ -20,7 +20,12 @@ fn run_with_meshio(script: &str) -> Option<String> {
         .output();
     if !probe.as_ref().is_ok_and(|o| o.status.success()) {
         let why = match &probe {
-            Ok(o) => String::from_utf8_lossy(&o.stderr).trim().to_owned(),
+            Ok(o) => String::from_utf8_lossy(&o.stderr)
+                .trim()
+                .lines()
+                .last()
+                .unwrap_or("")
+                .to_owned(),
             Err(e) => format!("cannot run python3: {e}"),
         };
         assert!(
