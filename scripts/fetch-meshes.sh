@@ -14,7 +14,6 @@
 set -euo pipefail
 
 dest=${1:-meshes}
-mkdir -p "$dest"
 
 a3=https://raw.githubusercontent.com/dilevin/CSC417-a3-finite-elements-3d/25a62624c6bb68df1c11d2d3d1ad13fd7c173b88/data
 a2=https://raw.githubusercontent.com/dilevin/CSC417-a2-mass-spring-3d/030e0666c5874a0c074f697b67048f159f6fce29/data
@@ -37,39 +36,67 @@ files=(
   "cone.mesh          $brown/cone.mesh           6e77d6d79246b0fc5fbfe506f3a498967d098bc4b9ce5b52bb7692010f437b2e"
 )
 
+# Fail fast and leave nothing behind: check that the host answers before anything is
+# created, download into a temporary folder, and move the files into DEST only when every
+# one has arrived with the right checksum.
+host=https://raw.githubusercontent.com
 if command -v curl >/dev/null; then
-  fetch() { curl -fsSL --retry 3 -o "$2" "$1"; }
+  fetch() { curl -fsS --connect-timeout 10 --max-time 120 --retry 2 -o "$2" "$1" 2>&1; }
+  reach() { curl -fsS --connect-timeout 10 --max-time 20 -o /dev/null "$1" 2>&1; }
 elif command -v wget >/dev/null; then
-  fetch() { wget -q -O "$2" "$1"; }
+  fetch() { wget -nv --timeout=30 --tries=2 -O "$2" "$1" 2>&1 >/dev/null | tail -n 1; return "${PIPESTATUS[0]}"; }
+  reach() { wget -nv --timeout=10 --tries=1 -O /dev/null "$1" 2>&1 >/dev/null | tail -n 1; return "${PIPESTATUS[0]}"; }
 else
-  echo "error: need curl or wget" >&2
+  echo "error: need curl or wget to download the meshes" >&2
   exit 1
 fi
 
-failed=0
+present() { [ -f "$dest/$1" ] && echo "$2  $dest/$1" | sha256sum -c --status; }
+missing=0
+for entry in "${files[@]}"; do
+  read -r name _ sum <<<"$entry"
+  present "$name" "$sum" || missing=$((missing + 1))
+done
+if [ "$missing" -eq 0 ]; then
+  echo "all reference meshes are already in $dest (checksums match)"
+  echo "now: export SOFTBENCH_DATA=\"$(cd "$dest" && pwd)\""
+  exit 0
+fi
+
+read -r _ probe_url _ <<<"${files[0]}"
+if ! why=$(reach "$probe_url"); then
+  echo "error: cannot download from $host (offline, or blocked by a proxy?): $why" >&2
+  echo "nothing was written; get the meshes on a connected machine and copy the folder, or" >&2
+  echo "rerun this script when online" >&2
+  exit 1
+fi
+
+tmp=$(mktemp -d "${TMPDIR:-/tmp}/softbench-meshes.XXXXXX")
+trap 'rm -rf "$tmp"' EXIT
+
 for entry in "${files[@]}"; do
   read -r name url sum <<<"$entry"
-  target="$dest/$name"
-  if [ -f "$target" ] && echo "$sum  $target" | sha256sum -c --status; then
+  if present "$name" "$sum"; then
     echo "ok       $name (already present)"
     continue
   fi
-  if ! fetch "$url" "$target.part"; then
-    echo "FAILED   $name: download from $url failed" >&2
-    rm -f "$target.part"; failed=1; continue
+  if ! out=$(fetch "$url" "$tmp/$name") || [ ! -s "$tmp/$name" ]; then
+    echo "error: downloading $name from $url failed: ${out:-empty file}" >&2
+    echo "nothing was written to $dest" >&2
+    exit 1
   fi
-  if echo "$sum  $target.part" | sha256sum -c --status; then
-    mv "$target.part" "$target"
-    echo "ok       $name"
-  else
-    echo "FAILED   $name: SHA-256 mismatch (got $(sha256sum "$target.part" | cut -d' ' -f1))" >&2
-    rm -f "$target.part"; failed=1
+  if ! echo "$sum  $tmp/$name" | sha256sum -c --status; then
+    echo "error: $name: SHA-256 mismatch (got $(sha256sum "$tmp/$name" | cut -d' ' -f1)," \
+      "expected $sum)" >&2
+    echo "nothing was written to $dest" >&2
+    exit 1
   fi
+  echo "ok       $name"
 done
 
-if [ "$failed" -ne 0 ]; then
-  echo "some files failed; nothing partial was kept" >&2
-  exit 1
-fi
+mkdir -p "$dest"
+for f in "$tmp"/*; do
+  [ -e "$f" ] && mv "$f" "$dest/"
+done
 echo
 echo "all reference meshes are in $dest; now: export SOFTBENCH_DATA=\"$(cd "$dest" && pwd)\""

@@ -63,11 +63,14 @@ fn describe(name: &Path, tried: &[(PathBuf, Place)], data_dir_set: bool) -> Stri
     }
     if !name.is_absolute() {
         if data_dir_set {
-            s += &format!("\n{DATA_ENV} is set; check that it names the folder holding the file");
+            s += &format!(
+                "\n{DATA_ENV} is set; check that it names the folder holding the file \
+                 (`scripts/fetch-meshes.sh DIR` downloads the reference meshes into DIR)"
+            );
         } else {
             s += &format!(
-                "\n{DATA_ENV} is not set; set it to the folder holding the reference meshes, \
-                 e.g. `export {DATA_ENV}=/path/to/meshes`"
+                "\n{DATA_ENV} is not set; fetch the reference meshes with \
+                 `scripts/fetch-meshes.sh meshes`, then `export {DATA_ENV}=$PWD/meshes`"
             );
         }
     }

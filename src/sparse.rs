@@ -147,4 +147,30 @@ impl SymmetricMatrix {
     pub fn as_faer(&self) -> SparseColMatRef<'_, usize, f64> {
         SparseColMatRef::new(self.pattern.as_faer(), &self.values)
     }
+
+    /// A [`nalgebra_sparse::CscMatrix`] with the same entries (both triangles, rows sorted).
+    ///
+    /// One copy: `CscMatrix` owns its arrays, so the column offsets, row indices and values
+    /// are copied once (O(nnz), no sorting or checking beyond nalgebra-sparse's own). The
+    /// model's Hessian, damping and consistent mass matrices are `SymmetricMatrix`es, so
+    /// `model.hessian(q, &mut h, options)` then `h.to_csc()` exports the Hessian; see
+    /// [`crate::model::MassMatrix::to_csc`] for the mass.
+    pub fn to_csc(&self) -> nalgebra_sparse::CscMatrix<f64> {
+        nalgebra_sparse::CscMatrix::try_from_pattern_and_values(
+            csc_pattern(&self.pattern),
+            self.values.clone(),
+        )
+        .expect("one value per entry of a valid pattern")
+    }
+}
+
+/// The nalgebra-sparse form of a pattern (one copy of its arrays).
+pub(crate) fn csc_pattern(p: &SparsityPattern) -> nalgebra_sparse::pattern::SparsityPattern {
+    nalgebra_sparse::pattern::SparsityPattern::try_from_offsets_and_indices(
+        p.n,
+        p.n,
+        p.col_ptr.clone(),
+        p.row_idx.clone(),
+    )
+    .expect("a SparsityPattern has sorted, in-range, unique rows per column")
 }

@@ -98,3 +98,14 @@ fn command_line_names_are_looked_up_in_the_current_folder_first() {
     assert_eq!(err.tried[0].1, Place::CurrentDir);
     assert!(err.to_string().contains("(current folder)"));
 }
+
+#[test]
+fn a_missing_mesh_names_the_fetch_script() {
+    for data_dir in [None, Some(std::env::temp_dir())] {
+        let err = DataPaths::new(data_dir)
+            .resolve("no-such-mesh-here.mesh", None)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("scripts/fetch-meshes.sh"), "{err}");
+    }
+}

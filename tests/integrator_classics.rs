@@ -7,12 +7,12 @@ mod common;
 
 use common::bodies::{block, integrator, kicked, omega_max};
 use nalgebra::Vector3;
-use softbench::run::Metrics;
 use softbench::integrate::bdf::{BdfSettings, BdfStartup};
 use softbench::integrate::{Integrator, IntegratorSettings, Method, State, StepReport};
 use softbench::material::{LameParameters, MaterialModel};
 use softbench::mesh::generate::box_mesh;
 use softbench::model::{MassKind, Model, ModelSpec};
+use softbench::run::Metrics;
 
 fn method(name: &str) -> Method {
     Method::from_name(name).unwrap()

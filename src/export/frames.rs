@@ -338,6 +338,7 @@ impl TetFrames {
             tets: &self.tets,
             point_vectors: &point_vectors,
             cell_scalars: &cell_scalars,
+            time: Some(state.t),
         };
         write_atomic(path, |w| write_vtu(w, &grid)).map_err(|e| with_path(e, path))
     }

@@ -25,6 +25,9 @@ pub struct VtuGrid<'a> {
     pub point_vectors: &'a [(&'a str, &'a [Vector3<f64>])],
     /// Scalar arrays with one entry per tet (e.g. `J`).
     pub cell_scalars: &'a [(&'a str, &'a [f64])],
+    /// The simulated time (s), written as the field `TimeValue` (VTK's name for it), so a
+    /// run can restart from the frame at its time (`[initial] from`).
+    pub time: Option<f64>,
 }
 
 /// Writes `grid` as a `.vtu` document.
@@ -55,6 +58,19 @@ pub fn write_vtu(w: &mut dyn Write, grid: &VtuGrid) -> io::Result<()> {
         r#"<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" header_type="UInt64">"#
     )?;
     writeln!(w, "  <UnstructuredGrid>")?;
+    if let Some(t) = grid.time {
+        writeln!(w, "    <FieldData>")?;
+        let mut block = Vec::with_capacity(16);
+        block.extend(8u64.to_le_bytes());
+        block.extend(t.to_le_bytes());
+        text.clear();
+        base64::encode_into(&block, &mut text);
+        writeln!(
+            w,
+            r#"      <DataArray type="Float64" Name="TimeValue" NumberOfTuples="1" format="binary">{text}</DataArray>"#
+        )?;
+        writeln!(w, "    </FieldData>")?;
+    }
     writeln!(w, r#"    <Piece NumberOfPoints="{n}" NumberOfCells="{m}">"#)?;
     if let Some((first, _)) = grid.point_vectors.first() {
         writeln!(w, r#"      <PointData Vectors="{}">"#, escape(first))?;

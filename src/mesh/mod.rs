@@ -3,7 +3,8 @@
 //!
 //! - Readers, one module per format: [`medit`] (MEDIT `.mesh`, 1-based), [`plain`] (Brown
 //!   `v`/`t` `.mesh`, 0-based), [`tetgen`] (`.node` + `.ele`, base from the first id), [`obj`]
-//!   (OBJ surfaces, 1-based); [`read_tet_mesh`], [`read_surface_mesh`] and [`read_mesh`] pick
+//!   (OBJ surfaces, 1-based), [`gmsh`] (`.msh` 2.2 and 4.1, ASCII and binary), [`vtk`] (`.vtu`
+//!   XML and legacy ASCII `.vtk` unstructured grids); [`read_tet_mesh`], [`read_surface_mesh`] and [`read_mesh`] pick
 //!   one by extension and content. In memory every index is 0-based.
 //! - [`surface`]: boundary faces, edge topology, closed-manifold check.
 //! - [`generate`]: box, beam and ball meshes.
@@ -15,8 +16,10 @@
 //! `(b - a) · ((c - a) × (d - a)) > 0` (the convention of every reference mesh). A surface
 //! triangle is wound counter-clockwise seen from outside (normals out by the right-hand rule).
 
+mod bytes;
 mod error;
 pub mod generate;
+pub mod gmsh;
 pub mod medit;
 pub mod obj;
 pub mod plain;
@@ -27,6 +30,7 @@ pub mod surface;
 pub mod tet_grid;
 pub mod tetgen;
 mod text;
+pub mod vtk;
 
 pub use error::MeshError;
 pub use generate::{ball, beam, box_mesh};

@@ -1,12 +1,15 @@
 //! Choosing a reader: by extension, and by content where an extension is shared (`.mesh` is
-//! either MEDIT or the plain Brown format) or missing.
+//! either MEDIT or the plain Brown format) or missing. Gmsh and VTK files are recognized by
+//! their first bytes (`$MeshFormat`, `<?xml`/`<VTKFile`, `# vtk DataFile`) whatever their
+//! extension; a `.msh`, `.vtu` or `.vtk` file that does not start so is read by the reader its
+//! extension names, whose error then says what it expected.
 
 use std::fmt;
 use std::path::Path;
 
 use serde::Serialize;
 
-use super::{MeshError, SurfaceMesh, TetMesh, medit, obj, plain, tetgen, text};
+use super::{MeshError, SurfaceMesh, TetMesh, gmsh, medit, obj, plain, tetgen, text, vtk};
 
 /// The mesh file formats softbench reads.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -23,6 +26,15 @@ pub enum MeshFormat {
     /// Wavefront OBJ triangle surface, 1-based.
     #[serde(rename = "obj")]
     Obj,
+    /// Gmsh `.msh` 2.2 or 4.1, ASCII or binary (linear tets).
+    #[serde(rename = "gmsh")]
+    Gmsh,
+    /// VTK XML unstructured grid `.vtu` (linear tets).
+    #[serde(rename = "vtu")]
+    Vtu,
+    /// Legacy VTK `.vtk`, ASCII unstructured grid (linear tets).
+    #[serde(rename = "vtk")]
+    LegacyVtk,
 }
 
 impl MeshFormat {
@@ -39,6 +51,9 @@ impl fmt::Display for MeshFormat {
             MeshFormat::Plain => "plain v/t .mesh",
             MeshFormat::TetGen => "TetGen .node/.ele",
             MeshFormat::Obj => "Wavefront OBJ",
+            MeshFormat::Gmsh => "Gmsh .msh",
+            MeshFormat::Vtu => "VTK XML .vtu",
+            MeshFormat::LegacyVtk => "legacy VTK .vtk",
         })
     }
 }
@@ -58,7 +73,23 @@ pub fn read_mesh(path: impl AsRef<Path>) -> Result<(MeshFormat, AnyMesh), MeshEr
     if is_tetgen_path(path) {
         return Ok((MeshFormat::TetGen, AnyMesh::Tet(tetgen::read(path)?)));
     }
-    let content = text::read_text(path)?;
+    let bytes = std::fs::read(path).map_err(|error| MeshError::Io {
+        path: path.to_path_buf(),
+        error,
+    })?;
+    let ext = extension(path);
+    if gmsh::looks_like(&bytes) || (ext.as_deref() == Some("msh") && !vtk::looks_like_vtu(&bytes)) {
+        return Ok((MeshFormat::Gmsh, AnyMesh::Tet(gmsh::parse(&bytes, path)?)));
+    }
+    if vtk::looks_like_vtu(&bytes) || ext.as_deref() == Some("vtu") {
+        let frame = vtk::parse_vtu(&bytes, path)?;
+        return Ok((MeshFormat::Vtu, AnyMesh::Tet(frame.mesh)));
+    }
+    let content = text::decode_text(path, bytes)?;
+    if vtk::looks_like_legacy(content.as_bytes()) || ext.as_deref() == Some("vtk") {
+        let mesh = vtk::parse_legacy(&content, path)?;
+        return Ok((MeshFormat::LegacyVtk, AnyMesh::Tet(mesh)));
+    }
     let format = detect(path, &content)?;
     let mesh = match format {
         MeshFormat::Medit => AnyMesh::Tet(medit::parse(&content, path)?),
@@ -66,11 +97,15 @@ pub fn read_mesh(path: impl AsRef<Path>) -> Result<(MeshFormat, AnyMesh), MeshEr
         MeshFormat::Obj => AnyMesh::Surface(obj::parse(&content, path)?),
         // Not produced by `detect`; kept total so a future change cannot panic here.
         MeshFormat::TetGen => AnyMesh::Tet(tetgen::read(path)?),
+        MeshFormat::Gmsh => AnyMesh::Tet(gmsh::parse(content.as_bytes(), path)?),
+        MeshFormat::Vtu => AnyMesh::Tet(vtk::parse_vtu(content.as_bytes(), path)?.mesh),
+        MeshFormat::LegacyVtk => AnyMesh::Tet(vtk::parse_legacy(&content, path)?),
     };
     Ok((format, mesh))
 }
 
-/// Reads a tet mesh: MEDIT or plain `.mesh` (told apart by content), or TetGen `.node`/`.ele`.
+/// Reads a tet mesh: MEDIT or plain `.mesh` (told apart by content), TetGen `.node`/`.ele`,
+/// Gmsh `.msh`, VTK `.vtu` or legacy `.vtk`.
 pub fn read_tet_mesh(path: impl AsRef<Path>) -> Result<TetMesh, MeshError> {
     let path = path.as_ref();
     match read_mesh(path)? {
@@ -135,7 +170,8 @@ fn detect(path: &Path, content: &str) -> Result<MeshFormat, MeshError> {
         path: path.to_path_buf(),
         message: format!(
             "line {line} starts with `{token}`; expected `MeshVersionFormatted` (MEDIT .mesh), a `v x y z` line (plain \
-             .mesh), or an .obj, .node or .ele extension"
+             .mesh), `$MeshFormat` (Gmsh), `<?xml` (VTK .vtu), `# vtk DataFile` (legacy VTK), or an .obj, .node or \
+             .ele extension"
         ),
     })
 }

@@ -15,6 +15,12 @@ pub(crate) fn read_text(path: &Path) -> Result<String, MeshError> {
         path: path.to_path_buf(),
         error,
     })?;
+    decode_text(path, bytes)
+}
+
+/// A file's bytes as UTF-8 text; invalid UTF-8 is a parse error at the line holding the
+/// first bad byte.
+pub(crate) fn decode_text(path: &Path, bytes: Vec<u8>) -> Result<String, MeshError> {
     String::from_utf8(bytes).map_err(|e| {
         let valid = e.utf8_error().valid_up_to();
         let line = 1 + e.as_bytes()[..valid]

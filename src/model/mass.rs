@@ -28,6 +28,26 @@ pub enum MassMatrix {
 }
 
 impl MassMatrix {
+    /// The mass matrix as a [`nalgebra_sparse::CscMatrix`]: the consistent matrix with its
+    /// pattern and values copied once ([`SymmetricMatrix::to_csc`]), a lumped one as a
+    /// diagonal matrix (one entry per column).
+    pub fn to_csc(&self) -> nalgebra_sparse::CscMatrix<f64> {
+        match self {
+            Self::Consistent(m) => m.to_csc(),
+            Self::Lumped { diagonal, .. } => {
+                let n = diagonal.len();
+                nalgebra_sparse::CscMatrix::try_from_csc_data(
+                    n,
+                    n,
+                    (0..=n).collect(),
+                    (0..n).collect(),
+                    diagonal.clone(),
+                )
+                .expect("a diagonal is a valid CSC matrix")
+            }
+        }
+    }
+
     /// Which discretization this is.
     pub fn kind(&self) -> MassKind {
         match self {

@@ -59,9 +59,14 @@ pub struct SceneConfig {
 /// `[initial]`: a deformed and moving start instead of rest, for studies of free bodies.
 /// Applied to the free vertices about the centroid `c` of the rest positions:
 /// `x = c + stretch (X - c)`, `v = velocity + angular_velocity x (X - c)`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+/// Or `from = "frame.vtu"`: the positions, `velocity` and time of an exported VTU frame of the
+/// same mesh (looked up like the mesh file).
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct InitialConfig {
+    /// A VTU frame (written by `--export vtu`) to start from, instead of the fields below.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub from: Option<String>,
     /// Scale factor per axis (default 1: undeformed).
     #[serde(default)]
     pub stretch: Option<[f64; 3]>,

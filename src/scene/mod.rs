@@ -52,6 +52,9 @@ pub enum SceneError {
     Override(#[from] OverrideError),
     #[error("{path}: mesh.file: {error}")]
     Data { path: PathBuf, error: DataError },
+    /// The `[initial] from` frame is not found.
+    #[error("{path}: initial.from: {error}")]
+    InitialData { path: PathBuf, error: DataError },
     #[error("{path}: {error}")]
     Mesh { path: PathBuf, error: MeshError },
     #[error("{path}: material: {error}")]
@@ -285,6 +288,18 @@ fn validate(c: &SceneConfig, path: &Path) -> Result<(), SceneError> {
             "must be three positive scale factors".into(),
         ));
     }
+    if init.from.is_some()
+        && (init.stretch.is_some()
+            || init.velocity != [0.0; 3]
+            || init.angular_velocity != [0.0; 3])
+    {
+        return Err(invalid(
+            "initial.from",
+            "a frame gives positions and velocities; give either `from` or stretch/velocity/\
+             angular_velocity, not both"
+                .into(),
+        ));
+    }
     if !init
         .velocity
         .iter()
@@ -414,11 +429,21 @@ fn scene_material(m: &MaterialConfig, path: &Path) -> Result<MaterialModel, Scen
     MaterialModel::from_name(&m.model, lame).map_err(err)
 }
 
-/// The state `[initial]` describes: rest, stretched and moving about the rest centroid.
-fn initial_state(model: &Model, init: &InitialConfig) -> State {
+/// The state `[initial]` describes: rest, stretched and moving about the rest centroid, or
+/// an exported frame's.
+fn initial_state(
+    model: &Model,
+    init: &InitialConfig,
+    loaded: &LoadedScene,
+    data: &DataPaths,
+    tets: &[[usize; 4]],
+) -> Result<State, SceneError> {
+    if let Some(file) = &init.from {
+        return frame_state(model, file, loaded, data, tets);
+    }
     let mut state = State::at_rest(model);
     if *init == InitialConfig::default() {
-        return state;
+        return Ok(state);
     }
     let rest = model.rest_positions();
     let centroid = rest.iter().sum::<Vector3<f64>>() / rest.len().max(1) as f64;
@@ -434,7 +459,86 @@ fn initial_state(model: &Model, init: &InitialConfig) -> State {
         state.q[3 * k..3 * k + 3].copy_from_slice(x.as_slice());
         state.v[3 * k..3 * k + 3].copy_from_slice(v.as_slice());
     }
-    state
+    Ok(state)
+}
+
+/// The state of a VTU frame of this scene's mesh (`[initial] from`): its points as the free
+/// vertices' positions, its `velocity` array (zero when absent) and its `TimeValue` (0 when
+/// absent). The frame must have the scene's vertices and tets (in any vertex order within a
+/// tet, since `mesh.reorient` may have swapped two); fixed vertices keep their rest positions.
+fn frame_state(
+    model: &Model,
+    file: &str,
+    loaded: &LoadedScene,
+    data: &DataPaths,
+    tets: &[[usize; 4]],
+) -> Result<State, SceneError> {
+    let path = &loaded.path;
+    let resolved = data
+        .resolve(file, Some(loaded.base_dir()))
+        .map_err(|error| SceneError::InitialData {
+            path: path.clone(),
+            error,
+        })?;
+    let frame = crate::mesh::vtk::read_vtu_frame(&resolved).map_err(|error| SceneError::Mesh {
+        path: path.clone(),
+        error,
+    })?;
+    let invalid = |message: String| SceneError::Invalid {
+        path: path.clone(),
+        key: "initial.from".into(),
+        message,
+    };
+    let n = model.rest_positions().len();
+    let sorted = |t: &[usize; 4]| {
+        let mut t = *t;
+        t.sort_unstable();
+        t
+    };
+    if frame.mesh.positions.len() != n
+        || frame.mesh.tets.len() != tets.len()
+        || frame
+            .mesh
+            .tets
+            .iter()
+            .zip(tets)
+            .any(|(a, b)| sorted(a) != sorted(b))
+    {
+        return Err(invalid(format!(
+            "{} is not a frame of this scene's mesh: it has {} vertices and {} tets, the mesh \
+             {n} and {} (or the tets differ)",
+            resolved.display(),
+            frame.mesh.positions.len(),
+            frame.mesh.tets.len(),
+            tets.len()
+        )));
+    }
+    let velocity = frame.point_vector("velocity");
+    let mut state = State::at_rest(model);
+    for (k, &vertex) in model.dofs().free_vertices().iter().enumerate() {
+        let x = frame.mesh.positions[vertex];
+        state.q[3 * k..3 * k + 3].copy_from_slice(x.as_slice());
+        if let Some(v) = velocity {
+            if !v[vertex].iter().all(|c| c.is_finite()) {
+                return Err(invalid(format!(
+                    "{}: the velocity of vertex {vertex} is not finite",
+                    resolved.display()
+                )));
+            }
+            state.v[3 * k..3 * k + 3].copy_from_slice(v[vertex].as_slice());
+        }
+    }
+    match frame.time {
+        Some(t) if t.is_finite() => state.t = t,
+        Some(t) => {
+            return Err(invalid(format!(
+                "{}: TimeValue {t} is not finite",
+                resolved.display()
+            )));
+        }
+        None => {}
+    }
+    Ok(state)
 }
 
 /// Build the scene: mesh, material, fixed vertices, forces, obstacles, initial state.
@@ -446,6 +550,7 @@ pub fn build(
     let c = &loaded.config;
     let path = &loaded.path;
     let mesh = scene_mesh(loaded, data)?;
+    let tets = c.initial.from.as_ref().map(|_| mesh.tets.clone());
     let material = c
         .material
         .as_ref()
@@ -505,7 +610,13 @@ pub fn build(
         message: e.message,
     })?;
     let contact = Contact::build(&c.obstacles, &c.contact, &mut model);
-    let initial = initial_state(&model, &c.initial);
+    let initial = initial_state(
+        &model,
+        &c.initial,
+        loaded,
+        data,
+        tets.as_deref().unwrap_or(&[]),
+    )?;
     Ok(Scene {
         name: loaded.name(),
         config: c.clone(),

@@ -1,0 +1,836 @@
+//! VTK unstructured grids of linear tets: XML `.vtu` (one `Piece`; `DataArray`s inline as
+//! `ascii` or base64 `binary`, uncompressed or zlib-compressed, `UInt32` or `UInt64`
+//! headers, either byte order — softbench's own frames and meshio's files) and legacy `.vtk`
+//! ASCII (`DATASET UNSTRUCTURED_GRID`, the `CELLS n size` layout of versions up to 4.2 and
+//! the `OFFSETS`/`CONNECTIVITY` layout of 5.1).
+//!
+//! Cells of type 10 (`VTK_TETRA`) become the tets; other linear cells (vertices, lines,
+//! triangles) are read past; quadratic tets (24) are refused. `.vtu` point data with three
+//! components (softbench writes `velocity` and `displacement`) and the field `TimeValue` are
+//! kept by [`read_vtu_frame`], so a run can start from an exported frame. Appended data and
+//! legacy `BINARY` files are refused with a message saying so.
+
+use std::io::Read;
+use std::path::Path;
+
+use nalgebra::Vector3;
+
+use super::bytes::{Cursor, bad_coordinate, clip};
+use super::text::{self, TetCollector, Tokens, parse_error};
+use super::{MeshError, TetMesh};
+
+/// VTK's linear tetrahedron.
+const VTK_TETRA: i64 = 10;
+/// VTK's quadratic tetrahedron.
+const VTK_QUADRATIC_TETRA: i64 = 24;
+
+/// A `.vtu` grid with the point data and time it carries.
+#[derive(Clone, Debug, PartialEq)]
+pub struct VtuFrame {
+    /// Points and tets.
+    pub mesh: TetMesh,
+    /// Point arrays with three components, by name (e.g. `velocity`), one entry per point.
+    pub point_vectors: Vec<(String, Vec<Vector3<f64>>)>,
+    /// The field `TimeValue`, when the file has one (softbench's frames do).
+    pub time: Option<f64>,
+}
+
+impl VtuFrame {
+    /// The point array `name`, if the file has it.
+    pub fn point_vector(&self, name: &str) -> Option<&[Vector3<f64>]> {
+        self.point_vectors
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| v.as_slice())
+    }
+}
+
+/// Whether bytes look like a VTK XML file (`<?xml` or `<VTKFile` first).
+pub fn looks_like_vtu(bytes: &[u8]) -> bool {
+    let start = bytes.iter().position(|b| !b.is_ascii_whitespace());
+    start.is_some_and(|s| bytes[s..].starts_with(b"<?xml") || bytes[s..].starts_with(b"<VTKFile"))
+}
+
+/// Whether a text looks like legacy VTK (`# vtk DataFile` first).
+pub fn looks_like_legacy(bytes: &[u8]) -> bool {
+    bytes.starts_with(b"# vtk DataFile")
+}
+
+/// Reads a `.vtu` file's tet mesh.
+pub fn read_vtu(path: impl AsRef<Path>) -> Result<TetMesh, MeshError> {
+    Ok(read_vtu_frame(path)?.mesh)
+}
+
+/// Reads a `.vtu` file with its point data and time.
+pub fn read_vtu_frame(path: impl AsRef<Path>) -> Result<VtuFrame, MeshError> {
+    let path = path.as_ref();
+    let bytes = std::fs::read(path).map_err(|error| MeshError::Io {
+        path: path.to_path_buf(),
+        error,
+    })?;
+    parse_vtu(&bytes, path)
+}
+
+/// Reads a legacy ASCII `.vtk` file.
+pub fn read_legacy(path: impl AsRef<Path>) -> Result<TetMesh, MeshError> {
+    let path = path.as_ref();
+    parse_legacy(&text::read_text(path)?, path)
+}
+
+/// One XML tag: its name, attributes, offset, and whether it closes (`</x>`) or is empty
+/// (`<x/>`).
+struct Tag<'a> {
+    at: usize,
+    name: &'a str,
+    attributes: Vec<(&'a str, &'a str)>,
+    closing: bool,
+    empty: bool,
+}
+
+impl Tag<'_> {
+    fn get(&self, key: &str) -> Option<&str> {
+        self.attributes
+            .iter()
+            .find(|(k, _)| *k == key)
+            .map(|&(_, v)| v)
+    }
+}
+
+/// The next tag at or after the cursor, skipping comments, declarations and text.
+fn next_tag<'a>(c: &mut Cursor<'a>) -> Result<Option<Tag<'a>>, MeshError> {
+    loop {
+        let rest = &c.bytes[c.pos..];
+        let Some(i) = rest.iter().position(|&b| b == b'<') else {
+            c.pos = c.bytes.len();
+            return Ok(None);
+        };
+        let at = c.pos + i;
+        let rest = &c.bytes[at..];
+        let skip_to = |end: &[u8]| rest.windows(end.len()).position(|w| w == end);
+        if rest.starts_with(b"<!--") || rest.starts_with(b"<?") || rest.starts_with(b"<!") {
+            let end: &[u8] = if rest.starts_with(b"<!--") {
+                b"-->"
+            } else if rest.starts_with(b"<?") {
+                b"?>"
+            } else {
+                b">"
+            };
+            match skip_to(end) {
+                Some(j) => {
+                    c.pos = at + j + end.len();
+                    continue;
+                }
+                None => return Err(c.error_at(at, "unterminated XML comment or declaration")),
+            }
+        }
+        let Some(close) = rest.iter().position(|&b| b == b'>') else {
+            return Err(c.error_at(at, "unterminated XML tag"));
+        };
+        c.pos = at + close + 1;
+        let Ok(inner) = std::str::from_utf8(&rest[1..close]) else {
+            return Err(c.error_at(at, "XML tag is not UTF-8 text"));
+        };
+        let closing = inner.starts_with('/');
+        let empty = inner.ends_with('/');
+        let inner = inner.trim_start_matches('/').trim_end_matches('/');
+        let (name, mut attrs) = inner
+            .split_once(|ch: char| ch.is_ascii_whitespace())
+            .unwrap_or((inner, ""));
+        let mut attributes = Vec::new();
+        loop {
+            attrs = attrs.trim_start();
+            if attrs.is_empty() {
+                break;
+            }
+            let Some((key, after)) = attrs.split_once('=') else {
+                return Err(c.error_at(
+                    at,
+                    format!("malformed XML attributes in `<{}>`", clip(name)),
+                ));
+            };
+            let after = after.trim_start();
+            let quote = after.chars().next().filter(|q| *q == '"' || *q == '\'');
+            let Some(q) = quote else {
+                return Err(c.error_at(at, format!("unquoted attribute `{}`", clip(key.trim()))));
+            };
+            let Some((value, rest)) = after[1..].split_once(q) else {
+                return Err(
+                    c.error_at(at, format!("unterminated attribute `{}`", clip(key.trim())))
+                );
+            };
+            attributes.push((key.trim(), value));
+            attrs = rest;
+        }
+        return Ok(Some(Tag {
+            at,
+            name,
+            attributes,
+            closing,
+            empty,
+        }));
+    }
+}
+
+/// How binary arrays are encoded, from the `VTKFile` tag.
+#[derive(Clone, Copy)]
+struct Encoding {
+    little: bool,
+    header64: bool,
+    zlib: bool,
+}
+
+/// Parses `.vtu` bytes; `path` is used only in error messages.
+pub fn parse_vtu(bytes: &[u8], path: &Path) -> Result<VtuFrame, MeshError> {
+    let mut c = Cursor::new(bytes, path);
+    let mut encoding = None;
+    let mut piece: Option<(usize, usize, usize)> = None;
+    let mut section = "";
+    let mut points: Option<Vec<f64>> = None;
+    let (mut connectivity, mut offsets, mut types) = (None, None, None);
+    let mut point_arrays: Vec<(String, usize, usize, Vec<f64>)> = Vec::new();
+    let mut time = None;
+    while let Some(tag) = next_tag(&mut c)? {
+        match (tag.name, tag.closing) {
+            ("VTKFile", false) => {
+                if tag.get("type") != Some("UnstructuredGrid") {
+                    return Err(c.error_at(
+                        tag.at,
+                        format!(
+                            "VTK file type `{}` is not supported; expected `UnstructuredGrid`",
+                            clip(tag.get("type").unwrap_or("(none)"))
+                        ),
+                    ));
+                }
+                let zlib = match tag.get("compressor") {
+                    None | Some("") => false,
+                    Some("vtkZLibDataCompressor") => true,
+                    Some(other) => {
+                        return Err(c.error_at(
+                            tag.at,
+                            format!(
+                                "compressor `{}` is not supported (uncompressed and \
+                                 vtkZLibDataCompressor are)",
+                                clip(other)
+                            ),
+                        ));
+                    }
+                };
+                let header64 = match tag.get("header_type") {
+                    None | Some("UInt32") => false,
+                    Some("UInt64") => true,
+                    Some(other) => {
+                        return Err(c.error_at(
+                            tag.at,
+                            format!("header_type `{}` is neither UInt32 nor UInt64", clip(other)),
+                        ));
+                    }
+                };
+                encoding = Some(Encoding {
+                    little: tag.get("byte_order") != Some("BigEndian"),
+                    header64,
+                    zlib,
+                });
+            }
+            ("Piece", false) => {
+                if piece.is_some() {
+                    return Err(c.error_at(
+                        tag.at,
+                        "a second `Piece`: only single-piece grids are supported",
+                    ));
+                }
+                let count = |c: &mut Cursor, key: &str| -> Result<usize, MeshError> {
+                    let v = tag.get(key).unwrap_or("");
+                    v.parse().map_err(|_| {
+                        c.error_at(tag.at, format!("`Piece` needs {key}, found `{}`", clip(v)))
+                    })
+                };
+                let n = count(&mut c, "NumberOfPoints")?;
+                let m = count(&mut c, "NumberOfCells")?;
+                let line = c.line_at(tag.at);
+                text::announced(
+                    path,
+                    line,
+                    n.saturating_add(m),
+                    "points and cells",
+                    bytes.len(),
+                )?;
+                piece = Some((tag.at, n, m));
+            }
+            ("Points" | "Cells" | "PointData" | "CellData" | "FieldData", false) if !tag.empty => {
+                section = tag.name;
+            }
+            ("Points" | "Cells" | "PointData" | "CellData" | "FieldData", true) => section = "",
+            ("AppendedData", false) => {
+                return Err(c.error_at(
+                    tag.at,
+                    "appended data is not supported; write the arrays inline (ParaView: \
+                     Data Mode Binary or Ascii)",
+                ));
+            }
+            ("DataArray", false) if !tag.empty => {
+                let Some(enc) = encoding else {
+                    return Err(c.error_at(tag.at, "`DataArray` outside a `VTKFile`"));
+                };
+                let name = tag.get("Name").unwrap_or("").to_string();
+                let components: usize = tag
+                    .get("NumberOfComponents")
+                    .unwrap_or("1")
+                    .parse()
+                    .map_err(|_| c.error_at(tag.at, "NumberOfComponents is not a count"))?;
+                let values = data_array(&mut c, &tag, enc)?;
+                let line = c.line_at(tag.at);
+                match (section, name.as_str()) {
+                    ("Points", _) => points = Some(values),
+                    ("Cells", "connectivity") => connectivity = Some((line, values)),
+                    ("Cells", "offsets") => offsets = Some((line, values)),
+                    ("Cells", "types") => types = Some((line, values)),
+                    ("PointData", _) => point_arrays.push((name, components, line, values)),
+                    ("FieldData", "TimeValue") => time = values.first().copied(),
+                    _ => {}
+                }
+            }
+            _ => {}
+        }
+    }
+    let end = c.line_at(bytes.len());
+    let Some((piece_at, n, m)) = piece else {
+        return Err(text::empty_mesh(path, end, "no `Piece`"));
+    };
+    let piece_line = c.line_at(piece_at);
+    let points = points.ok_or_else(|| text::empty_mesh(path, end, "no `Points` array"))?;
+    if points.len() != 3 * n {
+        return Err(parse_error(
+            path,
+            piece_line,
+            format!(
+                "`Points` holds {} numbers, but NumberOfPoints = {n} needs {}",
+                points.len(),
+                3 * n
+            ),
+        ));
+    }
+    let mut positions = Vec::with_capacity(n);
+    for p in points.chunks_exact(3) {
+        if let Some(msg) = p.iter().find_map(|&x| bad_coordinate(x)) {
+            return Err(parse_error(path, piece_line, msg));
+        }
+        positions.push(Vector3::new(p[0], p[1], p[2]));
+    }
+    let missing =
+        |what: &str| text::empty_mesh(path, end, &format!("no `{what}` array in `Cells`"));
+    let (cl, connectivity) = connectivity.ok_or_else(|| missing("connectivity"))?;
+    let (ol, offsets) = offsets.ok_or_else(|| missing("offsets"))?;
+    let (tl, types) = types.ok_or_else(|| missing("types"))?;
+    let lines = [cl, ol, tl];
+    if offsets.len() != m || types.len() != m {
+        return Err(parse_error(
+            path,
+            ol,
+            format!(
+                "`offsets` and `types` hold {} and {} entries, but NumberOfCells = {m}",
+                offsets.len(),
+                types.len()
+            ),
+        ));
+    }
+    let tets = cells(path, &connectivity, &offsets, &types, lines, n)?;
+    let mut point_vectors = Vec::new();
+    for (name, components, line, values) in point_arrays {
+        if components != 3 {
+            continue;
+        }
+        if values.len() != 3 * n {
+            return Err(parse_error(
+                path,
+                line,
+                format!(
+                    "point array `{}` holds {} numbers, but {n} points need {}",
+                    clip(&name),
+                    values.len(),
+                    3 * n
+                ),
+            ));
+        }
+        let v = values
+            .chunks_exact(3)
+            .map(|p| Vector3::new(p[0], p[1], p[2]))
+            .collect();
+        point_vectors.push((name, v));
+    }
+    Ok(VtuFrame {
+        mesh: TetMesh { positions, tets },
+        point_vectors,
+        time,
+    })
+}
+
+/// The tets among VTK cells given as connectivity, offsets (the end of each cell in the
+/// connectivity, as in XML) and types.
+fn cells(
+    path: &Path,
+    connectivity: &[f64],
+    offsets: &[f64],
+    types: &[f64],
+    [cl, ol, tl]: [usize; 3],
+    num_points: usize,
+) -> Result<Vec<[usize; 4]>, MeshError> {
+    let index = |x: f64, line: usize, what: &str| -> Result<usize, MeshError> {
+        if x.fract() == 0.0 && x >= 0.0 && x < usize::MAX as f64 {
+            Ok(x as usize)
+        } else {
+            Err(parse_error(
+                path,
+                line,
+                format!("{what} {x} is not a valid index"),
+            ))
+        }
+    };
+    let mut tets = TetCollector::new(0, types.len().min(connectivity.len() / 4));
+    let mut start = 0usize;
+    for (i, &kind) in types.iter().enumerate() {
+        let end = index(offsets[i], ol, "offset")?;
+        if end < start || end > connectivity.len() {
+            return Err(parse_error(
+                path,
+                ol,
+                format!(
+                    "cell {i}: offset {end} is out of order or beyond the {} connectivity entries",
+                    connectivity.len()
+                ),
+            ));
+        }
+        let kind = kind as i64;
+        if kind == VTK_QUADRATIC_TETRA {
+            return Err(parse_error(
+                path,
+                tl,
+                format!(
+                    "cell {i} is a quadratic tet (type 24); only linear tets (10) are supported"
+                ),
+            ));
+        }
+        if kind == VTK_TETRA {
+            if end - start != 4 {
+                return Err(parse_error(
+                    path,
+                    ol,
+                    format!("cell {i} is a tet with {} vertices", end - start),
+                ));
+            }
+            let mut tet = [0; 4];
+            for (slot, &x) in tet.iter_mut().zip(&connectivity[start..end]) {
+                *slot = index(x, cl, "connectivity entry")?;
+            }
+            tets.push(path, cl, tet)?;
+        }
+        start = end;
+    }
+    if tets.tets.is_empty() {
+        return Err(text::empty_mesh(path, tl, "no tets (cell type 10)"));
+    }
+    tets.finish(path, num_points)
+}
+
+/// Decodes one `DataArray`'s content (the cursor is just past its opening tag) to f64
+/// values, and moves past `</DataArray>`.
+fn data_array(c: &mut Cursor, tag: &Tag, enc: Encoding) -> Result<Vec<f64>, MeshError> {
+    let start = c.pos;
+    let rest = &c.bytes[start..];
+    let close = b"</DataArray>";
+    let Some(len) = rest.windows(close.len()).position(|w| w == close) else {
+        return Err(c.error_at(tag.at, "`DataArray` has no `</DataArray>`"));
+    };
+    c.pos = start + len + close.len();
+    let content = &rest[..len];
+    let kind = tag.get("type").unwrap_or("");
+    let width = match kind {
+        "Int8" | "UInt8" => 1,
+        "Int16" | "UInt16" => 2,
+        "Int32" | "UInt32" | "Float32" => 4,
+        "Int64" | "UInt64" | "Float64" => 8,
+        other => {
+            return Err(c.error_at(tag.at, format!("unknown DataArray type `{}`", clip(other))));
+        }
+    };
+    match tag.get("format").unwrap_or("ascii") {
+        "ascii" => {
+            let Ok(text) = std::str::from_utf8(content) else {
+                return Err(c.error_at(start, "ascii DataArray is not text"));
+            };
+            let mut values = Vec::new();
+            for token in text.split_ascii_whitespace() {
+                match token.parse::<f64>() {
+                    Ok(x) => values.push(x),
+                    Err(_) => {
+                        let at = start + (token.as_ptr() as usize - text.as_ptr() as usize);
+                        return Err(
+                            c.error_at(at, format!("expected a number, found `{}`", clip(token)))
+                        );
+                    }
+                }
+            }
+            Ok(values)
+        }
+        "binary" => {
+            let raw = decode_base64(content)
+                .map_err(|i| c.error_at(start + i, "DataArray is not valid base64"))?;
+            let data = unpack(&raw, enc).map_err(|m| c.error_at(start, m))?;
+            if data.len() % width != 0 {
+                return Err(c.error_at(
+                    start,
+                    format!(
+                        "{} bytes is not a whole number of {kind} values",
+                        data.len()
+                    ),
+                ));
+            }
+            Ok(data
+                .chunks_exact(width)
+                .map(|b| number(kind, b, enc.little))
+                .collect())
+        }
+        "appended" => Err(c.error_at(
+            tag.at,
+            "appended data is not supported; write the arrays inline",
+        )),
+        other => Err(c.error_at(
+            tag.at,
+            format!(
+                "DataArray format `{}` is not ascii, binary or appended",
+                clip(other)
+            ),
+        )),
+    }
+}
+
+/// One value of a binary array as f64 (exact for every float and for integers up to 2^53).
+fn number(kind: &str, b: &[u8], little: bool) -> f64 {
+    let mut a = [0u8; 8];
+    a[..b.len()].copy_from_slice(b);
+    if !little {
+        a[..b.len()].reverse();
+    }
+    let u = u64::from_le_bytes(a);
+    match kind {
+        "Int8" => f64::from(u as u8 as i8),
+        "Int16" => f64::from(u as u16 as i16),
+        "Int32" => f64::from(u as u32 as i32),
+        "Int64" => u as i64 as f64,
+        "Float32" => f64::from(f32::from_bits(u as u32)),
+        "Float64" => f64::from_bits(u),
+        _ => u as f64,
+    }
+}
+
+/// The array bytes of a decoded binary block: a byte count then the data, or (zlib) a
+/// block table then the compressed blocks.
+fn unpack(raw: &[u8], enc: Encoding) -> Result<Vec<u8>, String> {
+    let hs = if enc.header64 { 8 } else { 4 };
+    let header = |i: usize| -> Result<u64, String> {
+        let b = raw
+            .get(i * hs..(i + 1) * hs)
+            .ok_or("binary DataArray ends inside its header")?;
+        Ok(number(
+            if enc.header64 { "UInt64" } else { "UInt32" },
+            b,
+            enc.little,
+        ) as u64)
+    };
+    if !enc.zlib {
+        let n = header(0)?;
+        let data = &raw[hs..];
+        if (data.len() as u64) < n {
+            return Err(format!(
+                "binary DataArray announces {n} bytes but holds {}",
+                data.len()
+            ));
+        }
+        return Ok(data[..n as usize].to_vec());
+    }
+    let blocks = header(0)?;
+    let block_size = header(1)?;
+    let last_size = header(2)?;
+    let table_end = 3u64
+        .checked_add(blocks)
+        .and_then(|k| k.checked_mul(hs as u64))
+        .filter(|&e| e <= raw.len() as u64)
+        .ok_or("compressed DataArray's block table is longer than the array")?;
+    let total = blocks
+        .saturating_sub(1)
+        .saturating_mul(block_size)
+        .saturating_add(if blocks > 0 { last_size } else { 0 });
+    // zlib can shrink an array of zeros a thousandfold, so the announced size is bounded by
+    // the mesh budget (every entry of a point or cell array of a budget-sized mesh, nine
+    // 8-byte components), not by the compressed size; memory grows with what decompresses.
+    let budget = crate::limits::MESH.limit().saturating_mul(9 * 8);
+    if total > budget {
+        return Err(format!(
+            "compressed DataArray announces {total} bytes, more than an array of a mesh within \
+             the mesh budget can hold"
+        ));
+    }
+    let mut out = Vec::with_capacity((total as usize).min(raw.len().saturating_mul(4)));
+    let mut at = table_end as usize;
+    for b in 0..blocks as usize {
+        let size = header(3 + b)? as usize;
+        let chunk = raw
+            .get(at..at.saturating_add(size))
+            .ok_or("compressed DataArray ends inside a block")?;
+        at += size;
+        let expect = if b + 1 == blocks as usize {
+            last_size
+        } else {
+            block_size
+        };
+        let before = out.len();
+        flate2::read::ZlibDecoder::new(chunk)
+            .take(expect)
+            .read_to_end(&mut out)
+            .map_err(|e| format!("cannot decompress a block: {e}"))?;
+        if (out.len() - before) as u64 != expect {
+            return Err("a compressed block is shorter than its header says".into());
+        }
+    }
+    Ok(out)
+}
+
+/// Standard base64 with `=` padding, ignoring whitespace; padding may end one encoded run
+/// and another follow (VTK encodes a compressed array's header and data separately). On
+/// error, the offset of the bad character.
+fn decode_base64(text: &[u8]) -> Result<Vec<u8>, usize> {
+    let mut out = Vec::with_capacity(text.len() / 4 * 3);
+    let mut group = [0u8; 4];
+    let mut n = 0;
+    let mut pad = 0;
+    for (i, &ch) in text.iter().enumerate() {
+        let v = match ch {
+            b'A'..=b'Z' => ch - b'A',
+            b'a'..=b'z' => ch - b'a' + 26,
+            b'0'..=b'9' => ch - b'0' + 52,
+            b'+' => 62,
+            b'/' => 63,
+            b'=' => {
+                if n < 2 {
+                    return Err(i);
+                }
+                pad += 1;
+                0
+            }
+            c if c.is_ascii_whitespace() => continue,
+            _ => return Err(i),
+        };
+        if pad > 0 && ch != b'=' {
+            return Err(i);
+        }
+        group[n] = v;
+        n += 1;
+        if n == 4 {
+            let x = u32::from(group[0]) << 18
+                | u32::from(group[1]) << 12
+                | u32::from(group[2]) << 6
+                | u32::from(group[3]);
+            let bytes = [(x >> 16) as u8, (x >> 8) as u8, x as u8];
+            out.extend_from_slice(&bytes[..3 - pad]);
+            n = 0;
+            pad = 0;
+        }
+    }
+    if n != 0 {
+        return Err(text.len());
+    }
+    Ok(out)
+}
+
+/// Parses legacy ASCII `.vtk` text; `path` is used only in error messages.
+pub fn parse_legacy(content: &str, path: &Path) -> Result<TetMesh, MeshError> {
+    let mut lines = content.split('\n');
+    let header = lines.next().unwrap_or("").trim();
+    let Some(version) = header.strip_prefix("# vtk DataFile Version") else {
+        return Err(parse_error(
+            path,
+            1,
+            "expected `# vtk DataFile Version x.y` to start a legacy VTK file",
+        ));
+    };
+    let major: u32 = version
+        .trim()
+        .split('.')
+        .next()
+        .and_then(|v| v.parse().ok())
+        .ok_or_else(|| parse_error(path, 1, format!("unreadable version `{}`", clip(version))))?;
+    // Line 2 is a free-form title; tokens start at line 3, with line numbers kept.
+    let skip = content
+        .match_indices('\n')
+        .nth(1)
+        .map_or(content.len(), |(i, _)| i);
+    let body = format!("\n{}", &content[skip..]);
+    let mut tokens = Tokens::new(&body);
+    let t = &mut tokens;
+    let len = content.len();
+    let (line, encoding) = tok(t, path, "ASCII or BINARY")?;
+    if !encoding.eq_ignore_ascii_case("ASCII") {
+        return Err(parse_error(
+            path,
+            line,
+            format!(
+                "`{}`: only ASCII legacy VTK is read (write binary grids as .vtu)",
+                clip(encoding)
+            ),
+        ));
+    }
+    let (line, dataset) = tok(t, path, "DATASET")?;
+    let (_, kind) = tok(t, path, "the dataset type")?;
+    if !dataset.eq_ignore_ascii_case("DATASET") || !kind.eq_ignore_ascii_case("UNSTRUCTURED_GRID") {
+        return Err(parse_error(
+            path,
+            line,
+            format!(
+                "expected `DATASET UNSTRUCTURED_GRID`, found `{} {}`",
+                clip(dataset),
+                clip(kind)
+            ),
+        ));
+    }
+    let mut points = None;
+    let mut cell_data: Option<(Vec<f64>, Vec<f64>, [usize; 2])> = None;
+    let mut types = None;
+    while let Some((line, keyword)) = t.next() {
+        match keyword.to_ascii_uppercase().as_str() {
+            "POINTS" => {
+                let n = count(t, path, "the number of points", len)?;
+                tok(t, path, "the point data type")?;
+                let (_, xyz) = numbers(t, path, 3 * n, "a coordinate", len)?;
+                let mut p = Vec::with_capacity(n);
+                for (k, x) in xyz.chunks_exact(3).enumerate() {
+                    if let Some(msg) = x.iter().find_map(|&v| bad_coordinate(v)) {
+                        return Err(parse_error(path, line, format!("point {k}: {msg}")));
+                    }
+                    p.push(Vector3::new(x[0], x[1], x[2]));
+                }
+                points = Some(p);
+            }
+            "CELLS" => {
+                let a = count(t, path, "the number of cells", len)?;
+                let b = count(t, path, "the size of the cell list", len)?;
+                if major >= 5 {
+                    keyword_token(t, path, "OFFSETS")?;
+                    tok(t, path, "the offsets' data type")?;
+                    let (ol, offsets) = numbers(t, path, a, "an offset", len)?;
+                    keyword_token(t, path, "CONNECTIVITY")?;
+                    tok(t, path, "the connectivity's data type")?;
+                    let (cl, conn) = numbers(t, path, b, "a point index", len)?;
+                    // 5.1 offsets start with 0; the XML form lists cell ends.
+                    let ends = offsets.get(1..).unwrap_or(&[]).to_vec();
+                    cell_data = Some((conn, ends, [cl, ol]));
+                } else {
+                    let (cl, list) = numbers(t, path, b, "a cell entry", len)?;
+                    let (mut conn, mut ends) = (Vec::new(), Vec::with_capacity(a));
+                    let mut i = 0;
+                    for _ in 0..a {
+                        let k = list.get(i).copied().unwrap_or(-1.0);
+                        if !(k >= 0.0 && k.fract() == 0.0) || i + 1 + k as usize > list.len() {
+                            return Err(parse_error(
+                                path,
+                                cl,
+                                "the CELLS list does not match its announced size",
+                            ));
+                        }
+                        conn.extend_from_slice(&list[i + 1..i + 1 + k as usize]);
+                        i += 1 + k as usize;
+                        ends.push(conn.len() as f64);
+                    }
+                    cell_data = Some((conn, ends, [cl, cl]));
+                }
+            }
+            "CELL_TYPES" => {
+                let n = count(t, path, "the number of cell types", len)?;
+                types = Some(numbers(t, path, n, "a cell type", len)?);
+            }
+            "POINT_DATA" | "CELL_DATA" | "FIELD" | "METADATA" => break,
+            _ => {
+                return Err(parse_error(
+                    path,
+                    line,
+                    format!(
+                        "unexpected `{}` (expected POINTS, CELLS, CELL_TYPES, POINT_DATA or \
+                         CELL_DATA)",
+                        clip(keyword)
+                    ),
+                ));
+            }
+        }
+    }
+    let end = text::last_line(content);
+    let points = points.ok_or_else(|| text::empty_mesh(path, end, "no POINTS"))?;
+    let (conn, ends, [cl, ol]) =
+        cell_data.ok_or_else(|| text::empty_mesh(path, end, "no CELLS"))?;
+    let (tl, types) = types.ok_or_else(|| text::empty_mesh(path, end, "no CELL_TYPES"))?;
+    if types.len() != ends.len() {
+        return Err(parse_error(
+            path,
+            tl,
+            format!("{} cell types for {} cells", types.len(), ends.len()),
+        ));
+    }
+    let tets = cells(path, &conn, &ends, &types, [cl, ol, tl], points.len())?;
+    Ok(TetMesh {
+        positions: points,
+        tets,
+    })
+}
+
+/// The next legacy token, or an error saying the file ends where `what` was expected.
+fn tok<'a>(t: &mut Tokens<'a>, path: &Path, what: &str) -> Result<(usize, &'a str), MeshError> {
+    let line = t.line();
+    t.next()
+        .ok_or_else(|| parse_error(path, line, format!("file ends where {what} was expected")))
+}
+
+/// Expects the keyword `word` (any case).
+fn keyword_token(t: &mut Tokens, path: &Path, word: &str) -> Result<(), MeshError> {
+    let (line, found) = tok(t, path, word)?;
+    if found.eq_ignore_ascii_case(word) {
+        Ok(())
+    } else {
+        Err(parse_error(
+            path,
+            line,
+            format!("expected `{word}`, found `{}`", clip(found)),
+        ))
+    }
+}
+
+/// A count, checked against the mesh budget.
+fn count(t: &mut Tokens, path: &Path, what: &str, len: usize) -> Result<usize, MeshError> {
+    let (line, token) = tok(t, path, what)?;
+    let n = text::count(path, line, token, what)?;
+    text::announced(path, line, n, what, len)?;
+    Ok(n)
+}
+
+/// `n` numbers and the line of the first.
+fn numbers(
+    t: &mut Tokens,
+    path: &Path,
+    n: usize,
+    what: &str,
+    len: usize,
+) -> Result<(usize, Vec<f64>), MeshError> {
+    let mut values = Vec::with_capacity(n.min(len / 2 + 1));
+    let mut first = t.line();
+    for i in 0..n {
+        let (line, token) = tok(t, path, what)?;
+        if i == 0 {
+            first = line;
+        }
+        let x = token.parse::<f64>().map_err(|_| {
+            parse_error(
+                path,
+                line,
+                format!("expected {what}, found `{}`", clip(token)),
+            )
+        })?;
+        values.push(x);
+    }
+    Ok((first, values))
+}

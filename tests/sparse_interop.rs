@@ -1,0 +1,113 @@
+//! nalgebra-sparse interop: the model's Hessian, mass and damping matrices exported as
+//! `nalgebra_sparse::CscMatrix` hold exactly the entries of the dense matrices.
+
+use nalgebra::{DMatrix, Vector3};
+use nalgebra_sparse::CscMatrix;
+use softbench::material::{LameParameters, MaterialModel};
+use softbench::mesh::generate::box_mesh;
+use softbench::model::{
+    AxisRule, Damping, FixedSelection, HessianOptions, MassKind, Model, ModelSpec, Side,
+};
+
+/// A clamped, damped 3×2×2 block of Stable Neo-Hookean rubber.
+fn damped_block(mass: MassKind) -> Model {
+    let lame = LameParameters::from_youngs_poisson(1e4, 0.3).unwrap();
+    let material = MaterialModel::from_name("stable-neo-hookean", lame).unwrap();
+    let mut spec = ModelSpec::elastic(box_mesh([3, 2, 2], [0.3, 0.2, 0.2]), material, 1000.0);
+    spec.mass_kind = mass;
+    spec.fixed = FixedSelection {
+        rules: vec![AxisRule {
+            axis: 0,
+            side: Side::Min,
+            tolerance: 1e-9,
+        }],
+        ..Default::default()
+    };
+    spec.gravity = Some(Vector3::new(0.0, -9.81, 0.0));
+    spec.damping = Damping {
+        rayleigh: Some((0.3, 0.02)),
+        strain_rate: Some((0.5, 1.5)),
+    };
+    Model::new(spec).unwrap()
+}
+
+/// A deformed configuration (every free DOF moved).
+fn deformed(model: &Model) -> Vec<f64> {
+    model
+        .rest_state()
+        .iter()
+        .enumerate()
+        .map(|(i, x)| x + 0.01 * (i as f64 * 0.37).sin())
+        .collect()
+}
+
+/// Every entry of `csc` equals `dense` exactly, and `csc` stores no entry outside the
+/// pattern's both triangles.
+fn assert_same(csc: &CscMatrix<f64>, dense: &DMatrix<f64>, what: &str) {
+    assert_eq!((csc.nrows(), csc.ncols()), dense.shape(), "{what}");
+    let back = DMatrix::from(csc);
+    assert_eq!(&back, dense, "{what}");
+    assert!(
+        dense.iter().any(|&x| x != 0.0),
+        "{what}: compared a zero matrix"
+    );
+}
+
+#[test]
+fn csc_hessian_equals_the_dense_hessian() {
+    let mut model = damped_block(MassKind::Consistent);
+    let q = deformed(&model);
+    let mut h = model.new_hessian();
+    model
+        .hessian(&q, &mut h, HessianOptions::default())
+        .unwrap();
+    let csc = h.to_csc();
+    assert_same(&csc, &h.to_dense(), "Hessian");
+    // Both triangles are stored, with the pattern's row order.
+    assert_eq!(csc.nnz(), h.pattern().nnz());
+    assert_eq!(csc.col_offsets(), h.pattern().col_ptr());
+    assert_eq!(csc.row_indices(), h.pattern().row_idx());
+    let projected = {
+        let mut p = model.new_hessian();
+        let options = HessianOptions {
+            project_elements: true,
+        };
+        model.hessian(&q, &mut p, options).unwrap();
+        p
+    };
+    assert_same(
+        &projected.to_csc(),
+        &projected.to_dense(),
+        "projected Hessian",
+    );
+}
+
+#[test]
+fn csc_mass_equals_the_dense_mass_consistent_and_lumped() {
+    let model = damped_block(MassKind::Consistent);
+    let softbench::model::MassMatrix::Consistent(m) = model.mass() else {
+        panic!("consistent mass expected")
+    };
+    assert_same(&model.mass().to_csc(), &m.to_dense(), "consistent mass");
+
+    let model = damped_block(MassKind::Lumped);
+    let softbench::model::MassMatrix::Lumped { diagonal, .. } = model.mass() else {
+        panic!("lumped mass expected")
+    };
+    let csc = model.mass().to_csc();
+    assert_eq!(csc.nnz(), diagonal.len());
+    assert_same(
+        &csc,
+        &DMatrix::from_diagonal(&nalgebra::DVector::from_column_slice(diagonal)),
+        "lumped mass",
+    );
+}
+
+#[test]
+fn csc_damping_equals_the_dense_damping_matrix() {
+    let mut model = damped_block(MassKind::Consistent);
+    let q = deformed(&model);
+    let mut d = model.new_hessian();
+    model.damping_matrix(&q, &mut d).unwrap();
+    assert_same(&d.to_csc(), &d.to_dense(), "damping");
+}
