@@ -9,6 +9,23 @@ use std::path::{Path, PathBuf};
 
 use tempfile::NamedTempFile;
 
+/// Remove the temporary files an interrupted writer left in `dir` (a process killed between
+/// creating and renaming one): `.<name>.<random>.partial`. Call it only while holding the
+/// folder's lock, so no live writer's file is removed. Returns how many were removed.
+pub fn remove_stale_partials(dir: &Path) -> std::io::Result<usize> {
+    let mut removed = 0;
+    for entry in std::fs::read_dir(dir)? {
+        let entry = entry?;
+        let name = entry.file_name();
+        let name = name.to_string_lossy();
+        if name.starts_with('.') && name.ends_with(".partial") && entry.file_type()?.is_file() {
+            std::fs::remove_file(entry.path())?;
+            removed += 1;
+        }
+    }
+    Ok(removed)
+}
+
 /// A file being written under a temporary name; [`AtomicFile::commit`] renames it into place.
 /// Dropped without a commit, the temporary file is removed.
 pub struct AtomicFile {
@@ -73,4 +90,28 @@ pub fn write_atomic(
     let mut file = AtomicFile::create(target)?;
     fill(file.writer())?;
     file.commit()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stale_partials_are_removed_and_nothing_else() {
+        let dir = tempfile::tempdir().unwrap();
+        let keep = dir.path().join("runs.csv");
+        std::fs::write(&keep, "id\n").unwrap();
+        std::fs::write(dir.path().join(".runs.csv.x1Yz.partial"), "half").unwrap();
+        std::fs::write(dir.path().join("notes.partial"), "a user's file").unwrap();
+        // A writer killed after creating its temporary file.
+        let orphan = AtomicFile::create(&keep).unwrap();
+        std::mem::forget(orphan);
+        assert_eq!(remove_stale_partials(dir.path()).unwrap(), 2);
+        let mut left: Vec<String> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        left.sort();
+        assert_eq!(left, ["notes.partial", "runs.csv"]);
+    }
 }

@@ -3,4 +3,4 @@
 
 mod atomic;
 
-pub use atomic::{AtomicFile, write_atomic};
+pub use atomic::{AtomicFile, remove_stale_partials, write_atomic};

@@ -121,6 +121,11 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
     let _lock = FolderLock::acquire(dir, &format!("run {}", study.file.name), wait, |h| {
         crate::console::err(&format!("waiting for {h} to finish with {}", dir.display()));
     })?;
+    // A run killed mid-write (SIGKILL, power loss) leaves its temporary files; under the lock
+    // no live writer owns them.
+    for folder in [dir.clone(), dir.join("series")] {
+        crate::io::remove_stale_partials(&folder).map_err(io(&folder))?;
+    }
     let started = now_utc();
     let clock = std::time::Instant::now();
     let header = header(study);
