@@ -1,7 +1,9 @@
 //! Bring your own method: a program that depends on softbench implements an integrator the
 //! crate does not have — the three-stage strong-stability-preserving Runge–Kutta method
-//! (SSPRK3, Shu & Osher 1988) — registers it under a name, and runs a study that compares it
-//! with RK4 and backward Euler on the same scene, with the same CSVs, plots and report:
+//! (SSPRK3, Shu & Osher 1988) — registers it under a name, registers a linear solver of its
+//! own (CG with an incomplete-Cholesky preconditioner, under the name `cg-ic0`), and runs a
+//! study that compares them with RK4 and backward Euler on the same scene, with the same CSVs,
+//! plots and report:
 //!
 //! `cargo run --release --example custom_integrator -- [out folder, default out]`
 //!
@@ -11,6 +13,7 @@
 use softbench::integrate::methods::explicit;
 use softbench::integrate::{Dynamics, Integrator, State, StepError, StepReport, register_method};
 use softbench::model::Model;
+use softbench::solve::{CgSettings, CgSolver, LINEAR_SOLVERS, Preconditioner, SolverEntry};
 use softbench::study;
 use std::path::{Path, PathBuf};
 
@@ -95,6 +98,20 @@ fn run(out: &Path) -> anyhow::Result<PathBuf> {
             |_, _| Box::new(SspRk3::default()),
         ))?;
     }
+    if softbench::solve::LinearSolverKind::from_name("cg-ic0").is_err() {
+        LINEAR_SOLVERS.register(SolverEntry {
+            name: "cg-ic0",
+            description: "CG with an IC(0) preconditioner (from examples/)",
+            direct: false,
+            reports_inertia: false,
+            build: |s| {
+                Box::new(CgSolver::new(CgSettings {
+                    preconditioner: Preconditioner::IncompleteCholesky,
+                    ..s.cg
+                }))
+            },
+        })?;
+    }
     std::fs::create_dir_all(out)?;
     let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("experiments/scenes/soft_beam.toml");
     let study_file = out.join("custom_integrator.toml");
@@ -108,6 +125,7 @@ scenes = [{scene:?}]
 
 [grid]
 "integrator.method" = ["ssprk3", "rk4", "backward-euler"]
+"integrator.linear_solver" = ["cholesky", "cg-ic0"]
 
 [set]
 "run.dt" = 0.002
@@ -138,13 +156,13 @@ fn main() -> anyhow::Result<()> {
 #[cfg(test)]
 mod tests {
     /// CI runs this (the example is built with `test = true`): the study's runs.csv holds the
-    /// registered method beside the built-in ones, each completed.
+    /// registered method and solver beside the built-in ones, each completed.
     #[test]
     fn the_registered_method_runs_in_a_study() {
         let out = std::env::temp_dir().join(format!("softbench-custom-{}", std::process::id()));
         let dir = super::run(&out).unwrap();
         let runs = std::fs::read_to_string(dir.join("runs.csv")).unwrap();
-        for method in ["ssprk3", "rk4", "backward-euler"] {
+        for method in ["ssprk3", "rk4", "backward-euler", "cg-ic0"] {
             let row = runs
                 .lines()
                 .find(|l| l.contains(method))
