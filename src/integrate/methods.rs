@@ -1,4 +1,5 @@
-//! The integration methods: one table, one line per method. Parsing, "did you mean",
+//! The integration methods and the `[integrator]` section of a scene: one table, one line per
+//! method, and the settings every method reads. Parsing, "did you mean",
 //! `softbench list`, the README's method table and the checks of the rest of the code all
 //! read it. A program that depends on softbench adds its own with [`register_method`].
 //!
@@ -10,16 +11,21 @@
 use super::adaptive::Adaptive;
 use super::backward_euler::BackwardEuler;
 use super::bdf::Bdf;
+use super::bdf::BdfSettings;
 use super::implicit_midpoint::ImplicitMidpoint;
 use super::linearly_implicit_euler::LinearlyImplicitEuler;
-use super::newmark::{Newmark, NewmarkParameters};
+use super::newmark::{
+    GeneralizedAlphaSettings, HhtSettings, Newmark, NewmarkParameters, NewmarkSettings,
+};
+use super::newton::NewtonSettings;
 use super::newton::StepConstraints;
 use super::scheme::{NewtonIntegrator, Scheme};
-use super::static_equilibrium::Static;
+use super::static_equilibrium::{Static, StaticSettings};
 use super::symplectic_euler::SymplecticEuler;
 use super::verlet::VelocityVerlet;
-use super::{Integrator, IntegratorSettings, dopri5, explicit_euler, midpoint, rk4};
+use super::{AdaptiveSettings, Integrator, dopri5, explicit_euler, midpoint, rk4};
 use crate::registry::{Entry, Fact, RegisterError, Registry};
+use crate::solve::{LinearSolverKind, SolverSettings};
 
 /// How a method is built from its settings; `constraints` is `Some` only for methods whose
 /// entry allows constrained contact.
@@ -196,4 +202,80 @@ impl Method {
 /// like the built-in ones. Call it before loading scenes.
 pub fn register_method(entry: MethodEntry) -> Result<Method, RegisterError> {
     METHODS.register(entry).map(Method)
+}
+
+/// The `[integrator]` section of a scene: the method and every knob it may read.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct IntegratorSettings {
+    /// The method. Default: backward Euler.
+    pub method: Method,
+    /// Linear solver of implicit methods (and of explicit ones for a consistent mass
+    /// matrix, which is always factored by Cholesky). Default: Cholesky.
+    pub linear_solver: LinearSolverKind,
+    /// Newton and line search (every method that uses Newton).
+    pub newton: NewtonSettings,
+    /// Adaptive step control (adaptive-* methods and dopri5).
+    pub adaptive: AdaptiveSettings,
+    /// Settings of the linear solvers.
+    pub solver: SolverSettings,
+    /// β and γ of `newmark`.
+    pub newmark: NewmarkSettings,
+    /// ρ∞ of `generalized-alpha`.
+    pub generalized_alpha: GeneralizedAlphaSettings,
+    /// α of `hht-alpha`.
+    pub hht: HhtSettings,
+    /// Start-up of `bdf1`…`bdf6`.
+    pub bdf: BdfSettings,
+    /// Load stepping of `static`.
+    #[serde(rename = "static")]
+    pub static_solve: StaticSettings,
+}
+
+impl Default for IntegratorSettings {
+    fn default() -> Self {
+        Self {
+            method: Method::from_name("backward-euler").expect("a built-in method"),
+            linear_solver: LinearSolverKind::cholesky(),
+            newton: NewtonSettings::default(),
+            adaptive: AdaptiveSettings::default(),
+            solver: SolverSettings::default(),
+            newmark: NewmarkSettings::default(),
+            generalized_alpha: GeneralizedAlphaSettings::default(),
+            hht: HhtSettings::default(),
+            bdf: BdfSettings::default(),
+            static_solve: StaticSettings::default(),
+        }
+    }
+}
+
+impl IntegratorSettings {
+    /// Check every field's range; the message names the field and the valid range.
+    pub fn validate(&self) -> Result<(), String> {
+        self.newton.validate()?;
+        self.newmark.validate()?;
+        self.generalized_alpha.validate()?;
+        self.hht.validate()?;
+        if self.static_solve.max_load_steps == 0 {
+            return Err("static.max_load_steps must be >= 1".into());
+        }
+        Ok(())
+    }
+
+    /// Build the integrator these settings describe.
+    pub fn build(&self) -> Box<dyn Integrator> {
+        (self.method.entry().build)(self, None)
+    }
+
+    /// Build the integrator with every Newton iterate kept feasible for `constraints`; `None`
+    /// if the method cannot take constraints (see [`super::MethodEntry::constrained_contact`]).
+    pub fn build_constrained(
+        &self,
+        constraints: Box<dyn StepConstraints>,
+    ) -> Option<Box<dyn Integrator>> {
+        let entry = self.method.entry();
+        entry
+            .constrained_contact
+            .then(|| (entry.build)(self, Some(constraints)))
+    }
 }

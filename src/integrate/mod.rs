@@ -17,7 +17,6 @@ pub mod bdf;
 pub mod dopri5;
 pub mod explicit_euler;
 pub mod implicit_midpoint;
-mod kind;
 pub mod linearly_implicit_euler;
 mod mass_inverse;
 pub mod methods;
@@ -34,9 +33,8 @@ pub mod system;
 pub mod verlet;
 
 pub use adaptive::{Adaptive, AdaptiveSettings};
-pub use kind::IntegratorSettings;
 pub use mass_inverse::Dynamics;
-pub use methods::{Method, MethodEntry, register_method};
+pub use methods::{IntegratorSettings, Method, MethodEntry, register_method};
 pub use newton::NewtonSettings;
 pub use report::{PhaseTimes, StepError, StepReport};
 pub use scheme::{NewtonIntegrator, Scheme, StepProblem};
