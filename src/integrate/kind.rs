@@ -5,6 +5,7 @@ use super::methods::Method;
 use super::newmark::{GeneralizedAlphaSettings, HhtSettings, NewmarkSettings};
 use super::newton::{NewtonSettings, StepConstraints};
 use super::static_equilibrium::StaticSettings;
+use super::vbd::VbdSettings;
 use super::{AdaptiveSettings, Integrator};
 use crate::solve::{LinearSolverKind, SolverSettings};
 
@@ -34,6 +35,8 @@ pub struct IntegratorSettings {
     /// Load stepping of `static`.
     #[serde(rename = "static")]
     pub static_solve: StaticSettings,
+    /// Iterations, initialization and acceleration of `vbd`.
+    pub vbd: VbdSettings,
 }
 
 impl Default for IntegratorSettings {
@@ -49,6 +52,7 @@ impl Default for IntegratorSettings {
             hht: HhtSettings::default(),
             bdf: BdfSettings::default(),
             static_solve: StaticSettings::default(),
+            vbd: VbdSettings::default(),
         }
     }
 }
@@ -60,6 +64,7 @@ impl IntegratorSettings {
         self.newmark.validate()?;
         self.generalized_alpha.validate()?;
         self.hht.validate()?;
+        self.vbd.validate()?;
         if self.static_solve.max_load_steps == 0 {
             return Err("static.max_load_steps must be >= 1".into());
         }

@@ -17,6 +17,7 @@ use super::newton::StepConstraints;
 use super::scheme::{NewtonIntegrator, Scheme};
 use super::static_equilibrium::Static;
 use super::symplectic_euler::SymplecticEuler;
+use super::vbd::Vbd;
 use super::verlet::VelocityVerlet;
 use super::{Integrator, IntegratorSettings, dopri5, explicit_euler, midpoint, rk4};
 use crate::registry::{Entry, RegisterError, Registry};
@@ -122,7 +123,7 @@ fn bdf(
 
 /// The built-in methods, in the order `softbench list` shows them: one line each.
 #[rustfmt::skip]
-static BUILTIN: [MethodEntry; 23] = [
+static BUILTIN: [MethodEntry; 24] = [
     explicit("explicit-euler", 1, "forward Euler; unstable for undamped oscillation", |_, _| Box::new(explicit_euler::explicit_euler())),
     explicit("symplectic-euler", 1, "semi-implicit Euler, symplectic (bounded energy error)", |_, _| Box::new(SymplecticEuler::new())),
     explicit("velocity-verlet", 2, "central differences / Störmer-Verlet, symplectic, momentum-conserving", |_, _| Box::new(VelocityVerlet::new())),
@@ -145,6 +146,7 @@ static BUILTIN: [MethodEntry; 23] = [
     implicit("newmark", 2, true, "Newmark(β, γ); default trapezoidal (1/4, 1/2), order 1 if γ ≠ 1/2", |s, c| newton_scheme(s, c, Newmark::new("newmark", NewmarkParameters::newmark(s.newmark)))),
     implicit("generalized-alpha", 2, true, "generalized-α (Chung-Hulbert), high frequencies damped to ρ∞", |s, c| newton_scheme(s, c, Newmark::new("generalized-alpha", NewmarkParameters::generalized_alpha(s.generalized_alpha)))),
     implicit("hht-alpha", 2, true, "Hilber-Hughes-Taylor α, high-frequency dissipation", |s, c| newton_scheme(s, c, Newmark::new("hht-alpha", NewmarkParameters::hht(s.hht)))),
+    MethodEntry { name: "vbd", description: "vertex block descent: colored Gauss-Seidel 3x3 Newton steps; converges to the backward Euler step (any material)", order: 1, explicit: false, newton: false, constrained_contact: false, build: |s, _| Box::new(Vbd::new(s.vbd)) },
     implicit("static", 0, true, "equilibrium under each time's loads (no inertia); gravity ramped if Newton fails", |s, c| Box::new(Static::new(s.static_solve, s.linear_solver.build(&s.solver), s.newton, c))),
 ];
 

@@ -9,11 +9,14 @@
 //!   embedded error of [`dopri5`]);
 //! - implicit: [`linearly_implicit_euler`] (one linear solve), and the [`scheme`]s run by the
 //!   one Newton loop ([`newton`]): [`backward_euler`], [`implicit_midpoint`], [`bdf`] (BDF-k,
-//!   k = 1…6), [`newmark`] (Newmark, generalized-α, HHT-α) and [`static_equilibrium`].
+//!   k = 1…6), [`newmark`] (Newmark, generalized-α, HHT-α) and [`static_equilibrium`];
+//! - local solvers on the backward Euler step: [`vbd`] (vertex block descent, parallel over a
+//!   vertex [`colouring`]).
 
 pub mod adaptive;
 pub mod backward_euler;
 pub mod bdf;
+pub mod colouring;
 pub mod dopri5;
 pub mod explicit_euler;
 pub mod implicit_midpoint;
@@ -31,6 +34,7 @@ pub mod scheme;
 pub mod static_equilibrium;
 pub mod symplectic_euler;
 pub mod system;
+pub mod vbd;
 pub mod verlet;
 
 pub use adaptive::{Adaptive, AdaptiveSettings};
