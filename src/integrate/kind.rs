@@ -4,6 +4,7 @@ use super::bdf::BdfSettings;
 use super::methods::Method;
 use super::newmark::{GeneralizedAlphaSettings, HhtSettings, NewmarkSettings};
 use super::newton::{NewtonSettings, StepConstraints};
+use super::projective_dynamics::ProjectiveDynamicsSettings;
 use super::static_equilibrium::StaticSettings;
 use super::vbd::VbdSettings;
 use super::{AdaptiveSettings, Integrator};
@@ -37,6 +38,8 @@ pub struct IntegratorSettings {
     pub static_solve: StaticSettings,
     /// Iterations, initialization and acceleration of `vbd`.
     pub vbd: VbdSettings,
+    /// Iterations of `projective-dynamics`.
+    pub projective_dynamics: ProjectiveDynamicsSettings,
 }
 
 impl Default for IntegratorSettings {
@@ -53,6 +56,7 @@ impl Default for IntegratorSettings {
             bdf: BdfSettings::default(),
             static_solve: StaticSettings::default(),
             vbd: VbdSettings::default(),
+            projective_dynamics: ProjectiveDynamicsSettings::default(),
         }
     }
 }
@@ -65,6 +69,7 @@ impl IntegratorSettings {
         self.generalized_alpha.validate()?;
         self.hht.validate()?;
         self.vbd.validate()?;
+        self.projective_dynamics.validate()?;
         if self.static_solve.max_load_steps == 0 {
             return Err("static.max_load_steps must be >= 1".into());
         }

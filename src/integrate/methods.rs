@@ -14,6 +14,7 @@ use super::implicit_midpoint::ImplicitMidpoint;
 use super::linearly_implicit_euler::LinearlyImplicitEuler;
 use super::newmark::{Newmark, NewmarkParameters};
 use super::newton::StepConstraints;
+use super::projective_dynamics::ProjectiveDynamics;
 use super::scheme::{NewtonIntegrator, Scheme};
 use super::static_equilibrium::Static;
 use super::symplectic_euler::SymplecticEuler;
@@ -123,7 +124,7 @@ fn bdf(
 
 /// The built-in methods, in the order `softbench list` shows them: one line each.
 #[rustfmt::skip]
-static BUILTIN: [MethodEntry; 24] = [
+static BUILTIN: [MethodEntry; 25] = [
     explicit("explicit-euler", 1, "forward Euler; unstable for undamped oscillation", |_, _| Box::new(explicit_euler::explicit_euler())),
     explicit("symplectic-euler", 1, "semi-implicit Euler, symplectic (bounded energy error)", |_, _| Box::new(SymplecticEuler::new())),
     explicit("velocity-verlet", 2, "central differences / Störmer-Verlet, symplectic, momentum-conserving", |_, _| Box::new(VelocityVerlet::new())),
@@ -147,6 +148,7 @@ static BUILTIN: [MethodEntry; 24] = [
     implicit("generalized-alpha", 2, true, "generalized-α (Chung-Hulbert), high frequencies damped to ρ∞", |s, c| newton_scheme(s, c, Newmark::new("generalized-alpha", NewmarkParameters::generalized_alpha(s.generalized_alpha)))),
     implicit("hht-alpha", 2, true, "Hilber-Hughes-Taylor α, high-frequency dissipation", |s, c| newton_scheme(s, c, Newmark::new("hht-alpha", NewmarkParameters::hht(s.hht)))),
     MethodEntry { name: "vbd", description: "vertex block descent: colored Gauss-Seidel 3x3 Newton steps; converges to the backward Euler step (any material)", order: 1, explicit: false, newton: false, constrained_contact: false, build: |s, _| Box::new(Vbd::new(s.vbd)) },
+    MethodEntry { name: "projective-dynamics", description: "local/global iterations, prefactored global matrix; converges to backward Euler on its projective energy (corotated)", order: 1, explicit: false, newton: false, constrained_contact: false, build: |s, _| Box::new(ProjectiveDynamics::new(s.projective_dynamics, s.linear_solver.build(&s.solver))) },
     implicit("static", 0, true, "equilibrium under each time's loads (no inertia); gravity ramped if Newton fails", |s, c| Box::new(Static::new(s.static_solve, s.linear_solver.build(&s.solver), s.newton, c))),
 ];
 

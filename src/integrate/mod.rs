@@ -11,7 +11,8 @@
 //!   one Newton loop ([`newton`]): [`backward_euler`], [`implicit_midpoint`], [`bdf`] (BDF-k,
 //!   k = 1…6), [`newmark`] (Newmark, generalized-α, HHT-α) and [`static_equilibrium`];
 //! - local solvers on the backward Euler step: [`vbd`] (vertex block descent, parallel over a
-//!   vertex [`colouring`]).
+//!   vertex [`colouring`]) and [`projective_dynamics`] (local/global, on its projective
+//!   energy, corotated elasticity).
 
 pub mod adaptive;
 pub mod backward_euler;
@@ -27,6 +28,7 @@ pub mod methods;
 pub mod midpoint;
 pub mod newmark;
 pub mod newton;
+pub mod projective_dynamics;
 mod report;
 pub mod rk4;
 pub mod runge_kutta;

@@ -102,7 +102,7 @@ struct Setup {
 
 /// CSR lists: for each free vertex, the codes `arity * element + corner` of the elements that
 /// hold it.
-fn incidence<const N: usize>(
+pub(super) fn incidence<const N: usize>(
     model: &Model,
     elements: impl Iterator<Item = [usize; N]> + Clone,
 ) -> (Vec<usize>, Vec<u32>) {
