@@ -7,6 +7,7 @@ use super::newton::{NewtonSettings, StepConstraints};
 use super::projective_dynamics::ProjectiveDynamicsSettings;
 use super::static_equilibrium::StaticSettings;
 use super::vbd::VbdSettings;
+use super::xpbd::XpbdSettings;
 use super::{AdaptiveSettings, Integrator};
 use crate::solve::{LinearSolverKind, SolverSettings};
 
@@ -40,6 +41,8 @@ pub struct IntegratorSettings {
     pub vbd: VbdSettings,
     /// Iterations of `projective-dynamics`.
     pub projective_dynamics: ProjectiveDynamicsSettings,
+    /// Substeps and iterations of `xpbd`.
+    pub xpbd: XpbdSettings,
 }
 
 impl Default for IntegratorSettings {
@@ -57,6 +60,7 @@ impl Default for IntegratorSettings {
             static_solve: StaticSettings::default(),
             vbd: VbdSettings::default(),
             projective_dynamics: ProjectiveDynamicsSettings::default(),
+            xpbd: XpbdSettings::default(),
         }
     }
 }
@@ -70,6 +74,7 @@ impl IntegratorSettings {
         self.hht.validate()?;
         self.vbd.validate()?;
         self.projective_dynamics.validate()?;
+        self.xpbd.validate()?;
         if self.static_solve.max_load_steps == 0 {
             return Err("static.max_load_steps must be >= 1".into());
         }

@@ -12,7 +12,8 @@
 //!   k = 1…6), [`newmark`] (Newmark, generalized-α, HHT-α) and [`static_equilibrium`];
 //! - local solvers on the backward Euler step: [`vbd`] (vertex block descent, parallel over a
 //!   vertex [`colouring`]) and [`projective_dynamics`] (local/global, on its projective
-//!   energy, corotated elasticity).
+//!   energy, corotated elasticity); [`xpbd`] (substepped constraints, on its constraint
+//!   energy).
 
 pub mod adaptive;
 pub mod backward_euler;
@@ -38,6 +39,7 @@ pub mod symplectic_euler;
 pub mod system;
 pub mod vbd;
 pub mod verlet;
+pub mod xpbd;
 
 pub use adaptive::{Adaptive, AdaptiveSettings};
 pub use kind::IntegratorSettings;

@@ -441,6 +441,9 @@ impl Integrator for Vbd {
                 MaterialModel::Corotated(m) => {
                     self.solve(m, material.name(), tets, rest, model, state, dt)
                 }
+                MaterialModel::ConstraintNeoHookean(m) => {
+                    self.solve(m, material.name(), tets, rest, model, state, dt)
+                }
             },
             None => {
                 let none = Corotated {

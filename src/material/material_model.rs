@@ -1,8 +1,8 @@
 //! The choice of material model, read from a name (a config string or a command-line flag).
 
 use super::{
-    Corotated, InvalidDeformation, LameParameters, Material, MaterialError, Matrix9, NeoHookean,
-    StVenantKirchhoff, StableNeoHookean,
+    ConstraintNeoHookean, Corotated, InvalidDeformation, LameParameters, Material, MaterialError,
+    Matrix9, NeoHookean, StVenantKirchhoff, StableNeoHookean,
 };
 use nalgebra::Matrix3;
 
@@ -26,6 +26,7 @@ use nalgebra::Matrix3;
 ///     MaterialModel::StableNeoHookean(m) => total_energy(m, &fs),
 ///     MaterialModel::StVenantKirchhoff(m) => total_energy(m, &fs),
 ///     MaterialModel::Corotated(m) => total_energy(m, &fs),
+///     MaterialModel::ConstraintNeoHookean(m) => total_energy(m, &fs),
 /// };
 /// assert!(e.abs() < 1e-9);
 /// ```
@@ -39,11 +40,19 @@ pub enum MaterialModel {
     StVenantKirchhoff(StVenantKirchhoff),
     /// `"corotated"`: [`Corotated`].
     Corotated(Corotated),
+    /// `"xpbd-neo-hookean"`: [`ConstraintNeoHookean`], the energy `xpbd` converges to.
+    ConstraintNeoHookean(ConstraintNeoHookean),
 }
 
 impl MaterialModel {
     /// The accepted names, in the order of the variants.
-    pub const NAMES: [&'static str; 4] = ["neo-hookean", "stable-neo-hookean", "stvk", "corotated"];
+    pub const NAMES: [&'static str; 5] = [
+        "neo-hookean",
+        "stable-neo-hookean",
+        "stvk",
+        "corotated",
+        "xpbd-neo-hookean",
+    ];
 
     /// The model called `name` (one of [`Self::NAMES`], exactly), built from Lamé parameters
     /// with each model's own mapping (see the model's `new`). An unknown name is
@@ -54,6 +63,7 @@ impl MaterialModel {
             "stable-neo-hookean" => Self::StableNeoHookean(StableNeoHookean::new(lame)),
             "stvk" => Self::StVenantKirchhoff(StVenantKirchhoff::new(lame)),
             "corotated" => Self::Corotated(Corotated::new(lame)),
+            "xpbd-neo-hookean" => Self::ConstraintNeoHookean(ConstraintNeoHookean::new(lame)),
             _ => return Err(MaterialError::UnknownModel(name.to_owned())),
         })
     }
@@ -71,6 +81,9 @@ impl MaterialModel {
             "corotated" => {
                 "corotated linear elasticity (polar decomposition); defined through inversion"
             }
+            "xpbd-neo-hookean" => {
+                "mu/2 |F|^2 + lambda/2 (J - 1 - mu/lambda)^2: the energy of xpbd's constraints"
+            }
             _ => "",
         }
     }
@@ -82,6 +95,7 @@ impl MaterialModel {
             Self::StableNeoHookean(_) => Self::NAMES[1],
             Self::StVenantKirchhoff(_) => Self::NAMES[2],
             Self::Corotated(_) => Self::NAMES[3],
+            Self::ConstraintNeoHookean(_) => Self::NAMES[4],
         }
     }
 
@@ -92,6 +106,7 @@ impl MaterialModel {
             Self::StableNeoHookean(_) => StableNeoHookean::HANDLES_INVERSION,
             Self::StVenantKirchhoff(_) => StVenantKirchhoff::HANDLES_INVERSION,
             Self::Corotated(_) => Corotated::HANDLES_INVERSION,
+            Self::ConstraintNeoHookean(_) => ConstraintNeoHookean::HANDLES_INVERSION,
         }
     }
 
@@ -102,6 +117,7 @@ impl MaterialModel {
             Self::StableNeoHookean(m) => m.energy_density(f),
             Self::StVenantKirchhoff(m) => m.energy_density(f),
             Self::Corotated(m) => m.energy_density(f),
+            Self::ConstraintNeoHookean(m) => m.energy_density(f),
         }
     }
 
@@ -112,6 +128,7 @@ impl MaterialModel {
             Self::StableNeoHookean(m) => m.first_piola(f),
             Self::StVenantKirchhoff(m) => m.first_piola(f),
             Self::Corotated(m) => m.first_piola(f),
+            Self::ConstraintNeoHookean(m) => m.first_piola(f),
         }
     }
 
@@ -122,6 +139,7 @@ impl MaterialModel {
             Self::StableNeoHookean(m) => m.first_piola_derivative(f),
             Self::StVenantKirchhoff(m) => m.first_piola_derivative(f),
             Self::Corotated(m) => m.first_piola_derivative(f),
+            Self::ConstraintNeoHookean(m) => m.first_piola_derivative(f),
         }
     }
 }

@@ -32,6 +32,7 @@ macro_rules! with_material {
             MaterialModel::StableNeoHookean($m) => $body,
             MaterialModel::StVenantKirchhoff($m) => $body,
             MaterialModel::Corotated($m) => $body,
+            MaterialModel::ConstraintNeoHookean($m) => $body,
         }
     };
 }
