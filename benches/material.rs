@@ -61,6 +61,7 @@ fn materials(c: &mut Criterion) {
             MaterialModel::StableNeoHookean(m) => bench_material(c, name, m, &fs),
             MaterialModel::StVenantKirchhoff(m) => bench_material(c, name, m, &fs),
             MaterialModel::Corotated(m) => bench_material(c, name, m, &fs),
+            MaterialModel::ConstraintNeoHookean(m) => bench_material(c, name, m, &fs),
         }
     }
 }

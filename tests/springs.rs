@@ -421,7 +421,11 @@ fn a_jello_cube_falls_freely_with_its_centre_of_mass_at_g_t2_over_2() {
 #[test]
 fn every_integrator_runs_a_jello_cube_for_a_few_steps() {
     // Every time integrator (order 0 is the static solve: a free cube has no equilibrium).
-    for method in Method::all().into_iter().filter(|m| m.order() > 0) {
+    // XPBD has tet constraints only (no springs, no dashpots).
+    for method in Method::all()
+        .into_iter()
+        .filter(|m| m.order() > 0 && m.name() != "xpbd")
+    {
         let mut model = jello_cube_model(0.05, true);
         let mut start = State::at_rest(&model);
         // Squeeze it a little so the springs work.

@@ -19,10 +19,15 @@ use super::newmark::{
 };
 use super::newton::NewtonSettings;
 use super::newton::StepConstraints;
+use super::projective_dynamics::ProjectiveDynamics;
+use super::projective_dynamics::ProjectiveDynamicsSettings;
 use super::scheme::{NewtonIntegrator, Scheme};
 use super::static_equilibrium::{Static, StaticSettings};
 use super::symplectic_euler::SymplecticEuler;
+use super::vbd::Vbd;
+use super::vbd::VbdSettings;
 use super::verlet::VelocityVerlet;
+use super::xpbd::{Xpbd, XpbdSettings};
 use super::{AdaptiveSettings, Integrator, dopri5, explicit_euler, midpoint, rk4};
 use crate::registry::{Entry, Fact, RegisterError, Registry};
 use crate::solve::{LinearSolverKind, SolverSettings};
@@ -146,7 +151,7 @@ fn bdf(
 
 /// The built-in methods, in the order `softbench list` shows them: one line each.
 #[rustfmt::skip]
-static BUILTIN: [MethodEntry; 23] = [
+static BUILTIN: [MethodEntry; 26] = [
     explicit("explicit-euler", 1, "forward Euler; unstable for undamped oscillation", |_, _| Box::new(explicit_euler::explicit_euler())),
     explicit("symplectic-euler", 1, "semi-implicit Euler, symplectic (bounded energy error)", |_, _| Box::new(SymplecticEuler::new())),
     explicit("velocity-verlet", 2, "central differences / Störmer-Verlet, symplectic, momentum-conserving", |_, _| Box::new(VelocityVerlet::new())),
@@ -169,6 +174,9 @@ static BUILTIN: [MethodEntry; 23] = [
     implicit("newmark", 2, true, "Newmark(β, γ); default trapezoidal (1/4, 1/2), order 1 if γ ≠ 1/2", |s, c| newton_scheme(s, c, Newmark::new("newmark", NewmarkParameters::newmark(s.newmark)))),
     implicit("generalized-alpha", 2, true, "generalized-α (Chung-Hulbert), high frequencies damped to ρ∞", |s, c| newton_scheme(s, c, Newmark::new("generalized-alpha", NewmarkParameters::generalized_alpha(s.generalized_alpha)))),
     implicit("hht-alpha", 2, true, "Hilber-Hughes-Taylor α, high-frequency dissipation", |s, c| newton_scheme(s, c, Newmark::new("hht-alpha", NewmarkParameters::hht(s.hht)))),
+    MethodEntry { name: "vbd", description: "vertex block descent: colored Gauss-Seidel 3x3 Newton steps; converges to the backward Euler step (any material)", order: 1, explicit: false, newton: false, constrained_contact: false, build: |s, _| Box::new(Vbd::new(s.vbd)) },
+    MethodEntry { name: "projective-dynamics", description: "local/global iterations, prefactored global matrix; converges to backward Euler on its projective energy (corotated)", order: 1, explicit: false, newton: false, constrained_contact: false, build: |s, _| Box::new(ProjectiveDynamics::new(s.projective_dynamics, s.linear_solver.build(&s.solver))) },
+    MethodEntry { name: "xpbd", description: "XPBD with Neo-Hookean constraints, substepped; converges to the dynamics of its constraint energy (xpbd-neo-hookean)", order: 1, explicit: false, newton: false, constrained_contact: false, build: |s, _| Box::new(Xpbd::new(s.xpbd)) },
     implicit("static", 0, true, "equilibrium under each time's loads (no inertia); gravity ramped if Newton fails", |s, c| Box::new(Static::new(s.static_solve, s.linear_solver.build(&s.solver), s.newton, c))),
 ];
 
@@ -230,6 +238,12 @@ pub struct IntegratorSettings {
     /// Load stepping of `static`.
     #[serde(rename = "static")]
     pub static_solve: StaticSettings,
+    /// Iterations, initialization and acceleration of `vbd`.
+    pub vbd: VbdSettings,
+    /// Iterations of `projective-dynamics`.
+    pub projective_dynamics: ProjectiveDynamicsSettings,
+    /// Substeps and iterations of `xpbd`.
+    pub xpbd: XpbdSettings,
 }
 
 impl Default for IntegratorSettings {
@@ -245,6 +259,9 @@ impl Default for IntegratorSettings {
             hht: HhtSettings::default(),
             bdf: BdfSettings::default(),
             static_solve: StaticSettings::default(),
+            vbd: VbdSettings::default(),
+            projective_dynamics: ProjectiveDynamicsSettings::default(),
+            xpbd: XpbdSettings::default(),
         }
     }
 }
@@ -256,6 +273,9 @@ impl IntegratorSettings {
         self.newmark.validate()?;
         self.generalized_alpha.validate()?;
         self.hht.validate()?;
+        self.vbd.validate()?;
+        self.projective_dynamics.validate()?;
+        self.xpbd.validate()?;
         if self.static_solve.max_load_steps == 0 {
             return Err("static.max_load_steps must be >= 1".into());
         }

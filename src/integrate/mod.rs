@@ -9,11 +9,16 @@
 //!   embedded error of [`dopri5`]);
 //! - implicit: [`linearly_implicit_euler`] (one linear solve), and the [`scheme`]s run by the
 //!   one Newton loop ([`newton`]): [`backward_euler`], [`implicit_midpoint`], [`bdf`] (BDF-k,
-//!   k = 1…6), [`newmark`] (Newmark, generalized-α, HHT-α) and [`static_equilibrium`].
+//!   k = 1…6), [`newmark`] (Newmark, generalized-α, HHT-α) and [`static_equilibrium`];
+//! - local solvers on the backward Euler step: [`vbd`] (vertex block descent, parallel over a
+//!   vertex [`colouring`]) and [`projective_dynamics`] (local/global, on its projective
+//!   energy, corotated elasticity); [`xpbd`] (substepped constraints, on its constraint
+//!   energy).
 
 pub mod adaptive;
 pub mod backward_euler;
 pub mod bdf;
+pub mod colouring;
 pub mod dopri5;
 pub mod explicit_euler;
 pub mod implicit_midpoint;
@@ -23,6 +28,7 @@ pub mod methods;
 pub mod midpoint;
 pub mod newmark;
 pub mod newton;
+pub mod projective_dynamics;
 mod report;
 pub mod rk4;
 pub mod runge_kutta;
@@ -30,7 +36,9 @@ pub mod scheme;
 pub mod static_equilibrium;
 pub mod symplectic_euler;
 pub mod system;
+pub mod vbd;
 pub mod verlet;
+pub mod xpbd;
 
 pub use adaptive::{Adaptive, AdaptiveSettings};
 pub use mass_inverse::Dynamics;

@@ -6,8 +6,8 @@
 //! and every dispatch over the models are generated from it.
 
 use super::{
-    Corotated, InvalidDeformation, LameParameters, Material, MaterialError, Matrix9, NeoHookean,
-    StVenantKirchhoff, StableNeoHookean,
+    ConstraintNeoHookean, Corotated, InvalidDeformation, LameParameters, Material, MaterialError,
+    Matrix9, NeoHookean, StVenantKirchhoff, StableNeoHookean,
 };
 use nalgebra::Matrix3;
 
@@ -29,6 +29,9 @@ macro_rules! material_table {
             /// `"corotated"`: [`Corotated`].
             Corotated = "corotated",
                 "corotated linear elasticity (polar decomposition); defined through inversion";
+            /// `"xpbd-neo-hookean"`: [`ConstraintNeoHookean`], the energy `xpbd` converges to.
+            ConstraintNeoHookean = "xpbd-neo-hookean",
+                "mu/2 |F|^2 + lambda/2 (J - 1 - mu/lambda)^2: the energy of xpbd's constraints";
         }
     };
 }

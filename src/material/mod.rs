@@ -7,6 +7,7 @@
 //! Materials are small `Copy` structs behind the [`Material`] trait; element loops are generic
 //! over it, and [`MaterialModel`] dispatches once per loop, never per element.
 
+mod constraint_neo_hookean;
 mod corotated;
 mod lame;
 mod material_model;
@@ -15,6 +16,7 @@ mod stable_neo_hookean;
 mod stvk;
 mod svd;
 
+pub use constraint_neo_hookean::ConstraintNeoHookean;
 pub use corotated::{Corotated, TWIST_DENOMINATOR_FLOOR};
 pub use lame::{LameParameters, MaterialError};
 pub use material_model::{MaterialFacts, MaterialKind, MaterialModel, UnknownMaterialKind};

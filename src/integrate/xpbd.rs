@@ -1,0 +1,301 @@
+//! XPBD with Macklin & Müller's Neo-Hookean constraints (2021, "A Constraint-based
+//! Formulation of Stable Neo-Hookean Materials"): per tet, the deviatoric constraint
+//! `C_D = ‖F‖_F` with compliance `1/(mu V)` and the hydrostatic one `C_H = det F − (1 + mu/lambda)`
+//! with compliance `1/(lambda V)`, solved one after the other in each tet.
+//!
+//! Its energy is `mu/2 ‖F‖² + lambda/2 (J − 1 − mu/lambda)²` per unit volume, material
+//! `xpbd-neo-hookean` ([`crate::material::ConstraintNeoHookean`]): as substeps grow, XPBD
+//! follows the dynamics of that energy (with lumped mass), so it matches `backward-euler` on
+//! that material within backward Euler's discretization error. Other materials, springs,
+//! damping and per-vertex potentials are refused with a typed error.
+//!
+//! Each substep `h = dt/substeps`: `v += h g`, `x += h v`, multipliers reset, `iterations`
+//! Gauss–Seidel sweeps over the tets, `v = (x − x_start)/h`. Tets of one colour share no free
+//! vertex ([`super::colouring`]), so each colour is solved in parallel into a buffer and then
+//! applied: the result is that of a sequential sweep, whatever the thread count.
+
+use super::colouring::Colouring;
+use super::{Integrator, State, StepError, StepReport};
+use crate::fem::TetRest;
+use crate::material::{ConstraintNeoHookean, MaterialModel, cofactor};
+use crate::model::{Model, ModelError};
+use crate::parallel::for_each_chunk;
+use nalgebra::{Matrix3, Vector3};
+
+/// Settings of `xpbd`.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct XpbdSettings {
+    /// Substeps per step. Default 20.
+    pub substeps: u32,
+    /// Gauss–Seidel sweeps over the constraints per substep. Default 1.
+    pub iterations: u32,
+}
+
+impl Default for XpbdSettings {
+    fn default() -> Self {
+        Self {
+            substeps: 20,
+            iterations: 1,
+        }
+    }
+}
+
+impl XpbdSettings {
+    /// Check every field's range.
+    pub fn validate(&self) -> Result<(), String> {
+        if self.substeps == 0 || self.iterations == 0 {
+            return Err("xpbd.substeps and xpbd.iterations must be >= 1".into());
+        }
+        Ok(())
+    }
+}
+
+/// Tets per parallel task.
+const CHUNK: usize = 16;
+
+fn unsupported(field: &str, value: impl ToString, expected: &str) -> StepError {
+    StepError::Model(ModelError::InvalidParameter {
+        field: field.into(),
+        value: value.to_string(),
+        expected: expected.into(),
+    })
+}
+
+/// The XPBD integrator.
+#[derive(Debug, Default)]
+pub struct Xpbd {
+    settings: XpbdSettings,
+    num_dofs: Option<usize>,
+    colouring: Colouring,
+    /// Inverse lumped mass of every vertex (0 for fixed ones).
+    inverse_mass: Vec<f64>,
+    x: Vec<Vector3<f64>>,
+    x_start: Vec<Vector3<f64>>,
+    v: Vec<Vector3<f64>>,
+    /// Multipliers (C_D, C_H) per tet.
+    lambda: Vec<[f64; 2]>,
+    /// Per tet of a colour: 12 position changes and 2 multiplier changes.
+    out: Vec<f64>,
+}
+
+impl Xpbd {
+    /// A new integrator with `settings`.
+    pub fn new(settings: XpbdSettings) -> Self {
+        Self {
+            settings,
+            ..Self::default()
+        }
+    }
+
+    /// The colouring of the tets (`None` before a step).
+    pub fn colouring(&self) -> Option<&Colouring> {
+        self.num_dofs.map(|_| &self.colouring)
+    }
+
+    fn material(model: &Model) -> Result<Option<ConstraintNeoHookean>, StepError> {
+        if model.has_damping() {
+            return Err(unsupported("damping", "on", "xpbd has no damping"));
+        }
+        if !model.springs().is_empty() {
+            return Err(unsupported(
+                "springs",
+                model.springs().len(),
+                "xpbd has no springs",
+            ));
+        }
+        if let Some(p) = model.vertex_potentials().first() {
+            return Err(unsupported(
+                "vertex potential",
+                p.name(),
+                "xpbd supports no per-vertex potentials (drag, penalty contact)",
+            ));
+        }
+        match model.elastic_elements().map(|e| *e.material) {
+            None => Ok(None),
+            Some(MaterialModel::ConstraintNeoHookean(m)) => Ok(Some(m)),
+            Some(other) => Err(unsupported(
+                "material.model",
+                other.name(),
+                "xpbd converges to the energy of its constraints: use material `xpbd-neo-hookean`",
+            )),
+        }
+    }
+
+    fn set_up(&mut self, model: &Model, q: &[f64]) {
+        let dofs = model.dofs();
+        let tets = model.elastic_elements().map_or(&[][..], |e| e.tets);
+        let (ptr, codes) = super::vbd::incidence(model, tets.iter().copied());
+        self.colouring = Colouring::greedy(tets.len(), |e, visit| {
+            for &v in &tets[e] {
+                if !dofs.is_fixed(v) {
+                    let f = dofs.free_index(v) as usize;
+                    for &code in &codes[ptr[f]..ptr[f + 1]] {
+                        visit(code as usize / 4);
+                    }
+                }
+            }
+        });
+        self.inverse_mass = (0..dofs.num_vertices())
+            .map(|v| {
+                if dofs.is_fixed(v) {
+                    0.0
+                } else {
+                    1.0 / model.vertex_masses()[v]
+                }
+            })
+            .collect();
+        self.x = model.full_positions(q);
+        self.x_start = self.x.clone();
+        self.v = vec![Vector3::zeros(); self.x.len()];
+        self.lambda = vec![[0.0; 2]; tets.len()];
+        self.out = vec![0.0; 14 * self.colouring.largest_group()];
+        self.num_dofs = Some(model.num_dofs());
+    }
+}
+
+/// One constraint projection on the tet's local positions `p`: returns the multiplier change.
+#[inline]
+fn project(
+    p: &mut [Vector3<f64>; 4],
+    w: &[f64; 4],
+    grads: &[Vector3<f64>; 4],
+    c: f64,
+    dc_df: &Matrix3<f64>,
+    lambda: f64,
+    alpha_tilde: f64,
+) -> f64 {
+    let g = grads.map(|n| dc_df * n);
+    let denominator: f64 = (0..4).map(|a| w[a] * g[a].norm_squared()).sum::<f64>() + alpha_tilde;
+    if denominator <= 0.0 {
+        return 0.0;
+    }
+    let dl = (-c - alpha_tilde * lambda) / denominator;
+    for a in 0..4 {
+        p[a] += g[a] * (w[a] * dl);
+    }
+    dl
+}
+
+/// Both constraints of tet `e` at positions `x`; `out` gets 12 position and 2 multiplier
+/// changes.
+#[inline]
+#[allow(clippy::too_many_arguments)]
+fn solve_tet(
+    m: &ConstraintNeoHookean,
+    rest: &TetRest,
+    tet: &[usize; 4],
+    x: &[Vector3<f64>],
+    inverse_mass: &[f64],
+    lambda: [f64; 2],
+    h2: f64,
+    out: &mut [f64],
+) {
+    let mut p = tet.map(|v| x[v]);
+    let w = tet.map(|v| inverse_mass[v]);
+    let grads = rest.shape_gradients();
+    let mut dl = [0.0; 2];
+    let f = rest.deformation_gradient(&p);
+    let norm = f.norm();
+    if norm > 1e-12 && m.mu > 0.0 {
+        let alpha = 1.0 / (m.mu * rest.volume * h2);
+        dl[0] = project(&mut p, &w, &grads, norm, &(f / norm), lambda[0], alpha);
+    }
+    if m.lambda > 0.0 {
+        let f = rest.deformation_gradient(&p);
+        let alpha = 1.0 / (m.lambda * rest.volume * h2);
+        let c = f.determinant() - m.alpha;
+        dl[1] = project(&mut p, &w, &grads, c, &cofactor(&f), lambda[1], alpha);
+    }
+    for a in 0..4 {
+        let d = p[a] - x[tet[a]];
+        out[3 * a..3 * a + 3].copy_from_slice(d.as_slice());
+    }
+    out[12] = dl[0];
+    out[13] = dl[1];
+}
+
+impl Integrator for Xpbd {
+    fn name(&self) -> &'static str {
+        "xpbd"
+    }
+
+    fn order(&self) -> u32 {
+        1
+    }
+
+    fn is_explicit(&self) -> bool {
+        false
+    }
+
+    fn advance(
+        &mut self,
+        model: &mut Model,
+        state: &mut State,
+        dt: f64,
+        report: &mut StepReport,
+    ) -> Result<(), StepError> {
+        let material = Self::material(model)?;
+        if self.num_dofs != Some(model.num_dofs()) {
+            self.set_up(model, &state.q);
+        }
+        let dofs = model.dofs();
+        let free = dofs.free_vertices();
+        for (f, &v) in free.iter().enumerate() {
+            self.x[v] = Vector3::from_column_slice(&state.q[3 * f..3 * f + 3]);
+            self.v[v] = Vector3::from_column_slice(&state.v[3 * f..3 * f + 3]);
+        }
+        let empty: &[[usize; 4]] = &[];
+        let (tets, rest): (&[[usize; 4]], &[TetRest]) = model
+            .elastic_elements()
+            .map_or((empty, &[]), |e| (e.tets, e.rest));
+        let g = model.gravity().unwrap_or_else(Vector3::zeros);
+        let par = model.parallelism();
+        let h = dt / f64::from(self.settings.substeps);
+        for _ in 0..self.settings.substeps {
+            for &v in free {
+                self.x_start[v] = self.x[v];
+                self.v[v] += g * h;
+                self.x[v] += self.v[v] * h;
+            }
+            self.lambda.fill([0.0; 2]);
+            let Some(m) = material else {
+                for &v in free {
+                    self.v[v] = (self.x[v] - self.x_start[v]) / h;
+                }
+                continue;
+            };
+            for _ in 0..self.settings.iterations {
+                for c in 0..self.colouring.num_colours() {
+                    let group = self.colouring.group(c);
+                    let (x, inverse_mass, lambda) = (&self.x, &self.inverse_mass, &self.lambda);
+                    let out = &mut self.out[..14 * group.len()];
+                    for_each_chunk(par, out, 14 * CHUNK, |ci, out| {
+                        for (k, o) in out.chunks_exact_mut(14).enumerate() {
+                            let e = group[ci * CHUNK + k];
+                            solve_tet(&m, &rest[e], &tets[e], x, inverse_mass, lambda[e], h * h, o);
+                        }
+                        Ok::<(), StepError>(())
+                    })?;
+                    for (k, &e) in group.iter().enumerate() {
+                        let o = &self.out[14 * k..14 * k + 14];
+                        for (a, &v) in tets[e].iter().enumerate() {
+                            self.x[v] += Vector3::from_column_slice(&o[3 * a..3 * a + 3]);
+                        }
+                        self.lambda[e][0] += o[12];
+                        self.lambda[e][1] += o[13];
+                    }
+                }
+            }
+            for &v in free {
+                self.v[v] = (self.x[v] - self.x_start[v]) / h;
+            }
+        }
+        for (f, &v) in free.iter().enumerate() {
+            state.q[3 * f..3 * f + 3].copy_from_slice(self.x[v].as_slice());
+            state.v[3 * f..3 * f + 3].copy_from_slice(self.v[v].as_slice());
+        }
+        report.substeps = self.settings.substeps;
+        Ok(())
+    }
+}
