@@ -48,12 +48,7 @@ pub(super) fn run_hash(
     kind: StudyKind,
     quick: bool,
 ) -> String {
-    let settings = match kind {
-        StudyKind::Stability => serde_json::to_value(&file.stability),
-        StudyKind::WorkPrecision => serde_json::to_value(&file.work_precision),
-        _ => Ok(serde_json::Value::Null),
-    }
-    .unwrap_or_default();
+    let settings = (super::kinds::spec(kind).settings_json)(file);
     let quick_settings = if quick {
         serde_json::to_value(&file.quick).unwrap_or_default()
     } else {

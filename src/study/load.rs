@@ -5,7 +5,7 @@ use super::config::{METHOD_KEY, SOLVER_KEY, StudyFile, StudyKind, line_of};
 use super::context::Context;
 use super::error::StudyError;
 use super::grid::{Axis, grid_axes, method_entries, product};
-use super::identity::{float, physics_hash, run_hash, sanitize, value_text};
+use super::identity::{physics_hash, run_hash, sanitize, value_text};
 use super::settings::check_settings;
 use super::spec::{RunSpec, Study};
 use crate::data::DataPaths;
@@ -44,54 +44,20 @@ pub fn load(path: &Path, quick: bool) -> Result<Study, StudyError> {
     let ctx = Context { path, text: &text };
     let kind = check_settings(&file, &ctx)?;
     let mut file = file;
-    if kind == StudyKind::Stability && file.quick.horizon.is_some() {
-        return Err(StudyError::Invalid {
-            path: path.to_owned(),
-            line: ctx.line_of_key("horizon"),
-            key: "quick.horizon".into(),
-            message: "a stability study keeps its horizon in quick mode, so a quick verdict at a \
-                      step is the full study's verdict at that step; set [quick] max_steps to \
-                      judge fewer (larger) steps instead"
-                .into(),
-        });
-    }
-    if quick && let Some(s) = file.stability.as_mut() {
-        // Same horizon and criterion, fewer and larger steps judged: every quick trial is the
-        // trial the full study would run at that step.
-        let q = &file.quick;
-        s.max_steps = q.max_steps.unwrap_or(s.max_steps.min(2000));
-        s.relative_precision = q.relative_precision.unwrap_or(0.05);
-        if s.lowest_dt() > s.highest_dt() {
-            return Err(ctx.invalid(
-                0,
-                "quick.max_steps",
-                format!(
-                    "in quick mode no step can be judged: horizon / max_steps = {:e} s is above \
-                     the ceiling {:e} s (horizon / min_steps); raise [quick] max_steps",
-                    s.horizon / s.max_steps as f64,
-                    s.highest_dt()
-                ),
-            ));
-        }
-    }
-    if quick && let Some(w) = file.work_precision.as_mut() {
-        w.horizon = file.quick.horizon.unwrap_or(w.horizon);
+    let spec = super::kinds::spec(kind);
+    (spec.check_quick)(&file, &ctx)?;
+    if quick {
+        // The kinds' tables as `[quick]` resolves them, whatever the kind (meta.json records
+        // both tables as resolved).
+        super::stability::quick_table(&mut file, &ctx)?;
+        super::work_precision::quick_table(&mut file);
     }
     let file = file;
     let scenes = scene_sources(&file, &ctx)?;
     let axes = grid_axes(&file, &ctx)?;
     let mut method_axes = method_entries(&file, &ctx, &axes)?;
-    if quick && kind == StudyKind::WorkPrecision {
-        // The largest steps of each ladder (the global one and each method's own).
-        let keep = file.quick.dts.unwrap_or(2).max(1);
-        for axis in method_axes
-            .iter_mut()
-            .flatten()
-            .filter(|a| a.key == "run.dt")
-        {
-            axis.values.sort_by(|a, b| float(b).total_cmp(&float(a)));
-            axis.values.truncate(keep);
-        }
+    if quick {
+        (spec.quick_axes)(&file, &mut method_axes);
     }
     let mut parameters: Vec<String> = Vec::new();
     let mut distinct: HashMap<String, BTreeSet<String>> = HashMap::new();
@@ -309,38 +275,7 @@ fn resolve_run(
         }
     };
     let mut config = config;
-    // Stability and work-precision studies judge methods, so by default an unconverged Newton
-    // solve fails the step instead of being accepted.
-    let require = match kind {
-        StudyKind::Stability => file
-            .stability
-            .as_ref()
-            .is_some_and(|s| s.require_newton_convergence),
-        StudyKind::WorkPrecision => file
-            .work_precision
-            .as_ref()
-            .is_some_and(|w| w.require_newton_convergence),
-        _ => false,
-    };
-    if require {
-        config.integrator.newton.require_convergence = true;
-    }
-    match kind {
-        StudyKind::Trajectory if quick => {
-            config.run.steps = config.run.steps.min(file.quick.steps.unwrap_or(20));
-        }
-        StudyKind::WorkPrecision => {
-            check_step_fits(ctx, file, &config, axes)?;
-            let w = file.work_precision.as_ref().expect("checked");
-            let stride = (w.horizon / w.samples as f64 / config.run.dt).round() as usize;
-            config.run.steps = stride * w.samples;
-            // Rows at every sample time, and in between as densely as 500 rows allow.
-            config.run.sample_every = (1..=stride)
-                .find(|d| stride.is_multiple_of(*d) && config.run.steps / d <= 500)
-                .unwrap_or(stride);
-        }
-        _ => {}
-    }
+    (super::kinds::spec(kind).configure)(ctx, file, &mut config, axes, quick)?;
     let method = config.integrator.method;
     if method.is_explicit() {
         // An explicit method runs once whatever the implicit-only settings are.
@@ -384,35 +319,6 @@ fn configure(
         }
     }
     scene::from_table(table, source.text.as_deref(), &source.path)
-}
-
-/// A work-precision run's horizon and sample times must be whole numbers of its steps.
-fn check_step_fits(
-    ctx: &Context,
-    file: &StudyFile,
-    config: &SceneConfig,
-    axes: &[Axis],
-) -> Result<(), StudyError> {
-    let w = file.work_precision.as_ref().expect("checked");
-    let dt = config.run.dt;
-    let interval = w.horizon / w.samples as f64;
-    let per_sample = interval / dt;
-    if (per_sample - per_sample.round()).abs() > 1e-6 * per_sample.max(1.0) || per_sample < 0.5 {
-        let line = axes
-            .iter()
-            .find(|a| a.key == "run.dt")
-            .map_or(1, |a| a.line);
-        return Err(StudyError::Invalid {
-            path: ctx.path.to_owned(),
-            line,
-            key: "grid.\"run.dt\"".into(),
-            message: format!(
-                "dt = {dt} s does not divide the sample interval horizon / samples = {interval} s; \
-                 errors are measured at whole steps, so choose dt values that divide it"
-            ),
-        });
-    }
-    Ok(())
 }
 
 /// Build each distinct scene once, so a missing mesh file or a bad mesh is reported before

@@ -5,7 +5,9 @@
 use super::config::StudyKind;
 use super::meta::StudyMeta;
 use super::table::Table;
-use crate::plot::{self, Bar, BarChart, Chart, LineChart, ReferenceLine, Series, StackedBarChart};
+use crate::plot::{
+    self, Bar, BarChart, Chart, LineChart, PlotError, ReferenceLine, Series, StackedBarChart,
+};
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -19,12 +21,12 @@ pub struct Plot {
 }
 
 /// Draw every plot of the study into `dir`.
-pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>, plot::PlotError> {
+pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>, PlotError> {
     let mut plots = Vec::new();
     let scenes = scenes(runs);
     // The swept parameters' columns, which distinguish runs of one method in labels.
     let params = &study.parameters;
-    let mut emit = |stem: String, caption: &str, chart: Chart| -> Result<(), plot::PlotError> {
+    let mut emit = |stem: String, caption: &str, chart: Chart| -> Result<(), PlotError> {
         let title = chart.title().to_owned();
         plot::draw(&chart, &dir.join(&stem))?;
         plots.push(Plot {
@@ -34,6 +36,8 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
         });
         Ok(())
     };
+    // A sweep draws its metrics against the swept parameter whatever its kind: this is about
+    // the sweep itself, not a kind, so it stays here.
     if study.study == StudyKind::Sweep {
         for metric in sweep_metrics(study) {
             for chart in sweep_charts(study, runs, &metric) {
@@ -57,6 +61,7 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
         remove_stale(dir, &plots);
         return Ok(plots);
     }
+    let kind = super::kinds::spec(study.kind);
     for scene in &scenes {
         let rows: Vec<&Vec<String>> = runs
             .rows
@@ -64,48 +69,17 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
             .filter(|r| runs.get(r, "scene") == Some(scene))
             .collect();
         let slug = slug(scene);
-        match study.kind {
-            StudyKind::Stability => {
-                if let Some(chart) = cost_error_chart(scene, runs, params, &rows) {
-                    emit(
-                        format!("cost-error-{slug}"),
-                        "Wall seconds per simulated second against the relative L2 position \
-                         error, both at each method's largest stable dt (log-log): lower left \
-                         is better. Methods with no stable dt in range are absent.",
-                        Chart::Line(chart),
-                    )?;
-                }
-                emit(
-                    format!("stable-dt-{slug}"),
-                    "Largest stable time step per method (log scale); the line is the explicit \
-                     limit 2/omega_max of the scene at rest. Bars marked >= ceiling were stable \
-                     at the largest step judged (horizon / min_steps).",
-                    Chart::Bar(stable_dt_chart(scene, runs, params, &rows)),
-                )?;
-            }
-            StudyKind::WorkPrecision => {
-                for (x, x_label, what) in [
-                    ("wall_seconds", "wall time (s)", "time"),
-                    ("cost", "force + Hessian evaluations", "cost"),
-                    ("dt", "time step dt (s)", "dt"),
-                ] {
-                    emit(
-                        format!("work-precision-{what}-{slug}"),
-                        &format!(
-                            "Position error against the reference versus {x_label} (log-log), \
-                             one line per method; unscored and failed runs are left out."
-                        ),
-                        Chart::Line(work_precision_chart(scene, runs, params, &rows, x, x_label)),
-                    )?;
-                }
-            }
-            _ => {}
-        }
-        // Time histories: one chart per time step when a trajectory study sweeps it (a chart
-        // of every run would be unreadable); none for work-precision, whose runs differ only
-        // in accuracy.
-        if study.kind != StudyKind::WorkPrecision {
-            for (suffix, group) in by_time_step(study.kind, runs, &rows) {
+        let of_scene = SceneRows {
+            scene,
+            slug: &slug,
+            runs,
+            params,
+            rows: &rows,
+        };
+        (kind.scene_charts)(&of_scene, &mut emit)?;
+        // Time histories, if the kind draws them.
+        if let Some(caption) = kind.energy_caption {
+            for (suffix, group) in by_time_step(kind.by_time_step, runs, &rows) {
                 let series = load_series(dir, runs, params, &group);
                 let title = match suffix.strip_prefix('-') {
                     Some(dt) => format!("{scene}, {dt}"),
@@ -113,18 +87,7 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
                 };
                 emit(
                     format!("energy-{slug}{suffix}"),
-                    match study.kind {
-                        StudyKind::Stability => {
-                            "Energy balance over time of each method's trial at its largest \
-                             stable dt (or its failing trial): |E(t) - E(0) - work done| over the \
-                             energy budget the blow-up check uses (log scale)."
-                        }
-                        _ => {
-                            "Energy balance over time: |E(t) - E(0) - work done on the body| \
-                             over the energy budget the blow-up check uses (the scene's energy \
-                             scale plus the work put in), log scale."
-                        }
-                    },
+                    caption,
                     Chart::Line(energy_chart(&title, &series)),
                 )?;
                 if let Some(chart) = iterations_chart(&title, &series) {
@@ -136,7 +99,7 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
                 }
             }
         }
-        let phase_rows: Vec<&Vec<String>> = if study.kind == StudyKind::WorkPrecision {
+        let phase_rows: Vec<&Vec<String>> = if kind.phases_at_smallest_dt {
             smallest_dt_rows(runs, params, &rows)
         } else {
             rows.clone()
@@ -145,12 +108,32 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
             format!("phases-{slug}"),
             "Mean wall time per step split by phase (assembly of forces/Hessians, \
              factorization, solves, contact QPs, everything else).",
-            Chart::Stacked(phase_chart(scene, study.kind, runs, params, &phase_rows)),
+            Chart::Stacked(phase_chart(
+                scene,
+                kind.phase_dt_columns,
+                runs,
+                params,
+                &phase_rows,
+            )),
         )?;
     }
     remove_stale(dir, &plots);
     Ok(plots)
 }
+
+/// One scene's rows of `runs.csv`, for the charts a kind draws of it.
+pub(super) struct SceneRows<'a> {
+    pub scene: &'a str,
+    /// The scene's name as it appears in file stems.
+    pub slug: &'a str,
+    pub runs: &'a Table,
+    /// The swept parameters' columns, which distinguish runs of one method in labels.
+    pub params: &'a [String],
+    pub rows: &'a [&'a Vec<String>],
+}
+
+/// Draws a chart: its file stem, its caption, the chart.
+pub(super) type Emit<'e> = dyn FnMut(String, &str, Chart) -> Result<(), PlotError> + 'e;
 
 /// Parameters that set a run's accuracy: the points along one work-precision line.
 const ACCURACY_KNOBS: [&str; 2] = ["run.dt", "integrator.adaptive.tolerance"];
@@ -215,7 +198,7 @@ fn label(runs: &Table, params: &[String], row: &[String], skip: &[&str]) -> Stri
     label
 }
 
-fn stable_dt_chart(
+pub(super) fn stable_dt_chart(
     scene: &str,
     runs: &Table,
     params: &[String],
@@ -274,7 +257,7 @@ fn stable_dt_chart(
 
 /// Cost per simulated second against the error at the largest stable step: one point per
 /// method, the headline of a stability study.
-fn cost_error_chart(
+pub(super) fn cost_error_chart(
     scene: &str,
     runs: &Table,
     params: &[String],
@@ -308,7 +291,7 @@ fn cost_error_chart(
     })
 }
 
-fn work_precision_chart(
+pub(super) fn work_precision_chart(
     scene: &str,
     runs: &Table,
     params: &[String],
@@ -459,18 +442,19 @@ fn iterations_chart(scene: &str, series: &[RunSeries]) -> Option<LineChart> {
     })
 }
 
-/// The rows of a scene grouped by time step when a trajectory study has several (with a stem
+/// The rows of a scene grouped by time step when `by_dt` and it has several (with a stem
 /// suffix `-dt=…`), else all in one group.
 fn by_time_step<'a>(
-    kind: StudyKind,
+    by_dt: bool,
     runs: &Table,
     rows: &[&'a Vec<String>],
 ) -> Vec<(String, Vec<&'a Vec<String>>)> {
     let mut groups: Vec<(String, Vec<&'a Vec<String>>)> = Vec::new();
     for r in rows {
-        let dt = match kind {
-            StudyKind::Trajectory => runs.get(r, "dt").unwrap_or_default(),
-            _ => "",
+        let dt = if by_dt {
+            runs.get(r, "dt").unwrap_or_default()
+        } else {
+            ""
         };
         match groups.iter_mut().find(|(d, _)| d == dt) {
             Some((_, g)) => g.push(r),
@@ -514,7 +498,7 @@ fn smallest_dt_rows<'a>(
 
 fn phase_chart(
     scene: &str,
-    kind: StudyKind,
+    dt_columns: &[&str],
     runs: &Table,
     params: &[String],
     rows: &[&Vec<String>],
@@ -541,11 +525,7 @@ fn phase_chart(
             continue;
         };
         let mut label = label(runs, params, r, &[]);
-        if kind == StudyKind::Stability
-            && let Some(dt) = runs.number(r, "max_stable_dt")
-        {
-            label.push_str(&format!(" dt={}", super::format::short(dt)));
-        } else if let Some(dt) = runs.number(r, "dt") {
+        if let Some(dt) = dt_columns.iter().find_map(|c| runs.number(r, c)) {
             label.push_str(&format!(" dt={}", super::format::short(dt)));
         }
         categories.push(label);

@@ -66,14 +66,7 @@ fn render(
         let _ = writeln!(
             out,
             "**Quick mode** (`--quick`): {}; these numbers are a smoke test, not results.\n",
-            match s.kind {
-                StudyKind::Stability => {
-                    "the same horizon and criterion, but only the larger steps are judged and \
-                     the bisection is coarser (a verdict at a step is the full study's)"
-                }
-                StudyKind::WorkPrecision => "the horizon and the dt ladders are shortened",
-                _ => "runs are shortened",
-            }
+            super::kinds::spec(s.kind).quick_notice
         );
     }
     let m = &meta.machine;
@@ -93,7 +86,7 @@ fn render(
         meta.finished.as_deref().unwrap_or("-"),
         meta.wall_seconds.map_or("-".into(), |w| format!("{w:.1}")),
     );
-    settings(&mut out, study);
+    (super::kinds::spec(s.kind).report_settings)(&mut out, &study.file);
     if !references.is_empty() || !failed_references.is_empty() {
         let _ = writeln!(out, "References:\n");
         for (scene, message) in failed_references.values() {
@@ -116,9 +109,7 @@ fn render(
         }
         let _ = writeln!(out);
     }
-    if s.kind == StudyKind::WorkPrecision {
-        orders(&mut out, runs);
-    }
+    (super::kinds::spec(s.kind).report_findings)(&mut out, runs);
 
     let _ = writeln!(out, "## Runs\n");
     let mut columns: Vec<&str> = vec!["scene", "method", "linear_solver"];
@@ -196,93 +187,4 @@ fn render(
         let _ = writeln!(out, "None.");
     }
     out
-}
-
-/// The kind's settings, and every cap and threshold that can decide a result.
-fn settings(out: &mut String, study: &Study) {
-    if let (StudyKind::Stability, Some(st)) = (study.kind, &study.file.stability) {
-        let _ = writeln!(
-            out,
-            "Stability search: first trial at {} s, bisection down to a presumed-stable {} s or \
-             widening up (x4) to the ceiling, to {}% precision, then {} smaller probe(s). A trial \
-             is stable when it covers the {} s horizon in {} to {} steps with every step taken \
-             and its energy gain beyond the work done on the body below {} x the energy budget; \
-             so only steps in [{}, {}] s are judged. Newton convergence {}.\n",
-            short(st.dt_max),
-            short(st.dt_min),
-            st.relative_precision * 100.0,
-            st.probes,
-            short(st.horizon),
-            st.min_steps,
-            st.max_steps,
-            st.energy_factor,
-            short(st.lowest_dt()),
-            short(st.highest_dt()),
-            if st.require_newton_convergence {
-                "is required (an unconverged step fails as solver-failed)"
-            } else {
-                "is **not** required: unconverged steps are accepted and counted \
-                 (`newton_unconverged_steps`)"
-            }
-        );
-    }
-    if let (StudyKind::WorkPrecision, Some(w)) = (study.kind, &study.file.work_precision) {
-        let _ = writeln!(
-            out,
-            "Work-precision: horizon {} s, errors at {} sample times (the largest is reported). \
-             Newton convergence {}.\n",
-            short(w.horizon),
-            w.samples,
-            if w.require_newton_convergence {
-                "is required"
-            } else {
-                "is **not** required: unconverged steps are accepted and counted"
-            }
-        );
-    }
-}
-
-/// Observed order of each line of a work-precision study: the slope of log(error) against
-/// log(dt) between its two smallest scored time steps.
-fn orders(out: &mut String, runs: &Table) {
-    let mut lines: BTreeMap<(String, String), Vec<(f64, f64)>> = BTreeMap::new();
-    for r in &runs.rows {
-        // Adaptive methods choose their own steps: dt is only their output interval.
-        let method = runs.get(r, "method").unwrap_or_default();
-        if method.starts_with("adaptive-") || method == "dopri5" {
-            continue;
-        }
-        if let (Some(dt), Some(e)) = (runs.number(r, "dt"), runs.number(r, "error")) {
-            let key = (
-                runs.get(r, "scene").unwrap_or_default().to_owned(),
-                format!(
-                    "{} {}",
-                    runs.get(r, "method").unwrap_or_default(),
-                    runs.get(r, "linear_solver").unwrap_or_default()
-                ),
-            );
-            lines.entry(key).or_default().push((dt, e));
-        }
-    }
-    let mut text = String::new();
-    for ((scene, method), mut points) in lines {
-        if points.len() < 2 {
-            continue;
-        }
-        points.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let ((d1, e1), (d2, e2)) = (points[0], points[1]);
-        let order = (e2 / e1).ln() / (d2 / d1).ln();
-        let _ = writeln!(
-            text,
-            "| {scene} | {} | {order:.2} |",
-            method.trim_end_matches(" -")
-        );
-    }
-    if !text.is_empty() {
-        let _ = writeln!(
-            out,
-            "Observed order (slope of log error against log dt between the two smallest scored \
-             steps; adaptive methods, whose dt is only an output interval, are left out):\n\n| scene | method | order |\n|---|---|---|\n{text}"
-        );
-    }
 }

@@ -12,7 +12,7 @@ use super::progress::Progress;
 use super::spec::{RunSpec, Study};
 use super::table::Table;
 use super::work_precision::Reference;
-use super::{report, stability, trajectory, work_precision};
+use super::{report, stability, work_precision};
 use crate::integrate::Method;
 use crate::interrupt;
 use crate::io::write_atomic;
@@ -334,13 +334,8 @@ impl Shared {
         progress: &Progress,
     ) -> Result<Self, RunError> {
         let mut omega = HashMap::new();
-        let needs_omega = study.kind == StudyKind::Stability
-            || (study.kind == StudyKind::WorkPrecision
-                && study
-                    .file
-                    .work_precision
-                    .as_ref()
-                    .is_some_and(|w| w.reference.method.is_none()));
+        let kind = super::kinds::spec(study.kind);
+        let needs_omega = (kind.needs_omega)(&study.file);
         // (A stability study's reference also picks its method from omega_max.)
         for spec in pending {
             if needs_omega && !omega.contains_key(&spec.physics) {
@@ -357,8 +352,9 @@ impl Shared {
         }
         let mut references = BTreeMap::new();
         let mut failed_references = BTreeMap::new();
-        let settings = reference_settings(study);
-        if let Some(w) = settings.as_ref() {
+        let references_of = kind.references.as_ref();
+        let settings = references_of.and_then(|r| (r.settings)(&study.file));
+        if let (Some(w), Some(references_of)) = (settings.as_ref(), references_of) {
             // One reference per physics, `jobs` of them at a time (each is independent).
             let mut needed: Vec<&RunSpec> = Vec::new();
             for spec in pending {
@@ -367,7 +363,7 @@ impl Shared {
                 }
             }
             let compute = |spec: &RunSpec| {
-                let dt = reference_dt(study, w, spec);
+                let dt = (references_of.dt)(study, w, spec);
                 let method = w.reference.method.unwrap_or_else(|| {
                     // RK4 where it is stable at dt (its limit is 2.83 / omega_max), else the
                     // second-order implicit midpoint rule.
@@ -404,10 +400,9 @@ impl Shared {
             for (spec, (method, result)) in results {
                 let reference = match result {
                     Ok(r) => r,
-                    // A stability study still judges stability without its reference: the
-                    // errors at the largest stable steps are left empty, and the report says
-                    // why.
-                    Err(m) if study.kind == StudyKind::Stability => {
+                    // A kind that goes on without its reference (stability) leaves the errors
+                    // that need it empty, and the report says why.
+                    Err(m) if references_of.optional => {
                         progress.line(&format!(
                             "reference for {} failed, so error_at_stable_dt is left empty: {m}",
                             spec.scene
@@ -436,79 +431,17 @@ impl Shared {
     }
 }
 
-/// How the study's reference solutions are computed, if it has any: the work-precision
-/// settings, or for a stability study its error samples over its horizon.
-fn reference_settings(study: &Study) -> Option<super::config::WorkPrecisionSettings> {
-    match study.kind {
-        StudyKind::WorkPrecision => study.file.work_precision.clone(),
-        StudyKind::Stability => {
-            let s = study.file.stability.as_ref()?;
-            (s.error_samples > 0).then(|| super::config::WorkPrecisionSettings {
-                horizon: s.horizon,
-                samples: s.error_samples,
-                require_newton_convergence: true,
-                reference: s.reference.clone(),
-            })
-        }
-        _ => None,
-    }
-}
-
-/// The reference step for the physics of `spec`: as set, or for a work-precision study the
-/// smallest dt of the grid over `dt_factor`, for a stability study `horizon / 4000`
-/// (in quick mode never finer than `horizon / 400`); rounded down to divide the sample
-/// interval.
-fn reference_dt(study: &Study, w: &super::config::WorkPrecisionSettings, spec: &RunSpec) -> f64 {
-    let target = w.reference.dt.unwrap_or_else(|| match study.kind {
-        StudyKind::WorkPrecision => {
-            let smallest = study
-                .runs
-                .iter()
-                .filter(|r| r.physics == spec.physics)
-                .map(|r| r.loaded.config.run.dt)
-                .fold(f64::INFINITY, f64::min);
-            smallest / w.reference.dt_factor
-        }
-        _ => w.horizon / 4000.0,
-    });
-    if study.kind == StudyKind::WorkPrecision {
-        return target;
-    }
-    // Quick mode: a reference no finer than horizon / 400 (it is a smoke test).
-    let target = if study.quick {
-        target.max(w.horizon / 400.0)
-    } else {
-        target
-    };
-    let interval = w.horizon / w.samples as f64;
-    interval / (interval / target).ceil().max(1.0)
-}
-
 fn measure(
     study: &Study,
     spec: &RunSpec,
     shared: &Shared,
     parallelism: Parallelism,
 ) -> Result<Measured, String> {
-    match study.kind {
-        StudyKind::Stability => {
-            let settings = study.file.stability.as_ref().expect("checked at load");
-            let shared = stability::Shared {
-                omega: shared.omega.get(&spec.physics).copied().flatten(),
-                reference: shared.references.get(&spec.physics).map(|(_, r)| r),
-            };
-            stability::measure(spec, settings, &shared, parallelism)
-        }
-        StudyKind::WorkPrecision => {
-            let settings = study.file.work_precision.as_ref().expect("checked at load");
-            let (_, reference) = shared
-                .references
-                .get(&spec.physics)
-                .ok_or("no reference solution")?;
-            work_precision::measure(spec, settings, reference, parallelism)
-        }
-        _ => trajectory::measure(spec, parallelism),
-    }
+    let shared = super::kind::Shared {
+        omega: shared.omega.get(&spec.physics).copied().flatten(),
+        reference: shared.references.get(&spec.physics).map(|(_, r)| r),
+    };
+    (super::kinds::spec(study.kind).measure)(study, spec, &shared, parallelism)
 }
 
 /// Write a finished run's series files and return its `runs.csv` row.

@@ -39,6 +39,8 @@ pub fn check_name(name: &str) -> Result<(), String> {
 /// The measured kind, after checking the kind's settings are present and sane.
 pub(super) fn check_settings(file: &StudyFile, ctx: &Context) -> Result<StudyKind, StudyError> {
     check_name(&file.name).map_err(|m| ctx.invalid(0, "name", m))?;
+    // The sweep's own table (its kind, parameter and metrics) is about the sweep, not a kind,
+    // so it is checked here; the measured kind then checks its own table.
     let kind = match (&file.study, &file.sweep) {
         (StudyKind::Sweep, Some(sweep)) => {
             if sweep.kind == StudyKind::Sweep {
@@ -99,123 +101,13 @@ pub(super) fn check_settings(file: &StudyFile, ctx: &Context) -> Result<StudyKin
         key: key.to_owned(),
         message,
     };
-    match kind {
-        StudyKind::Stability => {
-            let Some(s) = &file.stability else {
-                return Err(ctx.invalid(
-                    0,
-                    "stability",
-                    "a stability study needs a [stability] table with dt_min, dt_max and horizon",
-                ));
-            };
-            let positive = |x: f64| x.is_finite() && x > 0.0;
-            if !positive(s.dt_min) {
-                return Err(bad(
-                    "stability.dt_min",
-                    format!("must be > 0 s (got {})", s.dt_min),
-                ));
-            }
-            if !(positive(s.dt_max) && s.dt_max > s.dt_min) {
-                return Err(bad(
-                    "stability.dt_max",
-                    format!("must be > dt_min = {} s (got {})", s.dt_min, s.dt_max),
-                ));
-            }
-            if !positive(s.horizon) {
-                return Err(bad(
-                    "stability.horizon",
-                    format!("must be > 0 s (got {})", s.horizon),
-                ));
-            }
-            if !(s.energy_factor.is_finite() && s.energy_factor > 0.0) {
-                return Err(bad(
-                    "stability.energy_factor",
-                    format!("must be > 0 (got {})", s.energy_factor),
-                ));
-            }
-            if !(MIN_RELATIVE_PRECISION..1.0).contains(&s.relative_precision) {
-                return Err(bad(
-                    "stability.relative_precision",
-                    format!(
-                        "must be in [{MIN_RELATIVE_PRECISION:e}, 1) (got {}): the bisection \
-                         cannot resolve dt more finely than that",
-                        s.relative_precision
-                    ),
-                ));
-            }
-            if !(positive(s.floor()) && s.floor() <= s.dt_min) {
-                return Err(bad(
-                    "stability.dt_floor",
-                    format!("must be in (0, dt_min] (got {})", s.floor()),
-                ));
-            }
-            if s.max_steps == 0 {
-                return Err(bad("stability.max_steps", "must be at least 1".into()));
-            }
-            if s.min_steps == 0 || s.min_steps > s.max_steps {
-                return Err(bad(
-                    "stability.min_steps",
-                    format!(
-                        "must be in [1, max_steps = {}] (got {})",
-                        s.max_steps, s.min_steps
-                    ),
-                ));
-            }
-            if s.dt_ceiling.is_some_and(|c| !positive(c)) {
-                return Err(bad("stability.dt_ceiling", "must be > 0 s".into()));
-            }
-            if s.lowest_dt() > s.highest_dt() {
-                return Err(bad(
-                    "stability.max_steps",
-                    format!(
-                        "no step can be judged: horizon / max_steps = {:e} s is above the \
-                         ceiling {:e} s (horizon / min_steps or dt_ceiling); raise max_steps",
-                        s.horizon / s.max_steps as f64,
-                        s.highest_dt()
-                    ),
-                ));
-            }
-            check_reference(&s.reference, "stability", &bad)?;
-        }
-        StudyKind::WorkPrecision => {
-            let Some(w) = &file.work_precision else {
-                return Err(ctx.invalid(
-                    0,
-                    "work-precision",
-                    "a work-precision study needs a [work-precision] table with `horizon`",
-                ));
-            };
-            if !(w.horizon.is_finite() && w.horizon > 0.0) {
-                return Err(bad(
-                    "work-precision.horizon",
-                    format!("must be > 0 s (got {})", w.horizon),
-                ));
-            }
-            if w.samples == 0 {
-                return Err(bad("work-precision.samples", "must be at least 1".into()));
-            }
-            check_reference(&w.reference, "work-precision", &bad)?;
-            if !file.grid.contains_key("run.dt")
-                && !file
-                    .methods
-                    .iter()
-                    .any(|m| m.get_ref().contains_key("run.dt"))
-            {
-                return Err(ctx.invalid(
-                    0,
-                    "grid",
-                    "a work-precision study sweeps the time step: add \"run.dt\" = [..] to [grid]",
-                ));
-            }
-        }
-        StudyKind::Trajectory | StudyKind::Sweep => {}
-    }
+    (super::kinds::spec(kind).check)(file, ctx, &bad)?;
     check_quick(file, &bad)?;
     Ok(kind)
 }
 
 /// The `[<table>.reference]` settings' ranges.
-fn check_reference(
+pub(super) fn check_reference(
     r: &super::config::ReferenceSettings,
     table: &str,
     bad: &dyn Fn(&str, String) -> StudyError,

@@ -55,7 +55,9 @@ impl Study {
         self.parameters
             .iter()
             .enumerate()
-            .filter(|(_, p)| !(p.as_str() == "run.dt" && self.kind != StudyKind::Stability))
+            .filter(|(_, p)| {
+                !(p.as_str() == "run.dt" && super::kinds::spec(self.kind).columns.contains(&"dt"))
+            })
             .map(|(i, p)| (i, p.clone()))
             .collect()
     }

@@ -16,18 +16,25 @@
 //! `no-stable-dt-in-range` (otherwise no trial was stable). The `outcome` column is how the
 //! first unstable trial ended.
 
-use super::config::StabilitySettings;
+use super::config::{StabilitySettings, StudyFile, WorkPrecisionSettings};
+use super::context::Context;
+use super::error::StudyError;
 use super::format::{cell, short};
-use super::kind::{KindSpec, number};
+use super::kind::{KindSpec, References, keep_axes, no_findings, number};
 use super::measured::{Measured, build, cap_cells, outcome_of, summary_cells};
+use super::plots::{self, Emit, SceneRows};
+use super::settings::MIN_RELATIVE_PRECISION;
 use super::spec::RunSpec;
+use super::spec::Study;
 use super::table::Table;
 use super::work_precision::Reference;
 use crate::integrate::State;
 use crate::model::{HighestMode, Model, SpectrumSettings, highest_mode};
 use crate::parallel::Parallelism;
+use crate::plot::{Chart, PlotError};
 use crate::run::{self, Observer, Outcome, OutcomeKind, RunSummary, Sample};
 use crate::scene::{RunConfig, Scene};
+use std::fmt::Write;
 
 /// Columns of a stability study's `runs.csv` after the run's identity.
 pub const COLUMNS: &[&str] = &[
@@ -99,7 +106,250 @@ pub(super) const SPEC: KindSpec = KindSpec {
                 .unwrap_or_default()
         ))
     },
+    settings_json: |file| serde_json::to_value(&file.stability).unwrap_or_default(),
+    quick_notice: "the same horizon and criterion, but only the larger steps are judged and \
+                   the bisection is coarser (a verdict at a step is the full study's)",
+    report_settings,
+    report_findings: no_findings,
+    check,
+    check_quick,
+    quick_axes: keep_axes,
+    configure: |_, file, config, _, _| {
+        // It judges methods, so by default an unconverged Newton solve fails the step instead
+        // of being accepted.
+        if file
+            .stability
+            .as_ref()
+            .is_some_and(|s| s.require_newton_convergence)
+        {
+            config.integrator.newton.require_convergence = true;
+        }
+        Ok(())
+    },
+    // The search starts from the explicit limit, and the reference picks its method from it.
+    needs_omega: |_| true,
+    references: Some(References {
+        settings: reference_settings,
+        dt: reference_dt,
+        // It still judges stability without its reference: the errors at the largest stable
+        // steps are left empty, and the report says why.
+        optional: true,
+    }),
+    measure: |study, spec, shared, parallelism| {
+        let settings = study.file.stability.as_ref().expect("checked at load");
+        measure(spec, settings, shared, parallelism)
+    },
+    scene_charts,
+    energy_caption: Some(
+        "Energy balance over time of each method's trial at its largest stable dt (or its \
+         failing trial): |E(t) - E(0) - work done| over the energy budget the blow-up check uses \
+         (log scale).",
+    ),
+    by_time_step: false,
+    phases_at_smallest_dt: false,
+    phase_dt_columns: &["max_stable_dt", "dt"],
 };
+
+/// Cost against error at the largest stable steps, and the largest stable step per method.
+fn scene_charts(s: &SceneRows, emit: &mut Emit) -> Result<(), PlotError> {
+    if let Some(chart) = plots::cost_error_chart(s.scene, s.runs, s.params, s.rows) {
+        emit(
+            format!("cost-error-{}", s.slug),
+            "Wall seconds per simulated second against the relative L2 position error, both at \
+             each method's largest stable dt (log-log): lower left is better. Methods with no \
+             stable dt in range are absent.",
+            Chart::Line(chart),
+        )?;
+    }
+    emit(
+        format!("stable-dt-{}", s.slug),
+        "Largest stable time step per method (log scale); the line is the explicit limit \
+         2/omega_max of the scene at rest. Bars marked >= ceiling were stable at the largest \
+         step judged (horizon / min_steps).",
+        Chart::Bar(plots::stable_dt_chart(s.scene, s.runs, s.params, s.rows)),
+    )
+}
+
+/// The `[stability]` table is present and sane.
+fn check(
+    file: &StudyFile,
+    ctx: &Context,
+    bad: &dyn Fn(&str, String) -> StudyError,
+) -> Result<(), StudyError> {
+    let Some(s) = &file.stability else {
+        return Err(ctx.invalid(
+            0,
+            "stability",
+            "a stability study needs a [stability] table with dt_min, dt_max and horizon",
+        ));
+    };
+    let positive = |x: f64| x.is_finite() && x > 0.0;
+    if !positive(s.dt_min) {
+        return Err(bad(
+            "stability.dt_min",
+            format!("must be > 0 s (got {})", s.dt_min),
+        ));
+    }
+    if !(positive(s.dt_max) && s.dt_max > s.dt_min) {
+        return Err(bad(
+            "stability.dt_max",
+            format!("must be > dt_min = {} s (got {})", s.dt_min, s.dt_max),
+        ));
+    }
+    if !positive(s.horizon) {
+        return Err(bad(
+            "stability.horizon",
+            format!("must be > 0 s (got {})", s.horizon),
+        ));
+    }
+    if !(s.energy_factor.is_finite() && s.energy_factor > 0.0) {
+        return Err(bad(
+            "stability.energy_factor",
+            format!("must be > 0 (got {})", s.energy_factor),
+        ));
+    }
+    if !(MIN_RELATIVE_PRECISION..1.0).contains(&s.relative_precision) {
+        return Err(bad(
+            "stability.relative_precision",
+            format!(
+                "must be in [{MIN_RELATIVE_PRECISION:e}, 1) (got {}): the bisection \
+                 cannot resolve dt more finely than that",
+                s.relative_precision
+            ),
+        ));
+    }
+    if !(positive(s.floor()) && s.floor() <= s.dt_min) {
+        return Err(bad(
+            "stability.dt_floor",
+            format!("must be in (0, dt_min] (got {})", s.floor()),
+        ));
+    }
+    if s.max_steps == 0 {
+        return Err(bad("stability.max_steps", "must be at least 1".into()));
+    }
+    if s.min_steps == 0 || s.min_steps > s.max_steps {
+        return Err(bad(
+            "stability.min_steps",
+            format!(
+                "must be in [1, max_steps = {}] (got {})",
+                s.max_steps, s.min_steps
+            ),
+        ));
+    }
+    if s.dt_ceiling.is_some_and(|c| !positive(c)) {
+        return Err(bad("stability.dt_ceiling", "must be > 0 s".into()));
+    }
+    if s.lowest_dt() > s.highest_dt() {
+        return Err(bad(
+            "stability.max_steps",
+            format!(
+                "no step can be judged: horizon / max_steps = {:e} s is above the \
+                 ceiling {:e} s (horizon / min_steps or dt_ceiling); raise max_steps",
+                s.horizon / s.max_steps as f64,
+                s.highest_dt()
+            ),
+        ));
+    }
+    super::settings::check_reference(&s.reference, "stability", &bad)?;
+    Ok(())
+}
+
+/// A stability study keeps its horizon in quick mode.
+fn check_quick(file: &StudyFile, ctx: &Context) -> Result<(), StudyError> {
+    if file.quick.horizon.is_some() {
+        return Err(StudyError::Invalid {
+            path: ctx.path.to_owned(),
+            line: ctx.line_of_key("horizon"),
+            key: "quick.horizon".into(),
+            message: "a stability study keeps its horizon in quick mode, so a quick verdict at a \
+                      step is the full study's verdict at that step; set [quick] max_steps to \
+                      judge fewer (larger) steps instead"
+                .into(),
+        });
+    }
+    Ok(())
+}
+
+/// `[quick]` applied to the `[stability]` table (whatever the kind, as the table is written
+/// to meta.json as resolved).
+pub(super) fn quick_table(file: &mut StudyFile, ctx: &Context) -> Result<(), StudyError> {
+    if let Some(s) = file.stability.as_mut() {
+        // Same horizon and criterion, fewer and larger steps judged: every quick trial is the
+        // trial the full study would run at that step.
+        let q = &file.quick;
+        s.max_steps = q.max_steps.unwrap_or(s.max_steps.min(2000));
+        s.relative_precision = q.relative_precision.unwrap_or(0.05);
+        if s.lowest_dt() > s.highest_dt() {
+            return Err(ctx.invalid(
+                0,
+                "quick.max_steps",
+                format!(
+                    "in quick mode no step can be judged: horizon / max_steps = {:e} s is above \
+                     the ceiling {:e} s (horizon / min_steps); raise [quick] max_steps",
+                    s.horizon / s.max_steps as f64,
+                    s.highest_dt()
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Its reference solutions: its error samples over its horizon, if it has any.
+fn reference_settings(file: &StudyFile) -> Option<WorkPrecisionSettings> {
+    let s = file.stability.as_ref()?;
+    (s.error_samples > 0).then(|| WorkPrecisionSettings {
+        horizon: s.horizon,
+        samples: s.error_samples,
+        require_newton_convergence: true,
+        reference: s.reference.clone(),
+    })
+}
+
+/// The reference step: as set, or `horizon / 4000` (in quick mode never finer than
+/// `horizon / 400`); rounded down to divide the sample interval.
+fn reference_dt(study: &Study, w: &WorkPrecisionSettings, _: &RunSpec) -> f64 {
+    let target = w.reference.dt.unwrap_or(w.horizon / 4000.0);
+    // Quick mode: a reference no finer than horizon / 400 (it is a smoke test).
+    let target = if study.quick {
+        target.max(w.horizon / 400.0)
+    } else {
+        target
+    };
+    let interval = w.horizon / w.samples as f64;
+    interval / (interval / target).ceil().max(1.0)
+}
+
+/// The report's paragraph on the search's settings, and every cap and threshold that can
+/// decide a result.
+fn report_settings(out: &mut String, file: &StudyFile) {
+    if let Some(st) = &file.stability {
+        let _ = writeln!(
+            out,
+            "Stability search: first trial at {} s, bisection down to a presumed-stable {} s or \
+             widening up (x4) to the ceiling, to {}% precision, then {} smaller probe(s). A trial \
+             is stable when it covers the {} s horizon in {} to {} steps with every step taken \
+             and its energy gain beyond the work done on the body below {} x the energy budget; \
+             so only steps in [{}, {}] s are judged. Newton convergence {}.\n",
+            short(st.dt_max),
+            short(st.dt_min),
+            st.relative_precision * 100.0,
+            st.probes,
+            short(st.horizon),
+            st.min_steps,
+            st.max_steps,
+            st.energy_factor,
+            short(st.lowest_dt()),
+            short(st.highest_dt()),
+            if st.require_newton_convergence {
+                "is required (an unconverged step fails as solver-failed)"
+            } else {
+                "is **not** required: unconverged steps are accepted and counted \
+                 (`newton_unconverged_steps`)"
+            }
+        );
+    }
+}
 
 /// The verdicts of the `stability` column.
 pub const VERDICTS: [&str; 4] = [

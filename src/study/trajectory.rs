@@ -2,7 +2,10 @@
 //! time per step and evaluation counts.
 
 use super::format::cell;
-use super::kind::{KindSpec, number};
+use super::kind::{
+    KindSpec, keep_axes, no_charts, no_findings, no_omega, no_quick_check, no_report, no_settings,
+    number,
+};
 use super::measured::{Measured, build, cap_cells, outcome_of, run_rows, summary_cells};
 use super::spec::RunSpec;
 use crate::parallel::Parallelism;
@@ -54,6 +57,32 @@ pub(super) const SPEC: KindSpec = KindSpec {
     ],
     sweep_metrics: &["energy_drift_max", "step_seconds_median"],
     progress: |m| number(m, "energy_drift_max").map(|d| format!(", energy drift {d}")),
+    settings_json: no_settings,
+    quick_notice: "runs are shortened",
+    report_settings: no_report,
+    report_findings: no_findings,
+    check: |_, _, _| Ok(()),
+    check_quick: no_quick_check,
+    quick_axes: keep_axes,
+    configure: |_, file, config, _, quick| {
+        if quick {
+            config.run.steps = config.run.steps.min(file.quick.steps.unwrap_or(20));
+        }
+        Ok(())
+    },
+    needs_omega: no_omega,
+    references: None,
+    measure: |_, spec, _, parallelism| measure(spec, parallelism),
+    scene_charts: no_charts,
+    energy_caption: Some(
+        "Energy balance over time: |E(t) - E(0) - work done on the body| over the energy budget \
+         the blow-up check uses (the scene's energy scale plus the work put in), log scale.",
+    ),
+    // One chart per time step when the study sweeps it: a chart of every run would be
+    // unreadable.
+    by_time_step: true,
+    phases_at_smallest_dt: false,
+    phase_dt_columns: &["dt"],
 };
 
 /// Run one trajectory.

@@ -9,16 +9,27 @@
 //! computed twice, at its step and at half of it; their difference is the reference's own
 //! accuracy, and errors below `floor_factor` times it are not scored.
 
-use super::config::WorkPrecisionSettings;
-use super::format::cell;
-use super::kind::{KindSpec, number};
+use super::config::{StudyFile, WorkPrecisionSettings};
+use super::context::Context;
+use super::error::StudyError;
+use super::format::{cell, short};
+use super::grid::Axis;
+use super::identity::float;
+use super::kind::{KindSpec, References, no_quick_check, number};
 use super::measured::{Measured, build, cap_cells, outcome_of, summary_cells};
+use super::plots::{self, Emit, SceneRows};
 use super::spec::RunSpec;
+use super::spec::Study;
+use super::table::Table;
 use crate::integrate::{Method, State};
 use crate::model::Model;
 use crate::parallel::Parallelism;
+use crate::plot::{Chart, PlotError};
 use crate::run::{self, Energies, Observer, RunSummary, Sample};
+use crate::scene::SceneConfig;
 use crate::scene::{RunConfig, Scene};
+use std::collections::BTreeMap;
+use std::fmt::Write;
 
 /// Columns of a work-precision study's `runs.csv` after the run's identity.
 pub const COLUMNS: &[&str] = &[
@@ -68,7 +79,187 @@ pub(super) const SPEC: KindSpec = KindSpec {
     ],
     sweep_metrics: &["error", "wall_seconds"],
     progress: |m| number(m, "error").map(|e| format!(", error {e}")),
+    settings_json: |file| serde_json::to_value(&file.work_precision).unwrap_or_default(),
+    quick_notice: "the horizon and the dt ladders are shortened",
+    report_settings,
+    report_findings: orders,
+    check,
+    check_quick: no_quick_check,
+    quick_axes,
+    configure,
+    needs_omega: |file| {
+        file.work_precision
+            .as_ref()
+            .is_some_and(|w| w.reference.method.is_none())
+    },
+    references: Some(References {
+        settings: |file| file.work_precision.clone(),
+        dt: reference_dt,
+        optional: false,
+    }),
+    measure: |study, spec, shared, parallelism| {
+        let settings = study.file.work_precision.as_ref().expect("checked at load");
+        let reference = shared.reference.ok_or("no reference solution")?;
+        measure(spec, settings, reference, parallelism)
+    },
+    scene_charts,
+    // No time histories: its runs differ only in accuracy.
+    energy_caption: None,
+    by_time_step: false,
+    phases_at_smallest_dt: true,
+    phase_dt_columns: &["dt"],
 };
+
+/// Error against wall time, cost and dt, one line per method.
+fn scene_charts(s: &SceneRows, emit: &mut Emit) -> Result<(), PlotError> {
+    for (x, x_label, what) in [
+        ("wall_seconds", "wall time (s)", "time"),
+        ("cost", "force + Hessian evaluations", "cost"),
+        ("dt", "time step dt (s)", "dt"),
+    ] {
+        emit(
+            format!("work-precision-{what}-{}", s.slug),
+            &format!(
+                "Position error against the reference versus {x_label} (log-log), one line per \
+                 method; unscored and failed runs are left out."
+            ),
+            Chart::Line(plots::work_precision_chart(
+                s.scene, s.runs, s.params, s.rows, x, x_label,
+            )),
+        )?;
+    }
+    Ok(())
+}
+
+/// The `[work-precision]` table is present and sane, and the study sweeps dt.
+fn check(
+    file: &StudyFile,
+    ctx: &Context,
+    bad: &dyn Fn(&str, String) -> StudyError,
+) -> Result<(), StudyError> {
+    let Some(w) = &file.work_precision else {
+        return Err(ctx.invalid(
+            0,
+            "work-precision",
+            "a work-precision study needs a [work-precision] table with `horizon`",
+        ));
+    };
+    if !(w.horizon.is_finite() && w.horizon > 0.0) {
+        return Err(bad(
+            "work-precision.horizon",
+            format!("must be > 0 s (got {})", w.horizon),
+        ));
+    }
+    if w.samples == 0 {
+        return Err(bad("work-precision.samples", "must be at least 1".into()));
+    }
+    super::settings::check_reference(&w.reference, "work-precision", &bad)?;
+    if !file.grid.contains_key("run.dt")
+        && !file
+            .methods
+            .iter()
+            .any(|m| m.get_ref().contains_key("run.dt"))
+    {
+        return Err(ctx.invalid(
+            0,
+            "grid",
+            "a work-precision study sweeps the time step: add \"run.dt\" = [..] to [grid]",
+        ));
+    }
+    Ok(())
+}
+
+/// `[quick]` shortens the `[work-precision]` table's horizon (whatever the kind, as the table
+/// is written to meta.json as resolved).
+pub(super) fn quick_table(file: &mut StudyFile) {
+    if let Some(w) = file.work_precision.as_mut() {
+        w.horizon = file.quick.horizon.unwrap_or(w.horizon);
+    }
+}
+
+/// Quick mode keeps the largest steps of each ladder (the global one and each method's own).
+fn quick_axes(file: &StudyFile, method_axes: &mut [Vec<Axis>]) {
+    let keep = file.quick.dts.unwrap_or(2).max(1);
+    for axis in method_axes
+        .iter_mut()
+        .flatten()
+        .filter(|a| a.key == "run.dt")
+    {
+        axis.values.sort_by(|a, b| float(b).total_cmp(&float(a)));
+        axis.values.truncate(keep);
+    }
+}
+
+/// A run covers the horizon in whole sample intervals, with rows at every sample time.
+fn configure(
+    ctx: &Context,
+    file: &StudyFile,
+    config: &mut SceneConfig,
+    axes: &[Axis],
+    _quick: bool,
+) -> Result<(), StudyError> {
+    // It judges methods, so by default an unconverged Newton solve fails the step instead of
+    // being accepted.
+    if file
+        .work_precision
+        .as_ref()
+        .is_some_and(|w| w.require_newton_convergence)
+    {
+        config.integrator.newton.require_convergence = true;
+    }
+    check_step_fits(ctx, file, config, axes)?;
+    let w = file.work_precision.as_ref().expect("checked");
+    let stride = (w.horizon / w.samples as f64 / config.run.dt).round() as usize;
+    config.run.steps = stride * w.samples;
+    // Rows at every sample time, and in between as densely as 500 rows allow.
+    config.run.sample_every = (1..=stride)
+        .find(|d| stride.is_multiple_of(*d) && config.run.steps / d <= 500)
+        .unwrap_or(stride);
+    Ok(())
+}
+
+/// The reference step for the physics of `spec`: as set, or the smallest dt of the grid over
+/// `dt_factor`.
+fn reference_dt(study: &Study, w: &WorkPrecisionSettings, spec: &RunSpec) -> f64 {
+    w.reference.dt.unwrap_or_else(|| {
+        let smallest = study
+            .runs
+            .iter()
+            .filter(|r| r.physics == spec.physics)
+            .map(|r| r.loaded.config.run.dt)
+            .fold(f64::INFINITY, f64::min);
+        smallest / w.reference.dt_factor
+    })
+}
+
+/// A work-precision run's horizon and sample times must be whole numbers of its steps.
+fn check_step_fits(
+    ctx: &Context,
+    file: &StudyFile,
+    config: &SceneConfig,
+    axes: &[Axis],
+) -> Result<(), StudyError> {
+    let w = file.work_precision.as_ref().expect("checked");
+    let dt = config.run.dt;
+    let interval = w.horizon / w.samples as f64;
+    let per_sample = interval / dt;
+    if (per_sample - per_sample.round()).abs() > 1e-6 * per_sample.max(1.0) || per_sample < 0.5 {
+        let line = axes
+            .iter()
+            .find(|a| a.key == "run.dt")
+            .map_or(1, |a| a.line);
+        return Err(StudyError::Invalid {
+            path: ctx.path.to_owned(),
+            line,
+            key: "grid.\"run.dt\"".into(),
+            message: format!(
+                "dt = {dt} s does not divide the sample interval horizon / samples = {interval} s; \
+                 errors are measured at whole steps, so choose dt values that divide it"
+            ),
+        });
+    }
+    Ok(())
+}
 
 /// The state at each sample time.
 #[derive(Clone, Debug)]
@@ -332,4 +523,67 @@ pub fn measure(
         _ => m.set("scored", "no".into()),
     }
     Ok(m)
+}
+
+/// The report's paragraph on the work-precision settings.
+fn report_settings(out: &mut String, file: &StudyFile) {
+    if let Some(w) = &file.work_precision {
+        let _ = writeln!(
+            out,
+            "Work-precision: horizon {} s, errors at {} sample times (the largest is reported). \
+             Newton convergence {}.\n",
+            short(w.horizon),
+            w.samples,
+            if w.require_newton_convergence {
+                "is required"
+            } else {
+                "is **not** required: unconverged steps are accepted and counted"
+            }
+        );
+    }
+}
+
+/// Observed order of each line of a work-precision study: the slope of log(error) against
+/// log(dt) between its two smallest scored time steps.
+fn orders(out: &mut String, runs: &Table) {
+    let mut lines: BTreeMap<(String, String), Vec<(f64, f64)>> = BTreeMap::new();
+    for r in &runs.rows {
+        // Adaptive methods choose their own steps: dt is only their output interval.
+        let method = runs.get(r, "method").unwrap_or_default();
+        if method.starts_with("adaptive-") || method == "dopri5" {
+            continue;
+        }
+        if let (Some(dt), Some(e)) = (runs.number(r, "dt"), runs.number(r, "error")) {
+            let key = (
+                runs.get(r, "scene").unwrap_or_default().to_owned(),
+                format!(
+                    "{} {}",
+                    runs.get(r, "method").unwrap_or_default(),
+                    runs.get(r, "linear_solver").unwrap_or_default()
+                ),
+            );
+            lines.entry(key).or_default().push((dt, e));
+        }
+    }
+    let mut text = String::new();
+    for ((scene, method), mut points) in lines {
+        if points.len() < 2 {
+            continue;
+        }
+        points.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let ((d1, e1), (d2, e2)) = (points[0], points[1]);
+        let order = (e2 / e1).ln() / (d2 / d1).ln();
+        let _ = writeln!(
+            text,
+            "| {scene} | {} | {order:.2} |",
+            method.trim_end_matches(" -")
+        );
+    }
+    if !text.is_empty() {
+        let _ = writeln!(
+            out,
+            "Observed order (slope of log error against log dt between the two smallest scored \
+             steps; adaptive methods, whose dt is only an output interval, are left out):\n\n| scene | method | order |\n|---|---|---|\n{text}"
+        );
+    }
 }
