@@ -323,9 +323,7 @@ impl Integrator for Bdf {
             self.reset();
         }
         result?;
-        if let Some(c) = self.inner.newton().constraints() {
-            c.record_contacts(&state.q, state.t + dt, report);
-        }
+        self.inner.record_contacts(state, dt, report);
         Ok(())
     }
 }

@@ -165,6 +165,14 @@ impl<S: Scheme> NewtonIntegrator<S> {
         &self.newton
     }
 
+    /// Record the contacts of the end-of-step state in `report` (a no-op without constraints);
+    /// `state.t` is still the start of the step.
+    pub fn record_contacts(&self, state: &State, dt: f64, report: &mut StepReport) {
+        if let Some(c) = self.newton.constraints() {
+            c.record_contacts(&state.q, state.t + dt, report);
+        }
+    }
+
     /// One step of `dt` without retries; leaves `state` (and the scheme's history) unchanged
     /// on error. `state.t` is the start of the step and is not advanced.
     pub fn solve_step(
@@ -241,9 +249,7 @@ impl<S: Scheme> Integrator for NewtonIntegrator<S> {
             self.scheme.reset();
         }
         result?;
-        if let Some(c) = self.newton.constraints() {
-            c.record_contacts(&state.q, state.t + dt, report);
-        }
+        self.record_contacts(state, dt, report);
         Ok(())
     }
 }

@@ -211,9 +211,7 @@ impl Integrator for Static {
         };
         result?;
         self.loaded = true;
-        if let Some(c) = self.inner.newton().constraints() {
-            c.record_contacts(&state.q, state.t + dt, report);
-        }
+        self.inner.record_contacts(state, dt, report);
         Ok(())
     }
 }
