@@ -141,6 +141,7 @@ scenes = [{scene:?}]
         force: true,
         progress: false,
         wait: false,
+        shard: None,
     };
     let done = study::run(&study, &options)?;
     Ok(done.dir)

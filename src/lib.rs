@@ -49,6 +49,7 @@ pub mod registry;
 pub mod rng;
 pub mod run;
 pub mod scene;
+pub mod slurm;
 pub mod solve;
 pub mod sparse;
 pub mod springs;

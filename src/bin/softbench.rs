@@ -51,6 +51,13 @@ enum Command {
     /// meta.json in <OUT>/<study name>/. Runs already complete with the same configuration
     /// are reused.
     Run(RunArgs),
+    /// Merge a study run as shards (`run --shard K/N`): runs.csv, plots, report.md and
+    /// meta.json from the shards' tables; says which runs are missing (exit code 1 then).
+    /// Merging again gives the same files.
+    Merge(MergeArgs),
+    /// Write Slurm job scripts for a study (a job array of shards plus a merge job after
+    /// it) into <OUT>/<study name>/slurm/, and with --submit submit them with sbatch.
+    Slurm(SlurmArgs),
     /// Redraw the plots of a results folder from its CSV files.
     Plot(PlotArgs),
     /// List the integrators, linear solvers, materials, contact responses, scenes and studies,
@@ -80,6 +87,47 @@ struct RunArgs {
     /// If another softbench is writing the study's folder, wait for it instead of stopping.
     #[arg(long)]
     wait: bool,
+    /// Run only the K-th of N parts of the grid (K counts from 0), balanced by estimated
+    /// cost; the same for every K. The last shard to finish merges (see `merge`).
+    #[arg(long, value_name = "K/N")]
+    shard: Option<study::Shard>,
+}
+
+#[derive(Args)]
+struct MergeArgs {
+    /// The study's results folder (<OUT>/<study name>, with shards/ and series/).
+    dir: PathBuf,
+    /// If another softbench is writing the study's folder (a shard merging), wait for it.
+    #[arg(long)]
+    wait: bool,
+}
+
+#[derive(Args)]
+struct SlurmArgs {
+    /// Study file (TOML).
+    study: PathBuf,
+    /// Parent folder of the study's results folder (on a file system every node sees).
+    #[arg(long, default_value = "results")]
+    out: PathBuf,
+    /// Tasks of the job array, one shard each (default: 4, or the number of runs if fewer).
+    #[arg(long, value_name = "N")]
+    shards: Option<usize>,
+    /// Slurm partition (default: the cluster's default partition).
+    #[arg(long, value_name = "P")]
+    partition: Option<String>,
+    /// Time limit of each task: minutes, HH:MM:SS, D-HH:MM, ... (default: the partition's).
+    #[arg(long, value_name = "T")]
+    time: Option<String>,
+    /// CPUs of each task; each shard runs this many runs at a time (`run --jobs`).
+    #[arg(long, value_name = "C", default_value_t = 1)]
+    cpus_per_task: usize,
+    /// The shards run the study with `--quick`.
+    #[arg(long)]
+    quick: bool,
+    /// Submit the scripts with sbatch (the merge with --dependency=afterok on the array) and
+    /// print the job ids.
+    #[arg(long)]
+    submit: bool,
 }
 
 #[derive(Args)]
@@ -132,6 +180,8 @@ fn main() -> ExitCode {
         Command::MeshInfo(args) => mesh_info(&args),
         Command::Simulate(args) => simulate(&args),
         Command::Run(args) => run_study(&args),
+        Command::Merge(args) => merge(&args),
+        Command::Slurm(args) => slurm(&args),
         Command::Plot(args) => plot(&args),
         Command::List => list(),
     };
@@ -169,6 +219,18 @@ fn is_bad_input(err: &anyhow::Error) -> bool {
             || e.is::<DisplayError>()
             || e.is::<BadInput>()
             || e.is::<StudyError>()
+            || e.is::<softbench::slurm::SlurmError>()
+                && !e
+                    .downcast_ref::<softbench::slurm::SlurmError>()
+                    .is_some_and(|s| {
+                        matches!(
+                            s,
+                            softbench::slurm::SlurmError::NoSbatch { .. }
+                                | softbench::slurm::SlurmError::Sbatch { .. }
+                        )
+                    })
+            || e.downcast_ref::<study::MergeError>()
+                .is_some_and(|m| matches!(m, study::MergeError::NotAStudy(_)))
             || e.is::<softbench::limits::OverBudget>()
             || e.downcast_ref::<study::RedrawError>()
                 .is_some_and(|r| matches!(r, study::RedrawError::Results(_)))
@@ -556,6 +618,7 @@ fn run_study(args: &RunArgs) -> anyhow::Result<ExitCode> {
         force: args.force,
         progress: true,
         wait: args.wait,
+        shard: args.shard,
     };
     if let Some(p) = &options.only
         && !study.runs.iter().any(|r| study::matches(&r.id, p))
@@ -581,13 +644,16 @@ fn run_study(args: &RunArgs) -> anyhow::Result<ExitCode> {
         ));
         return Ok(ExitCode::from(signal.exit_code()));
     }
+    let name = match args.shard {
+        Some(shard) => format!("{} shard {shard}", study.file.name),
+        None => study.file.name.clone(),
+    };
     console::out(&format!(
-        "{}: {} runs ({} run now, {} reused{}); {} not ok; wrote {}",
-        study.file.name,
+        "{name}: {} runs ({} run now, {} reused{}); {} not ok; wrote {}",
         done.ran + done.reused,
         done.ran,
         done.reused,
-        if done.skipped > 0 {
+        if done.skipped > 0 && args.shard.is_none() {
             format!(", {} left out by --only", done.skipped)
         } else {
             String::new()
@@ -595,6 +661,137 @@ fn run_study(args: &RunArgs) -> anyhow::Result<ExitCode> {
         done.not_ok.len(),
         done.dir.display()
     ));
+    if args.shard.is_some() {
+        let _ = match &done.merged {
+            Some(study::MergeOutcome::Merged(m)) => console::out(&format!(
+                "{}: every run of the study is done: merged {} runs into {} (runs.csv, plots, \
+                 report.md, meta.json)",
+                study.file.name,
+                m.runs,
+                m.dir.display()
+            )),
+            Some(study::MergeOutcome::Busy(holder)) => console::out(&format!(
+                "{}: every run of the study is done; {holder} holds the study folder (merging), \
+                 so this shard leaves the merge to it (or run `softbench merge {}`)",
+                study.file.name,
+                done.dir.display()
+            )),
+            None => console::out(&format!(
+                "{}: other shards' runs are not all done yet; the last shard to finish merges \
+                 (or run `softbench merge {}`)",
+                study.file.name,
+                done.dir.display()
+            )),
+        };
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn merge(args: &MergeArgs) -> anyhow::Result<ExitCode> {
+    let merged = study::merge(&args.dir, args.wait, true)
+        .with_context(|| format!("cannot merge {}", args.dir.display()))?;
+    let hosts: std::collections::BTreeSet<&str> =
+        merged.shards.iter().map(|r| r.host.as_str()).collect();
+    console::out(&format!(
+        "merged {} of {} runs from {} shard(s) on {} host(s) ({}); {} not ok; wrote {}",
+        merged.runs,
+        merged.total,
+        merged.shards.len(),
+        hosts.len(),
+        hosts.into_iter().collect::<Vec<_>>().join(", "),
+        merged.not_ok.len(),
+        merged.dir.display()
+    ));
+    if merged.missing.is_empty() {
+        return Ok(ExitCode::SUCCESS);
+    }
+    const SHOWN: usize = 20;
+    let mut list: Vec<&str> = merged
+        .missing
+        .iter()
+        .take(SHOWN)
+        .map(String::as_str)
+        .collect();
+    if merged.missing.len() > SHOWN {
+        list.push("...");
+    }
+    console::err(&format!(
+        "error: {} of {} runs are missing (no shard has finished them with the current \
+         configuration): {}; run their shards again (a shard resumes), then merge again. \
+         report.md and meta.json list them",
+        merged.missing.len(),
+        merged.total,
+        list.join(", ")
+    ));
+    Ok(ExitCode::FAILURE)
+}
+
+fn slurm(args: &SlurmArgs) -> anyhow::Result<ExitCode> {
+    if args.cpus_per_task == 0 {
+        return Err(BadInput("--cpus-per-task must be at least 1".into()).into());
+    }
+    if let Some(t) = &args.time {
+        softbench::slurm::check_time(t)?;
+    }
+    if let Some(p) = &args.partition {
+        softbench::slurm::check_partition(p)?;
+    }
+    // Everything that can be wrong with the study is found before anything is written.
+    let study = study::load(&args.study, args.quick)?;
+    let runs = study.runs.len();
+    let shards = match args.shards {
+        Some(0) => return Err(BadInput("--shards must be at least 1".into()).into()),
+        Some(n) if n > runs => {
+            return Err(BadInput(format!(
+                "--shards {n}: the study has only {runs} runs (with{} --quick); a shard \
+                 without runs would only wait in the queue",
+                if args.quick { "" } else { "out" }
+            ))
+            .into());
+        }
+        Some(n) => n,
+        None => runs.min(4),
+    };
+    let absolute = |p: &Path| {
+        std::path::absolute(p).with_context(|| format!("cannot resolve {}", p.display()))
+    };
+    let job = softbench::slurm::SlurmJob {
+        study_file: absolute(&args.study)?,
+        name: study.file.name.clone(),
+        out: absolute(&args.out)?,
+        exe: std::env::current_exe().context("cannot find the softbench binary")?,
+        shards,
+        partition: args.partition.clone(),
+        time: args.time.clone(),
+        cpus_per_task: args.cpus_per_task,
+        quick: args.quick,
+        data: std::env::var_os("SOFTBENCH_DATA")
+            .filter(|v| !v.is_empty())
+            .map(|v| absolute(Path::new(&v)))
+            .transpose()?,
+    };
+    // Paths that an #SBATCH line cannot hold are bad input, found before writing.
+    job.array_script()?;
+    stop_if_requested()?;
+    let dir = job
+        .write()
+        .with_context(|| format!("cannot write the scripts to {}", job.script_dir().display()))?;
+    console::out(&format!(
+        "{}: {runs} runs in {shards} shards; wrote {} (shards.sbatch: the job array, \
+         merge.sbatch: the merge, submit.sh: submits both)",
+        study.file.name,
+        dir.display()
+    ));
+    if args.submit {
+        let (array, merge) = job.submit()?;
+        console::out(&format!(
+            "submitted: shards job {array} ({shards} tasks), merge job {merge} (after every \
+             task succeeded); results in {}",
+            job.study_dir().display()
+        ));
+    } else {
+        console::out(&format!("submit with: {}", dir.join("submit.sh").display()));
+    }
     Ok(ExitCode::SUCCESS)
 }
 

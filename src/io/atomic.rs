@@ -13,12 +13,30 @@ use tempfile::NamedTempFile;
 /// creating and renaming one): `.<name>.<random>.partial`. Call it only while holding the
 /// folder's lock, so no live writer's file is removed. Returns how many were removed.
 pub fn remove_stale_partials(dir: &Path) -> std::io::Result<usize> {
+    remove_stale_partials_of(dir, |_| true)
+}
+
+/// [`remove_stale_partials`] for the temporary files of the targets `owned` accepts (by
+/// target file name): for a writer that owns only some files of a shared folder (a shard of
+/// a study, whose runs' series files no other shard writes).
+pub fn remove_stale_partials_of(
+    dir: &Path,
+    owned: impl Fn(&str) -> bool,
+) -> std::io::Result<usize> {
     let mut removed = 0;
     for entry in std::fs::read_dir(dir)? {
         let entry = entry?;
         let name = entry.file_name();
         let name = name.to_string_lossy();
-        if name.starts_with('.') && name.ends_with(".partial") && entry.file_type()?.is_file() {
+        // `.<target>.<random>.partial`
+        let target = name
+            .strip_prefix('.')
+            .and_then(|n| n.strip_suffix(".partial"))
+            .map(|n| n.rsplit_once('.').map_or(n, |(target, _)| target));
+        if let Some(target) = target
+            && owned(target)
+            && entry.file_type()?.is_file()
+        {
             std::fs::remove_file(entry.path())?;
             removed += 1;
         }
@@ -113,5 +131,20 @@ mod tests {
             .collect();
         left.sort();
         assert_eq!(left, ["notes.partial", "runs.csv"]);
+    }
+
+    #[test]
+    fn only_the_partials_of_owned_targets_are_removed() {
+        let dir = tempfile::tempdir().unwrap();
+        for name in [
+            ".a.csv.x1.partial",
+            ".a-b.csv.x2.partial",
+            ".b.csv.x3.partial",
+        ] {
+            std::fs::write(dir.path().join(name), "half").unwrap();
+        }
+        let removed = remove_stale_partials_of(dir.path(), |t| t == "a.csv" || t == "b.csv");
+        assert_eq!(removed.unwrap(), 2);
+        assert!(dir.path().join(".a-b.csv.x2.partial").exists());
     }
 }

@@ -3,4 +3,4 @@
 
 mod atomic;
 
-pub use atomic::{AtomicFile, remove_stale_partials, write_atomic};
+pub use atomic::{AtomicFile, remove_stale_partials, remove_stale_partials_of, write_atomic};

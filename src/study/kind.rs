@@ -44,6 +44,9 @@ pub(super) struct KindSpec {
     pub quick_axes: fn(&StudyFile, &mut [Vec<Axis>]),
     /// Adapt one run's resolved scene to the kind (`quick` applies `[quick]`).
     pub configure: Configure,
+    /// Roughly how many steps one run takes (its trials together, for a stability search): the
+    /// cost estimate that balances `--shard` (only ratios between runs matter).
+    pub estimated_steps: fn(&StudyFile, &SceneConfig) -> f64,
     /// Whether the runs need the highest mode of each scene before they start.
     pub needs_omega: fn(&StudyFile) -> bool,
     /// How the kind's reference solutions are computed, if it has any.
@@ -104,6 +107,9 @@ pub(super) fn no_quick_check(_: &StudyFile, _: &Context) -> Result<(), StudyErro
     Ok(())
 }
 pub(super) fn keep_axes(_: &StudyFile, _: &mut [Vec<Axis>]) {}
+pub(super) fn run_steps(_: &StudyFile, config: &SceneConfig) -> f64 {
+    config.run.steps as f64
+}
 pub(super) fn no_omega(_: &StudyFile) -> bool {
     false
 }

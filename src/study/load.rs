@@ -136,11 +136,12 @@ pub fn load(path: &Path, quick: bool) -> Result<Study, StudyError> {
                     loaded,
                     hash,
                     physics,
+                    dofs: 0,
                 });
             }
         }
     }
-    check_scenes_build(&runs, &scenes, &ctx)?;
+    check_scenes_build(&mut runs, &scenes, &ctx)?;
     Ok(Study {
         path: path.to_owned(),
         file,
@@ -322,29 +323,36 @@ fn configure(
 }
 
 /// Build each distinct scene once, so a missing mesh file or a bad mesh is reported before
-/// anything runs.
+/// anything runs; record each run's free degrees of freedom.
 fn check_scenes_build(
-    runs: &[RunSpec],
+    runs: &mut [RunSpec],
     scenes: &[SceneSource],
     ctx: &Context,
 ) -> Result<(), StudyError> {
     let data = DataPaths::from_env();
-    let mut built = BTreeSet::new();
-    for run in runs {
-        if !built.insert(run.physics) {
+    let mut built: HashMap<u64, usize> = HashMap::new();
+    for run in runs.iter_mut() {
+        if let Some(&dofs) = built.get(&run.physics) {
+            run.dofs = dofs;
             continue;
         }
-        if let Err(error) = scene::build(&run.loaded, &data, Parallelism::Sequential) {
-            let line = scenes
-                .iter()
-                .find(|s| s.name == run.scene)
-                .map_or(1, |s| s.line);
-            return Err(StudyError::Scene {
-                path: ctx.path.to_owned(),
-                line,
-                key: format!("scene `{}` (run {})", run.scene, run.id),
-                error: Box::new(error),
-            });
+        match scene::build(&run.loaded, &data, Parallelism::Sequential) {
+            Ok(scene) => {
+                run.dofs = scene.model.num_dofs();
+                built.insert(run.physics, run.dofs);
+            }
+            Err(error) => {
+                let line = scenes
+                    .iter()
+                    .find(|s| s.name == run.scene)
+                    .map_or(1, |s| s.line);
+                return Err(StudyError::Scene {
+                    path: ctx.path.to_owned(),
+                    line,
+                    key: format!("scene `{}` (run {})", run.scene, run.id),
+                    error: Box::new(error),
+                });
+            }
         }
     }
     Ok(())

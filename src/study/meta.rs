@@ -20,6 +20,12 @@ pub struct Meta {
     /// The study file (as written and as resolved: its settings) and every run's resolved
     /// scene configuration.
     pub config: serde_json::Value,
+    /// For a study run as shards and merged: each shard's record (host, machine, times, runs).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub shards: Vec<super::shard_record::ShardRecord>,
+    /// Runs of the study that no shard has finished (a merge of an incomplete study).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub missing: Vec<String>,
 }
 
 /// The parts of a study the plots and report need.
@@ -93,6 +99,8 @@ impl Meta {
                 "quick": study.quick.then_some(&study.file.quick),
                 "runs": runs,
             }),
+            shards: Vec::new(),
+            missing: Vec::new(),
         }
     }
 }

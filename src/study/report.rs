@@ -86,6 +86,7 @@ fn render(
         meta.finished.as_deref().unwrap_or("-"),
         meta.wall_seconds.map_or("-".into(), |w| format!("{w:.1}")),
     );
+    shards_paragraph(&mut out, meta, study.runs.len());
     (super::kinds::spec(s.kind).report_settings)(&mut out, &study.file);
     if !references.is_empty() || !failed_references.is_empty() {
         let _ = writeln!(out, "References:\n");
@@ -186,5 +187,53 @@ fn render(
     if !any {
         let _ = writeln!(out, "None.");
     }
+    if !meta.missing.is_empty() {
+        let _ = writeln!(out, "\n## Missing runs\n");
+        for id in &meta.missing {
+            let _ = writeln!(out, "- `{id}`");
+        }
+    }
     out
+}
+
+/// For a study run as shards and merged: which shard ran where and how long, and whether
+/// runs are missing.
+fn shards_paragraph(out: &mut String, meta: &Meta, total: usize) {
+    if !meta.missing.is_empty() {
+        let _ = writeln!(
+            out,
+            "**Incomplete: {} of the study's {total} runs are missing** (listed at the end); \
+             run their shards again (a shard resumes where it stopped), then `softbench merge`.\n",
+            meta.missing.len()
+        );
+    }
+    if meta.shards.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        out,
+        "Run as shards (`softbench run --shard K/N`) and merged (`softbench merge`); runs are \
+         assigned by estimated cost (steps x DOFs x a per-step weight):\n"
+    );
+    let _ = writeln!(
+        out,
+        "| shard | host | status | runs | run now | estimated cost | started | s |"
+    );
+    let _ = writeln!(out, "|---|---|---|---|---|---|---|---|");
+    for r in &meta.shards {
+        let _ = writeln!(
+            out,
+            "| {}/{} | {} | {} | {} | {} | {} | {} | {} |",
+            r.shard,
+            r.of,
+            r.host,
+            r.status,
+            r.runs.len(),
+            r.ran,
+            short(r.estimated_cost),
+            r.started,
+            r.wall_seconds.map_or("-".into(), |w| format!("{w:.1}"))
+        );
+    }
+    let _ = writeln!(out);
 }

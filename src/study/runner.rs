@@ -9,16 +9,18 @@ use super::machine::Machine;
 use super::measured::{Measured, is_clean};
 use super::meta::Meta;
 use super::progress::Progress;
+use super::report;
+use super::shard::Shard;
+use super::shard_record::ShardRecord;
+use super::shared::{Shared, Source};
+use super::shared_store::SharedStore;
 use super::spec::{RunSpec, Study};
 use super::table::Table;
-use super::work_precision::Reference;
-use super::{report, stability, work_precision};
-use crate::integrate::Method;
 use crate::interrupt;
 use crate::io::write_atomic;
 use crate::lock::{FolderLock, Wait};
 use crate::parallel::Parallelism;
-use std::collections::{BTreeMap, HashMap};
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 /// How to run a study.
@@ -37,6 +39,10 @@ pub struct RunOptions {
     /// When another process holds the folder's lock: wait for it (else stop with an error
     /// naming it).
     pub wait: bool,
+    /// Run only this part of the grid (`--shard K/N`): its runs' series go to `series/`, its
+    /// table and record to `shards/K-of-N/`, and the shard that finds every run of the study
+    /// done merges them (see [`super::merge`]).
+    pub shard: Option<Shard>,
 }
 
 /// Why a study stopped before finishing.
@@ -72,6 +78,17 @@ pub struct StudyRun {
     /// Set when SIGINT/SIGTERM stopped the study: the finished runs are in `runs.csv`, plots
     /// and report are not drawn, and running the same command again resumes.
     pub interrupted: Option<crate::interrupt::Signal>,
+    /// For a shard that found every run of the study done: the merge it did, or who else
+    /// held the study folder.
+    pub merged: Option<MergeOutcome>,
+}
+
+/// What a shard that finished last did about the merge.
+#[derive(Clone, Debug)]
+pub enum MergeOutcome {
+    Merged(super::merge::Merged),
+    /// Another process (e.g. another shard merging) holds the study folder.
+    Busy(String),
 }
 
 /// The identity columns of every `runs.csv`.
@@ -109,68 +126,120 @@ pub fn matches(id: &str, pattern: &str) -> bool {
     true
 }
 
-/// Run the study into `options.dir`.
+/// Run the study into `options.dir` — all of it, or with [`RunOptions::shard`] one part of
+/// its grid (see [`super::shard`]).
 pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
     let dir = &options.dir;
-    let io = |path: &Path| {
-        let path = path.to_owned();
-        move |error| RunError::Io { path, error }
-    };
     std::fs::create_dir_all(dir.join("series")).map_err(io(dir))?;
     let wait = if options.wait { Wait::Yes } else { Wait::No };
-    let _lock = FolderLock::acquire(dir, &format!("run {}", study.file.name), wait, |h| {
-        crate::console::err(&format!("waiting for {h} to finish with {}", dir.display()));
-    })?;
-    // A run killed mid-write (SIGKILL, power loss) leaves its temporary files; under the lock
-    // no live writer owns them.
-    for folder in [dir.clone(), dir.join("series")] {
-        crate::io::remove_stale_partials(&folder).map_err(io(&folder))?;
-    }
+    let on_wait = |folder: &Path| {
+        let folder = folder.to_owned();
+        move |h: &crate::lock::Holder| {
+            crate::console::err(&format!(
+                "waiting for {h} to finish with {}",
+                folder.display()
+            ));
+        }
+    };
+    // A local study owns the study folder; a shard owns its own folder under `shards/` and
+    // only adds its runs' series to `series/` (the other shards write theirs meanwhile).
+    let (lock_dir, purpose) = match options.shard {
+        None => (dir.clone(), format!("run {}", study.file.name)),
+        Some(shard) => (
+            shard_folder(dir, shard),
+            format!("run {} --shard {shard}", study.file.name),
+        ),
+    };
+    std::fs::create_dir_all(&lock_dir).map_err(io(&lock_dir))?;
+    let _lock = FolderLock::acquire(&lock_dir, &purpose, wait, on_wait(&lock_dir))?;
     let started = now_utc();
+    let started_epoch = epoch_seconds();
     let clock = std::time::Instant::now();
     let header = header(study);
-    let runs_path = dir.join("runs.csv");
-    let hash_col = header.len() - 1;
 
-    // Rows of earlier invocations, by run id.
-    let mut rows: HashMap<String, Vec<String>> = HashMap::new();
-    if let Some(old) = Table::read(&runs_path)? {
-        for row in old.rows {
-            // Rows are reused only when the columns are the same.
-            if old.header == header && row.len() == header.len() {
-                rows.insert(row[0].clone(), row);
+    // The runs this invocation is for.
+    let (assigned, estimated_cost) = match options.shard {
+        None => (study.runs.iter().collect::<Vec<_>>(), None),
+        Some(shard) => {
+            let (runs, cost) = super::shard::runs_of(study, shard);
+            (runs, Some(cost))
+        }
+    };
+    // A run killed mid-write (SIGKILL, power loss) leaves its temporary files; under the lock
+    // no live writer owns them (a shard removes only those of its own runs in `series/`).
+    match options.shard {
+        None => {
+            for folder in [dir.clone(), dir.join("series")] {
+                crate::io::remove_stale_partials(&folder).map_err(io(&folder))?;
             }
         }
+        Some(_) => {
+            crate::io::remove_stale_partials(&lock_dir).map_err(io(&lock_dir))?;
+            let own: std::collections::HashSet<String> = assigned
+                .iter()
+                .flat_map(|r| [format!("{}.csv", r.id), format!("{}-trials.csv", r.id)])
+                .collect();
+            let series = dir.join("series");
+            crate::io::remove_stale_partials_of(&series, |target| own.contains(target))
+                .map_err(io(&series))?;
+        }
     }
-    let selected: Vec<&RunSpec> = study
-        .runs
+
+    let mut rows = earlier_rows(study, dir, &header)?;
+    let selected: Vec<&RunSpec> = assigned
         .iter()
+        .copied()
         .filter(|r| options.only.as_deref().is_none_or(|p| matches(&r.id, p)))
         .collect();
-    let done = |r: &RunSpec| {
-        !options.force
-            && rows.get(&r.id).is_some_and(|row| row[hash_col] == r.hash)
-            && dir.join("series").join(format!("{}.csv", r.id)).exists()
-    };
-    let pending: Vec<&RunSpec> = selected.iter().copied().filter(|r| !done(r)).collect();
+    let pending: Vec<&RunSpec> = selected
+        .iter()
+        .copied()
+        .filter(|r| options.force || !is_done(dir, r, &rows))
+        .collect();
     let reused = selected.len() - pending.len();
     let machine = Machine::current();
-    Meta::of(
-        study,
-        options.jobs,
-        options.only.as_deref(),
-        &machine,
-        &started,
-        None,
-    )
-    .write(dir)
-    .map_err(io(&dir.join("meta.json")))?;
+    let mut shard_record = options.shard.map(|shard| {
+        ShardRecord::start(
+            study,
+            shard,
+            &assigned,
+            estimated_cost.unwrap_or(0.0),
+            options.jobs,
+            &machine,
+            &started,
+            started_epoch,
+        )
+    });
+    match &shard_record {
+        None => Meta::of(
+            study,
+            options.jobs,
+            options.only.as_deref(),
+            &machine,
+            &started,
+            None,
+        )
+        .write(dir)
+        .map_err(io(&dir.join("meta.json")))?,
+        Some(record) => record.write(&lock_dir).map_err(io(&lock_dir))?,
+    }
 
     let progress = Progress::new(options.progress, pending.len() as u64);
+    let name = match options.shard {
+        None => study.file.name.clone(),
+        Some(shard) => format!("{} shard {shard}", study.file.name),
+    };
+    if let Some(cost) = estimated_cost {
+        progress.line(&format!(
+            "{name}: {} of the study's {} runs ({:.0}% of its estimated cost)",
+            assigned.len(),
+            study.runs.len(),
+            100.0 * cost / super::shard::total_cost(study).max(f64::MIN_POSITIVE)
+        ));
+    }
     if reused > 0 {
         progress.line(&format!(
-            "{}: {reused} of {} runs already complete with the same configuration (--force redoes them)",
-            study.file.name,
+            "{name}: {reused} of {} runs already complete with the same configuration (--force redoes them)",
             selected.len()
         ));
     }
@@ -179,101 +248,104 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
     } else {
         Parallelism::Rayon
     };
-    let shared = Shared::prepare(study, &pending, parallelism, options.jobs, &progress)?;
+    let store = SharedStore::new(dir);
+    let source = match options.shard {
+        None => Source::Local,
+        Some(_) => Source::Stored(&store),
+    };
+    let shared = Shared::prepare(
+        study,
+        &pending,
+        source,
+        parallelism,
+        options.jobs,
+        &progress,
+    )?;
+    let table_path = lock_dir.join("runs.csv");
+    // The rows this invocation's table holds: the whole study's, or the shard's.
+    let table_of = |rows: &HashMap<String, Vec<String>>| match options.shard {
+        None => ordered(study, &header, rows),
+        Some(_) => {
+            let mut table = Table::new(header.clone());
+            table.rows = assigned
+                .iter()
+                .filter(|r| is_done(dir, r, rows))
+                .filter_map(|r| rows.get(&r.id).cloned())
+                .collect();
+            table
+        }
+    };
     let mut interrupted = interrupt::requested();
-
-    // Run, each result written as soon as it arrives.
-    let (sender, receiver) = std::sync::mpsc::channel::<(usize, Result<Measured, String>)>();
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let mut not_ok = Vec::new();
-    let mut failure: Option<RunError> = None;
-    std::thread::scope(|scope| {
-        for _ in 0..options.jobs.max(1).min(pending.len().max(1)) {
-            let sender = sender.clone();
-            let (next, pending, shared, progress) = (&next, &pending, &shared, &progress);
-            scope.spawn(move || {
-                loop {
-                    if interrupt::requested().is_some() {
-                        break;
-                    }
-                    let i = next.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
-                    let Some(spec) = pending.get(i) else { break };
-                    progress.start(&spec.id);
-                    let result = measure(study, spec, shared, parallelism);
-                    progress.finish(&spec.id);
-                    if sender.send((i, result)).is_err() {
-                        break;
-                    }
-                }
-            });
-        }
-        drop(sender);
-        for (i, result) in receiver {
-            // After a stop request, results are cut short (interrupted runs, stability trials
-            // stopped at once): keep none of them; the runs are redone on resume.
-            if let Some(signal) = interrupt::requested() {
-                interrupted.get_or_insert(signal);
-                next.store(usize::MAX / 2, std::sync::atomic::Ordering::SeqCst);
-                continue;
-            }
-            let spec = pending[i];
-            let outcome = match result {
-                Ok(m) => record(study, spec, &m, &header, dir).map(|row| (row, m)),
-                Err(message) => Err(RunError::Run(format!("run {}: {message}", spec.id))),
-            };
-            match outcome {
-                Ok((row, m)) => {
-                    progress.line(&format!(
-                        "{} {}: {}",
-                        progress.position(),
-                        spec.id,
-                        summary_line(study.kind, &m)
-                    ));
-                    progress.inc();
-                    rows.insert(spec.id.clone(), row);
-                    let table = ordered(study, &header, &rows);
-                    if let Err(e) = table.write(&runs_path) {
-                        failure.get_or_insert(RunError::Io {
-                            path: runs_path.clone(),
-                            error: e,
-                        });
-                        next.store(usize::MAX / 2, std::sync::atomic::Ordering::SeqCst);
-                    }
-                }
-                Err(e) => {
-                    failure.get_or_insert(e);
-                    // Stop handing out runs; the ones running finish.
-                    next.store(usize::MAX / 2, std::sync::atomic::Ordering::SeqCst);
-                }
-            }
-        }
-    });
+    let failure = execute(
+        study,
+        &pending,
+        &shared,
+        parallelism,
+        options.jobs,
+        &progress,
+        |spec, m| {
+            let row = record(study, spec, m, &header, dir)?;
+            rows.insert(spec.id.clone(), row);
+            table_of(&rows).write(&table_path).map_err(io(&table_path))
+        },
+    );
     progress.done();
-    if let Some(e) = failure {
+    if let Err(Stop::Failed(e)) = failure {
+        if let Some(record) = shard_record.as_mut() {
+            record.end("failed", clock.elapsed(), pending.len(), reused);
+            let _ = record.write(&lock_dir);
+        }
         return Err(e);
     }
-    let table = ordered(study, &header, &rows);
-    table.write(&runs_path).map_err(io(&runs_path))?;
+    if let Err(Stop::Interrupted(signal)) = failure {
+        interrupted.get_or_insert(signal);
+    }
+    let table = table_of(&rows);
+    table.write(&table_path).map_err(io(&table_path))?;
+    let skipped = study.runs.len() - selected.len();
+    let done_now = table.rows.len().saturating_sub(reused);
     if let Some(signal) = interrupted.or_else(interrupt::requested) {
         // meta.json stays as written at the start (no end time): the study is not finished.
-        progress.done();
+        if let Some(record) = shard_record.as_mut() {
+            record.end("interrupted", clock.elapsed(), done_now, reused);
+            record.write(&lock_dir).map_err(io(&lock_dir))?;
+        }
         return Ok(StudyRun {
             dir: dir.clone(),
-            ran: table.rows.len().saturating_sub(reused),
+            ran: done_now,
             reused,
-            skipped: study.runs.len() - selected.len(),
-            not_ok,
+            skipped,
+            not_ok: not_ok(&table),
             interrupted: Some(signal),
+            merged: None,
         });
     }
-    for row in &table.rows {
-        if !is_clean(&table, row) {
-            let what = table
-                .get(row, "stability")
-                .or_else(|| table.get(row, "outcome"))
-                .unwrap_or_default();
-            not_ok.push((row[0].clone(), what.to_owned()));
-        }
+    if let Some(record) = shard_record.as_mut() {
+        record.end("finished", clock.elapsed(), pending.len(), reused);
+        record.write(&lock_dir).map_err(io(&lock_dir))?;
+        drop(_lock);
+        // The last shard to finish merges (any shard that finds every run done does; a merge
+        // is idempotent).
+        let merged = if super::merge::is_complete(study, dir)? {
+            match super::merge::merge_study(study, dir, Wait::No, options.progress) {
+                Ok(m) => Some(MergeOutcome::Merged(m)),
+                Err(RunError::Lock(crate::lock::LockError::Held { holder, .. })) => {
+                    Some(MergeOutcome::Busy(holder.to_string()))
+                }
+                Err(e) => return Err(e),
+            }
+        } else {
+            None
+        };
+        return Ok(StudyRun {
+            dir: dir.clone(),
+            ran: pending.len(),
+            reused,
+            skipped,
+            not_ok: not_ok(&table),
+            interrupted: None,
+            merged,
+        });
     }
     let meta = Meta::of(
         study,
@@ -303,145 +375,185 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
         dir: dir.clone(),
         ran: pending.len(),
         reused,
-        skipped: study.runs.len() - selected.len(),
-        not_ok,
+        skipped,
+        not_ok: not_ok(&table),
         interrupted: None,
+        merged: None,
     })
+}
+
+/// The error for a failed write of `path`.
+fn io(path: &Path) -> impl FnOnce(std::io::Error) -> RunError + use<> {
+    let path = path.to_owned();
+    move |error| RunError::Io { path, error }
+}
+
+/// Seconds since the Unix epoch.
+pub(super) fn epoch_seconds() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs())
+}
+
+/// The folder of one shard: `<study>/shards/K-of-N`.
+pub(super) fn shard_folder(dir: &Path, shard: Shard) -> PathBuf {
+    dir.join("shards").join(shard.folder_name())
+}
+
+/// Whether `spec` has a row of the same configuration and its series file.
+pub(super) fn is_done(dir: &Path, spec: &RunSpec, rows: &HashMap<String, Vec<String>>) -> bool {
+    rows.get(&spec.id)
+        .is_some_and(|row| row.last() == Some(&spec.hash))
+        && dir.join("series").join(format!("{}.csv", spec.id)).exists()
+}
+
+/// The rows of earlier invocations by run id: the study's `runs.csv` and every shard's table
+/// (whatever N), rows with the current header only; where sources disagree, a row of the
+/// run's current configuration wins.
+pub(super) fn earlier_rows(
+    study: &Study,
+    dir: &Path,
+    header: &[String],
+) -> Result<HashMap<String, Vec<String>>, RunError> {
+    let hashes: HashMap<&str, &str> = study
+        .runs
+        .iter()
+        .map(|r| (r.id.as_str(), r.hash.as_str()))
+        .collect();
+    let mut tables = vec![dir.join("runs.csv")];
+    tables.extend(
+        ShardRecord::folders(dir)
+            .map_err(io(&dir.join("shards")))?
+            .into_iter()
+            .map(|(_, folder)| folder.join("runs.csv")),
+    );
+    let mut rows: HashMap<String, Vec<String>> = HashMap::new();
+    for path in tables {
+        let Some(table) = Table::read(&path)? else {
+            continue;
+        };
+        // Rows are reused only when the columns are the same.
+        if table.header != header {
+            continue;
+        }
+        for row in table.rows {
+            if row.len() != header.len() {
+                continue;
+            }
+            let current = hashes.get(row[0].as_str()) == row.last().map(String::as_str).as_ref();
+            let has_current = rows.get(&row[0]).is_some_and(|r| {
+                hashes.get(r[0].as_str()) == r.last().map(String::as_str).as_ref()
+            });
+            if current || !has_current {
+                rows.insert(row[0].clone(), row);
+            }
+        }
+    }
+    Ok(rows)
+}
+
+/// The runs of `table` whose status is not ok, with what they ended as.
+pub(super) fn not_ok(table: &Table) -> Vec<(String, String)> {
+    table
+        .rows
+        .iter()
+        .filter(|row| !is_clean(table, row))
+        .map(|row| {
+            let what = table
+                .get(row, "stability")
+                .or_else(|| table.get(row, "outcome"))
+                .unwrap_or_default();
+            (row[0].clone(), what.to_owned())
+        })
+        .collect()
+}
+
+/// Why [`execute`] stopped early.
+enum Stop {
+    Interrupted(crate::interrupt::Signal),
+    Failed(RunError),
+}
+
+/// Measure `pending`, `jobs` at a time, handing each result to `keep` as it arrives (in
+/// this thread). Stops handing out runs at the first failure or stop request; the runs
+/// already running finish, and after a stop request their results are dropped (they were cut
+/// short; a resume redoes them).
+fn execute(
+    study: &Study,
+    pending: &[&RunSpec],
+    shared: &Shared,
+    parallelism: Parallelism,
+    jobs: usize,
+    progress: &Progress,
+    mut keep: impl FnMut(&RunSpec, &Measured) -> Result<(), RunError>,
+) -> Result<(), Stop> {
+    let (sender, receiver) = std::sync::mpsc::channel::<(usize, Result<Measured, String>)>();
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let mut stop: Option<Stop> = None;
+    std::thread::scope(|scope| {
+        for _ in 0..jobs.max(1).min(pending.len().max(1)) {
+            let sender = sender.clone();
+            let next = &next;
+            scope.spawn(move || {
+                loop {
+                    if interrupt::requested().is_some() {
+                        break;
+                    }
+                    let i = next.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+                    let Some(spec) = pending.get(i) else { break };
+                    progress.start(&spec.id);
+                    let result = (super::kinds::spec(study.kind).measure)(
+                        study,
+                        spec,
+                        &shared.of(spec),
+                        parallelism,
+                    );
+                    progress.finish(&spec.id);
+                    if sender.send((i, result)).is_err() {
+                        break;
+                    }
+                }
+            });
+        }
+        drop(sender);
+        for (i, result) in receiver {
+            if let Some(signal) = interrupt::requested() {
+                if stop.is_none() {
+                    stop = Some(Stop::Interrupted(signal));
+                }
+                next.store(usize::MAX / 2, std::sync::atomic::Ordering::SeqCst);
+                continue;
+            }
+            if matches!(stop, Some(Stop::Interrupted(_))) {
+                continue;
+            }
+            let spec = pending[i];
+            let kept = match result {
+                Ok(m) => keep(spec, &m).map(|()| {
+                    progress.line(&format!(
+                        "{} {}: {}",
+                        progress.position(),
+                        spec.id,
+                        summary_line(study.kind, &m)
+                    ));
+                    progress.inc();
+                }),
+                Err(message) => Err(RunError::Run(format!("run {}: {message}", spec.id))),
+            };
+            if let Err(e) = kept {
+                stop.get_or_insert(Stop::Failed(e));
+                // Stop handing out runs; the ones running finish.
+                next.store(usize::MAX / 2, std::sync::atomic::Ordering::SeqCst);
+            }
+        }
+    });
+    stop.map_or(Ok(()), Err)
 }
 
 /// One line per finished run.
 fn summary_line(kind: StudyKind, m: &Measured) -> String {
     let extra = (super::kinds::spec(kind).progress)(m);
     format!("{}{}", m.outcome, extra.unwrap_or_default())
-}
-
-/// What runs share, computed once before they start: the highest mode of each scene (for
-/// stability studies and the default reference method) and the reference solutions.
-struct Shared {
-    omega: HashMap<u64, Option<f64>>,
-    /// Reference solution by physics.
-    references: BTreeMap<u64, (String, Reference)>,
-    /// References that failed (stability studies go on without them): scene and message.
-    failed_references: BTreeMap<u64, (String, String)>,
-}
-
-impl Shared {
-    fn prepare(
-        study: &Study,
-        pending: &[&RunSpec],
-        parallelism: Parallelism,
-        jobs: usize,
-        progress: &Progress,
-    ) -> Result<Self, RunError> {
-        let mut omega = HashMap::new();
-        let kind = super::kinds::spec(study.kind);
-        let needs_omega = (kind.needs_omega)(&study.file);
-        // (A stability study's reference also picks its method from omega_max.)
-        for spec in pending {
-            if needs_omega && !omega.contains_key(&spec.physics) {
-                let task = format!("highest mode of {}", spec.scene);
-                progress.start(&task);
-                let value = super::measured::build(spec, parallelism)
-                    .map_err(|e| e.to_string())
-                    .and_then(|mut scene| stability::explicit_limit(&mut scene))
-                    .map(|m| m.omega)
-                    .ok();
-                progress.finish(&task);
-                omega.insert(spec.physics, value);
-            }
-        }
-        let mut references = BTreeMap::new();
-        let mut failed_references = BTreeMap::new();
-        let references_of = kind.references.as_ref();
-        let settings = references_of.and_then(|r| (r.settings)(&study.file));
-        if let (Some(w), Some(references_of)) = (settings.as_ref(), references_of) {
-            // One reference per physics, `jobs` of them at a time (each is independent).
-            let mut needed: Vec<&RunSpec> = Vec::new();
-            for spec in pending {
-                if !needed.iter().any(|s| s.physics == spec.physics) {
-                    needed.push(spec);
-                }
-            }
-            let compute = |spec: &RunSpec| {
-                let dt = (references_of.dt)(study, w, spec);
-                let method = w.reference.method.unwrap_or_else(|| {
-                    // RK4 where it is stable at dt (its limit is 2.83 / omega_max), else the
-                    // second-order implicit midpoint rule.
-                    let name = match omega.get(&spec.physics).copied().flatten() {
-                        Some(w) if dt < 2.5 / w => "rk4",
-                        _ => "implicit-midpoint",
-                    };
-                    Method::from_name(name).expect("a built-in method")
-                });
-                let task = format!(
-                    "reference for {}: {} at dt = {dt:e} s and dt/2",
-                    spec.scene,
-                    method.name()
-                );
-                progress.start(&task);
-                let result = work_precision::reference(spec, w, method, dt, parallelism);
-                progress.finish(&task);
-                (method, result)
-            };
-            let mut results = Vec::new();
-            for group in needed.chunks(jobs.max(1)) {
-                let computed: Vec<_> = std::thread::scope(|scope| {
-                    let handles: Vec<_> = group
-                        .iter()
-                        .map(|spec| scope.spawn(|| compute(spec)))
-                        .collect();
-                    handles
-                        .into_iter()
-                        .map(|h| h.join().expect("a reference computation panicked"))
-                        .collect()
-                });
-                results.extend(group.iter().copied().zip(computed));
-            }
-            for (spec, (method, result)) in results {
-                let reference = match result {
-                    Ok(r) => r,
-                    // A kind that goes on without its reference (stability) leaves the errors
-                    // that need it empty, and the report says why.
-                    Err(m) if references_of.optional => {
-                        progress.line(&format!(
-                            "reference for {} failed, so error_at_stable_dt is left empty: {m}",
-                            spec.scene
-                        ));
-                        failed_references.insert(spec.physics, (spec.scene.clone(), m));
-                        continue;
-                    }
-                    Err(m) => return Err(RunError::Run(format!("scene {}: {m}", spec.scene))),
-                };
-                progress.line(&format!(
-                    "reference for {}: {} at dt = {:e} s, {:.3e} from the one at twice its step ({:.1} s)",
-                    spec.scene,
-                    method.name(),
-                    reference.dt,
-                    reference.difference,
-                    reference.wall_seconds
-                ));
-                references.insert(spec.physics, (spec.scene.clone(), reference));
-            }
-        }
-        Ok(Self {
-            omega,
-            references,
-            failed_references,
-        })
-    }
-}
-
-fn measure(
-    study: &Study,
-    spec: &RunSpec,
-    shared: &Shared,
-    parallelism: Parallelism,
-) -> Result<Measured, String> {
-    let shared = super::kind::Shared {
-        omega: shared.omega.get(&spec.physics).copied().flatten(),
-        reference: shared.references.get(&spec.physics).map(|(_, r)| r),
-    };
-    (super::kinds::spec(study.kind).measure)(study, spec, &shared, parallelism)
 }
 
 /// Write a finished run's series files and return its `runs.csv` row.

@@ -46,6 +46,8 @@ pub struct RunSpec {
     /// Identifies the physics (everything but integrator and run settings), for the caches of
     /// reference solutions and eigenvalues.
     pub physics: u64,
+    /// Free degrees of freedom of the built scene (for the cost estimate that balances shards).
+    pub dofs: usize,
 }
 
 impl Study {

@@ -126,6 +126,13 @@ pub(super) const SPEC: KindSpec = KindSpec {
         }
         Ok(())
     },
+    // About a dozen trials (widening, bisection, probes), each covering the horizon at a step
+    // near the first one tried.
+    estimated_steps: |file, _| {
+        file.stability.as_ref().map_or(1.0, |s| {
+            12.0 * (s.horizon / s.dt_max).clamp(s.min_steps as f64, s.max_steps as f64)
+        })
+    },
     // The search starts from the explicit limit, and the reference picks its method from it.
     needs_omega: |_| true,
     references: Some(References {

@@ -4,7 +4,7 @@
 use super::format::cell;
 use super::kind::{
     KindSpec, keep_axes, no_charts, no_findings, no_omega, no_quick_check, no_report, no_settings,
-    number,
+    number, run_steps,
 };
 use super::measured::{Measured, build, cap_cells, outcome_of, run_rows, summary_cells};
 use super::spec::RunSpec;
@@ -70,6 +70,7 @@ pub(super) const SPEC: KindSpec = KindSpec {
         }
         Ok(())
     },
+    estimated_steps: run_steps,
     needs_omega: no_omega,
     references: None,
     measure: |_, spec, _, parallelism| measure(spec, parallelism),

@@ -15,7 +15,7 @@ use super::error::StudyError;
 use super::format::{cell, short};
 use super::grid::Axis;
 use super::identity::float;
-use super::kind::{KindSpec, References, no_quick_check, number};
+use super::kind::{KindSpec, References, no_quick_check, number, run_steps};
 use super::measured::{Measured, build, cap_cells, outcome_of, summary_cells};
 use super::plots::{self, Emit, SceneRows};
 use super::spec::RunSpec;
@@ -87,6 +87,7 @@ pub(super) const SPEC: KindSpec = KindSpec {
     check_quick: no_quick_check,
     quick_axes,
     configure,
+    estimated_steps: run_steps,
     needs_omega: |file| {
         file.work_precision
             .as_ref()
@@ -585,5 +586,80 @@ fn orders(out: &mut String, runs: &Table) {
             "Observed order (slope of log error against log dt between the two smallest scored \
              steps; adaptive methods, whose dt is only an output interval, are left out):\n\n| scene | method | order |\n|---|---|---|\n{text}"
         );
+    }
+}
+
+/// A [`Reference`] as the shards of a study store it (`shared/`): every number as its f64
+/// bits, so a shard that reads it scores its runs exactly as the shard that computed it.
+#[derive(serde::Serialize, serde::Deserialize)]
+pub(super) struct StoredReference {
+    method: String,
+    dt: u64,
+    q: Vec<Vec<u64>>,
+    /// Kinetic, elastic, springs, gravity, external.
+    energies: Vec<[u64; 5]>,
+    rest: Vec<u64>,
+    difference: u64,
+    energy_difference: u64,
+    wall_seconds: u64,
+    times: Vec<u64>,
+    floor_factor: u64,
+}
+
+impl Reference {
+    /// The reference as stored.
+    pub(super) fn stored(&self) -> StoredReference {
+        use super::shared_store::bits;
+        let all = |v: &[f64]| v.iter().map(|x| bits(*x)).collect::<Vec<u64>>();
+        StoredReference {
+            method: self.method.name().to_owned(),
+            dt: bits(self.dt),
+            q: self.snapshots.q.iter().map(|q| all(q)).collect(),
+            energies: self
+                .snapshots
+                .energies
+                .iter()
+                .map(|e| [e.kinetic, e.elastic, e.springs, e.gravity, e.external].map(bits))
+                .collect(),
+            rest: all(&self.rest),
+            difference: bits(self.difference),
+            energy_difference: bits(self.energy_difference),
+            wall_seconds: bits(self.wall_seconds),
+            times: all(&self.times),
+            floor_factor: bits(self.floor_factor),
+        }
+    }
+
+    /// The reference a shard stored (an error names a method this build does not know).
+    pub(super) fn from_stored(s: &StoredReference) -> Result<Self, String> {
+        use super::shared_store::from_bits;
+        let all = |v: &[u64]| v.iter().map(|b| from_bits(*b)).collect::<Vec<f64>>();
+        Ok(Reference {
+            method: Method::from_name(&s.method).map_err(|e| e.to_string())?,
+            dt: from_bits(s.dt),
+            snapshots: Snapshots {
+                q: s.q.iter().map(|q| all(q)).collect(),
+                energies: s
+                    .energies
+                    .iter()
+                    .map(|e| {
+                        let [kinetic, elastic, springs, gravity, external] = e.map(from_bits);
+                        Energies {
+                            kinetic,
+                            elastic,
+                            springs,
+                            gravity,
+                            external,
+                        }
+                    })
+                    .collect(),
+            },
+            rest: all(&s.rest),
+            difference: from_bits(s.difference),
+            energy_difference: from_bits(s.energy_difference),
+            wall_seconds: from_bits(s.wall_seconds),
+            times: all(&s.times),
+            floor_factor: from_bits(s.floor_factor),
+        })
     }
 }

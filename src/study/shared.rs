@@ -1,0 +1,229 @@
+//! What the runs of a study share, computed before they start: the highest mode of each
+//! scene (for stability studies and the default reference method) and the reference
+//! solutions. A local study computes them in memory; the shards of a study go through the
+//! study folder's [`SharedStore`], so each item is computed once whichever shards need it;
+//! a merge reads what the shards stored.
+//!
+//! Each item is computed from the *first run of the study* (in grid order) with its physics,
+//! never from the first run that happens to be pending, so it is the same for a fresh
+//! study, a resumed one and every shard.
+
+use super::progress::Progress;
+use super::runner::RunError;
+use super::shared_store::{SharedStore, bits, from_bits};
+use super::spec::{RunSpec, Study};
+use super::work_precision::{self, Reference, StoredReference};
+use crate::integrate::Method;
+use crate::parallel::Parallelism;
+use std::collections::{BTreeMap, HashMap};
+
+/// A reference solution attempted with a method: the solution or why it failed.
+type Solved = (Method, Result<Reference, String>);
+
+/// Where shared work comes from.
+#[derive(Clone, Copy)]
+pub(super) enum Source<'a> {
+    /// Computed here, kept in memory (a local study).
+    Local,
+    /// Read from the study folder, or computed here once under the item's lock and stored
+    /// (a shard).
+    Stored(&'a SharedStore),
+    /// Read from the study folder only; items nobody stored are left out (a merge).
+    ReadOnly(&'a SharedStore),
+}
+
+/// What runs share.
+pub(super) struct Shared {
+    /// Highest mode by physics (`None` where it could not be computed).
+    pub omega: HashMap<u64, Option<f64>>,
+    /// Reference solution by physics, with its scene's name.
+    pub references: BTreeMap<u64, (String, Reference)>,
+    /// References that failed (stability studies go on without them): scene and message.
+    pub failed_references: BTreeMap<u64, (String, String)>,
+}
+
+impl Shared {
+    /// What the `runs` need, from `source`.
+    pub(super) fn prepare(
+        study: &Study,
+        runs: &[&RunSpec],
+        source: Source,
+        parallelism: Parallelism,
+        jobs: usize,
+        progress: &Progress,
+    ) -> Result<Self, RunError> {
+        let kind = super::kinds::spec(study.kind);
+        // The first run of the study with each physics the runs need, in grid order.
+        let mut templates: Vec<&RunSpec> = Vec::new();
+        for spec in &study.runs {
+            if runs.iter().any(|r| r.physics == spec.physics)
+                && !templates.iter().any(|t| t.physics == spec.physics)
+            {
+                templates.push(spec);
+            }
+        }
+        let on_wait = |what: &str| {
+            let what = what.to_owned();
+            move |holder: &crate::lock::Holder| {
+                progress.line(&format!("waiting for {holder} to compute the {what}"));
+            }
+        };
+        let mut omega = HashMap::new();
+        // (A stability study's reference also picks its method from omega_max.)
+        if (kind.needs_omega)(&study.file) {
+            for spec in &templates {
+                let task = format!("highest mode of {}", spec.scene);
+                let compute = || {
+                    progress.start(&task);
+                    let value = super::measured::build(spec, parallelism)
+                        .map_err(|e| e.to_string())
+                        .and_then(|mut scene| super::stability::explicit_limit(&mut scene))
+                        .map(|m| m.omega)
+                        .ok();
+                    progress.finish(&task);
+                    value
+                };
+                let key = format!("omega-{}", item_key(&serde_json::json!(spec.physics)));
+                let value = match source {
+                    Source::Local => Some(compute()),
+                    Source::Stored(store) => Some(
+                        store
+                            .get_or_compute(
+                                &key,
+                                on_wait(&task),
+                                || compute().map(bits),
+                                |_| crate::interrupt::requested().is_none(),
+                            )?
+                            .map(from_bits),
+                    ),
+                    Source::ReadOnly(store) => {
+                        store.read::<Option<u64>>(&key)?.map(|b| b.map(from_bits))
+                    }
+                };
+                if let Some(value) = value {
+                    omega.insert(spec.physics, value);
+                }
+            }
+        }
+        let mut references = BTreeMap::new();
+        let mut failed_references = BTreeMap::new();
+        let references_of = kind.references.as_ref();
+        let settings = references_of.and_then(|r| (r.settings)(&study.file));
+        if let (Some(w), Some(references_of)) = (settings.as_ref(), references_of) {
+            // One reference per physics, `jobs` of them at a time (each is independent).
+            let compute = |spec: &RunSpec| -> Result<Option<Solved>, RunError> {
+                let dt = (references_of.dt)(study, w, spec);
+                let method = w.reference.method.unwrap_or_else(|| {
+                    // RK4 where it is stable at dt (its limit is 2.83 / omega_max), else the
+                    // second-order implicit midpoint rule.
+                    let name = match omega.get(&spec.physics).copied().flatten() {
+                        Some(w) if dt < 2.5 / w => "rk4",
+                        _ => "implicit-midpoint",
+                    };
+                    Method::from_name(name).expect("a built-in method")
+                });
+                let task = format!(
+                    "reference for {}: {} at dt = {dt:e} s and dt/2",
+                    spec.scene,
+                    method.name()
+                );
+                let solve = || {
+                    progress.start(&task);
+                    let result = work_precision::reference(spec, w, method, dt, parallelism);
+                    progress.finish(&task);
+                    result
+                };
+                let key = format!(
+                    "reference-{}",
+                    item_key(&serde_json::json!({
+                        "physics": spec.physics,
+                        "method": method.name(),
+                        "dt": bits(dt),
+                        "settings": w,
+                        "template": spec.hash,
+                    }))
+                );
+                let stored =
+                    |r: Result<StoredReference, String>| r.and_then(|s| Reference::from_stored(&s));
+                let result = match source {
+                    Source::Local => Some(solve()),
+                    Source::Stored(store) => Some(stored(store.get_or_compute(
+                        &key,
+                        on_wait(&task),
+                        || solve().map(|r| r.stored()),
+                        |_| crate::interrupt::requested().is_none(),
+                    )?)),
+                    Source::ReadOnly(store) => store
+                        .read::<Result<StoredReference, String>>(&key)?
+                        .map(stored),
+                };
+                Ok(result.map(|r| (method, r)))
+            };
+            let mut results = Vec::new();
+            for group in templates.chunks(jobs.max(1)) {
+                let computed: Vec<_> = std::thread::scope(|scope| {
+                    let handles: Vec<_> = group
+                        .iter()
+                        .map(|spec| scope.spawn(|| compute(spec)))
+                        .collect();
+                    handles
+                        .into_iter()
+                        .map(|h| h.join().expect("a reference computation panicked"))
+                        .collect()
+                });
+                for (spec, result) in group.iter().copied().zip(computed) {
+                    if let Some(r) = result? {
+                        results.push((spec, r));
+                    }
+                }
+            }
+            for (spec, (method, result)) in results {
+                let reference = match result {
+                    Ok(r) => r,
+                    // A kind that goes on without its reference (stability) leaves the errors
+                    // that need it empty, and the report says why.
+                    Err(m) if references_of.optional => {
+                        progress.line(&format!(
+                            "reference for {} failed, so error_at_stable_dt is left empty: {m}",
+                            spec.scene
+                        ));
+                        failed_references.insert(spec.physics, (spec.scene.clone(), m));
+                        continue;
+                    }
+                    Err(m) => return Err(RunError::Run(format!("scene {}: {m}", spec.scene))),
+                };
+                progress.line(&format!(
+                    "reference for {}: {} at dt = {:e} s, {:.3e} from the one at twice its step ({:.1} s)",
+                    spec.scene,
+                    method.name(),
+                    reference.dt,
+                    reference.difference,
+                    reference.wall_seconds
+                ));
+                references.insert(spec.physics, (spec.scene.clone(), reference));
+            }
+        }
+        Ok(Self {
+            omega,
+            references,
+            failed_references,
+        })
+    }
+
+    /// What one run gets.
+    pub(super) fn of(&self, spec: &RunSpec) -> super::kind::Shared<'_> {
+        super::kind::Shared {
+            omega: self.omega.get(&spec.physics).copied().flatten(),
+            reference: self.references.get(&spec.physics).map(|(_, r)| r),
+        }
+    }
+}
+
+/// The name of a stored item: a hash of what determines it and of the softbench version.
+fn item_key(what: &serde_json::Value) -> String {
+    let document = serde_json::json!({
+        "version": env!("CARGO_PKG_VERSION"),
+        "what": what,
+    });
+    format!("{:016x}", super::fnv1a(document.to_string().as_bytes()))
+}
