@@ -18,7 +18,8 @@ use crate::parallel::Parallelism;
 use std::collections::{BTreeMap, HashMap};
 
 /// A reference solution attempted with a method: the solution or why it failed.
-type Solved = (Method, Result<Reference, String>);
+/// (And whether this process computed it: `false` when it read what another shard stored.)
+type Solved = (Method, Result<Reference, String>, bool);
 
 /// Where shared work comes from.
 #[derive(Clone, Copy)]
@@ -127,7 +128,9 @@ impl Shared {
                     spec.scene,
                     method.name()
                 );
+                let solved_here = std::cell::Cell::new(false);
                 let solve = || {
+                    solved_here.set(true);
                     progress.start(&task);
                     let result = work_precision::reference(spec, w, method, dt, parallelism);
                     progress.finish(&task);
@@ -157,7 +160,7 @@ impl Shared {
                         .read::<Result<StoredReference, String>>(&key)?
                         .map(stored),
                 };
-                Ok(result.map(|r| (method, r)))
+                Ok(result.map(|r| (method, r, solved_here.get())))
             };
             let mut results = Vec::new();
             for group in templates.chunks(jobs.max(1)) {
@@ -177,7 +180,7 @@ impl Shared {
                     }
                 }
             }
-            for (spec, (method, result)) in results {
+            for (spec, (method, result, solved_here)) in results {
                 let reference = match result {
                     Ok(r) => r,
                     // A kind that goes on without its reference (stability) leaves the errors
@@ -192,8 +195,13 @@ impl Shared {
                     }
                     Err(m) => return Err(RunError::Run(format!("scene {}: {m}", spec.scene))),
                 };
+                let origin = match source {
+                    Source::Stored(_) if !solved_here => ", computed by another shard",
+                    Source::Stored(_) => ", computed here for every shard",
+                    _ => "",
+                };
                 progress.line(&format!(
-                    "reference for {}: {} at dt = {:e} s, {:.3e} from the one at twice its step ({:.1} s)",
+                    "reference for {}: {} at dt = {:e} s, {:.3e} from the one at twice its step ({:.1} s{origin})",
                     spec.scene,
                     method.name(),
                     reference.dt,

@@ -1,0 +1,337 @@
+//! A study split into shards (`run --shard K/N`) and merged (`merge`) gives the results of a
+//! local run (all columns but timings); the assignment is a partition balanced by cost and
+//! the same for every shard; shared work (references) is computed once; a merge says which
+//! runs are missing, is idempotent, and a shard run again resumes.
+
+mod common;
+
+use common::{TempDir, run_study, run_study_ok, softbench};
+use softbench::study::shard::{assign, estimated_cost, runs_of};
+use softbench::study::{Shard, table::Table};
+use std::path::{Path, PathBuf};
+
+fn study(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("experiments")
+        .join(name)
+}
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+/// Wall-clock measurements: the only columns allowed to differ between two runs.
+fn is_timing(column: &str) -> bool {
+    column.contains("seconds")
+}
+
+/// `a` and `b` hold the same runs in the same order, equal in every column but timings.
+fn assert_same_results(a: &Path, b: &Path) {
+    let read = |p: &Path| Table::read(p).unwrap().expect(&p.display().to_string());
+    let (ta, tb) = (read(a), read(b));
+    assert_eq!(ta.header, tb.header, "{} vs {}", a.display(), b.display());
+    assert_eq!(ta.rows.len(), tb.rows.len());
+    let mut compared = 0;
+    for (ra, rb) in ta.rows.iter().zip(&tb.rows) {
+        for (i, column) in ta.header.iter().enumerate() {
+            if !is_timing(column) {
+                assert_eq!(ra[i], rb[i], "run {}, column {column}", ra[0]);
+                compared += 1;
+            }
+        }
+    }
+    assert!(compared > 0);
+}
+
+/// The series files of two results folders agree in every column but timings.
+fn assert_same_series(a: &Path, b: &Path) {
+    let runs = Table::read(&a.join("runs.csv")).unwrap().unwrap();
+    for row in &runs.rows {
+        let name = format!("series/{}.csv", row[0]);
+        assert_same_results(&a.join(&name), &b.join(&name));
+    }
+}
+
+/// Run shards `ks` of `n` at the same time (separate processes), each asserted to succeed;
+/// their stderr, by shard.
+fn run_shards(file: &Path, out: &Path, ks: &[usize], n: usize, extra: &[&str]) -> Vec<String> {
+    let children: Vec<_> = ks
+        .iter()
+        .map(|k| {
+            let mut args = vec![
+                "run".to_owned(),
+                file.display().to_string(),
+                "--out".into(),
+                out.display().to_string(),
+                "--shard".into(),
+                format!("{k}/{n}"),
+            ];
+            args.extend(extra.iter().map(|s| (*s).to_owned()));
+            std::process::Command::new(env!("CARGO_BIN_EXE_softbench"))
+                .args(&args)
+                .stdout(std::process::Stdio::piped())
+                .stderr(std::process::Stdio::piped())
+                .spawn()
+                .unwrap()
+        })
+        .collect();
+    children
+        .into_iter()
+        .map(|c| {
+            let o = c.wait_with_output().unwrap();
+            assert!(o.status.success(), "a shard failed: {}", text(&o.stderr));
+            text(&o.stderr) + &text(&o.stdout)
+        })
+        .collect()
+}
+
+fn meta(dir: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(dir.join("meta.json")).unwrap()).unwrap()
+}
+
+#[test]
+fn the_assignment_is_a_partition_balanced_by_cost_and_the_same_for_every_shard() {
+    let s = softbench::study::load(&study("quickstart.toml"), false).unwrap();
+    for n in [1, 2, 3, 5, s.runs.len()] {
+        let shard_of = assign(&s, n);
+        assert_eq!(shard_of, assign(&s, n), "the assignment is deterministic");
+        // Every run in exactly one shard: the shards' own lists partition the grid.
+        let mut seen = vec![0; s.runs.len()];
+        let mut loads = Vec::new();
+        for k in 0..n {
+            let (runs, cost) = runs_of(&s, Shard { index: k, count: n });
+            for r in &runs {
+                let i = s.runs.iter().position(|x| x.id == r.id).unwrap();
+                seen[i] += 1;
+                assert_eq!(shard_of[i], k);
+            }
+            loads.push(cost);
+        }
+        assert!(seen.iter().all(|&c| c == 1), "{n} shards: {seen:?}");
+        // Longest-processing-time-first: no shard exceeds another by more than one run.
+        let largest = s
+            .runs
+            .iter()
+            .map(|r| estimated_cost(&s, r))
+            .fold(0.0, f64::max);
+        let (lo, hi) = loads
+            .iter()
+            .fold((f64::MAX, 0.0f64), |(lo, hi), &c| (lo.min(c), hi.max(c)));
+        assert!(hi - lo <= largest, "{n} shards: loads {loads:?}");
+    }
+    // Balanced by cost, not by count: an implicit run on the beam (10 per DOF-step) weighs
+    // more than an explicit one (its order per DOF-step).
+    let cost = |id: &str| estimated_cost(&s, s.runs.iter().find(|r| r.id == id).unwrap());
+    assert_eq!(
+        cost("soft_beam-backward-euler-cholesky"),
+        2.5 * cost("soft_beam-rk4")
+    );
+}
+
+#[test]
+fn quickstart_as_three_shards_and_merge_equals_a_local_run() {
+    let tmp = TempDir::new("shards-quickstart");
+    let file = study("quickstart.toml");
+    let local = tmp.path().join("local");
+    run_study_ok(&file, &local, &["--quick"]);
+    let sharded = tmp.path().join("sharded");
+    let logs = run_shards(&file, &sharded, &[0, 1, 2], 3, &["--quick"]);
+    // The last shard to finish merged.
+    assert!(
+        logs.iter()
+            .any(|l| l.contains("every run of the study is done")),
+        "{logs:?}"
+    );
+    let (l, s) = (local.join("quickstart"), sharded.join("quickstart"));
+    assert_same_results(&l.join("runs.csv"), &s.join("runs.csv"));
+    assert_same_series(&l, &s);
+    for plot in ["energy-soft_beam.png", "phases-jello_cube.svg"] {
+        assert!(s.join(plot).is_file(), "no {plot}");
+    }
+    let m = meta(&s);
+    let shards = m["shards"].as_array().unwrap();
+    assert_eq!(shards.len(), 3);
+    for (k, r) in shards.iter().enumerate() {
+        assert_eq!(r["shard"], k);
+        assert_eq!(r["of"], 3);
+        assert_eq!(r["status"], "finished");
+        assert!(r["host"].is_string() && r["machine"]["cpu"].is_string());
+        assert!(r["started"].is_string() && r["finished"].is_string());
+        assert!(r["wall_seconds"].as_f64().unwrap() >= 0.0);
+    }
+    assert!(m["missing"].is_null(), "nothing is missing");
+    let report = std::fs::read_to_string(s.join("report.md")).unwrap();
+    assert!(report.contains("| 2/3 |") && !report.contains("Missing runs"));
+
+    // Merging again rewrites the same files.
+    let before: Vec<Vec<u8>> = ["runs.csv", "report.md"]
+        .iter()
+        .map(|f| std::fs::read(s.join(f)).unwrap())
+        .collect();
+    let mut meta_before = m.clone();
+    let o = softbench(&["merge", s.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert!(text(&o.stdout).contains("merged 12 of 12 runs from 3 shard(s)"));
+    for (f, b) in ["runs.csv", "report.md"].iter().zip(&before) {
+        assert_eq!(&std::fs::read(s.join(f)).unwrap(), b, "{f} changed");
+    }
+    let mut meta_after = meta(&s);
+    for m in [&mut meta_before, &mut meta_after] {
+        m.as_object_mut().unwrap().remove("command");
+    }
+    assert_eq!(meta_before, meta_after);
+}
+
+#[test]
+fn a_merge_says_which_runs_are_missing_and_a_shard_run_again_resumes() {
+    let tmp = TempDir::new("shards-missing");
+    let file = study("quickstart.toml");
+    let out = tmp.path();
+    let dir = out.join("quickstart");
+    run_shards(&file, out, &[0, 1], 3, &["--quick"]);
+    let s = softbench::study::load(&file, true).unwrap();
+    let (third, _) = runs_of(&s, Shard { index: 2, count: 3 });
+    let expected: Vec<String> = third.iter().map(|r| r.id.clone()).collect();
+
+    let o = softbench(&["merge", dir.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o.stderr));
+    let err = text(&o.stderr);
+    assert!(err.contains(&format!("{} of 12 runs are missing", expected.len())));
+    for id in &expected {
+        assert!(err.contains(id.as_str()), "{id} not named: {err}");
+    }
+    let missing: Vec<String> = meta(&dir)["missing"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_str().unwrap().to_owned())
+        .collect();
+    assert_eq!(missing, expected);
+    let report = std::fs::read_to_string(dir.join("report.md")).unwrap();
+    assert!(report.contains("Incomplete") && report.contains("## Missing runs"));
+    let runs = Table::read(&dir.join("runs.csv")).unwrap().unwrap();
+    assert_eq!(runs.rows.len(), 12 - expected.len());
+
+    // A shard run again reuses its finished runs, like a local run.
+    let o = run_study_ok(&file, out, &["--quick", "--shard", "1/3"]);
+    assert!(
+        text(&o.stdout).contains("(0 run now, 4 reused)"),
+        "{}",
+        text(&o.stdout)
+    );
+    // The last shard completes the study and merges.
+    let o = run_study_ok(&file, out, &["--quick", "--shard", "2/3"]);
+    assert!(
+        text(&o.stdout).contains("merged 12 runs"),
+        "{}",
+        text(&o.stdout)
+    );
+    assert!(meta(&dir)["missing"].is_null());
+    // A local run of the same study now reuses every run the shards did.
+    let o = run_study_ok(&file, out, &["--quick"]);
+    assert!(
+        text(&o.stdout).contains("(0 run now, 12 reused)"),
+        "{}",
+        text(&o.stdout)
+    );
+}
+
+#[test]
+fn bad_shard_merge_and_slurm_options_are_refused_before_anything_is_written() {
+    let tmp = TempDir::new("shards-bad");
+    let file = study("quickstart.toml");
+    let o = run_study(&file, tmp.path(), &["--shard", "3/3"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        text(&o.stderr).contains("0 <= K < N"),
+        "{}",
+        text(&o.stderr)
+    );
+    let o = softbench(&["merge", tmp.path().to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o.stderr).contains("not a study folder"));
+    let out = tmp.path().to_str().unwrap();
+    let f = file.to_str().unwrap();
+    for (args, says) in [
+        (vec!["--time", "1h"], "HH:MM:SS"),
+        (vec!["--shards", "13"], "only 12 runs"),
+        (vec!["--shards", "0"], "at least 1"),
+        (vec!["--partition", "a b"], "partition"),
+        (vec!["--cpus-per-task", "0"], "at least 1"),
+    ] {
+        let mut all = vec!["slurm", f, "--out", out];
+        all.extend(&args);
+        let o = softbench(&all);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", text(&o.stderr));
+        assert!(
+            text(&o.stderr).contains(says),
+            "{args:?}: {}",
+            text(&o.stderr)
+        );
+    }
+    assert_eq!(std::fs::read_dir(tmp.path()).unwrap().count(), 0);
+}
+
+#[test]
+fn slurm_writes_an_array_of_shards_and_a_merge_after_it() {
+    let tmp = TempDir::new("shards-slurm-scripts");
+    let file = study("quickstart.toml");
+    let o = softbench(&[
+        "slurm",
+        file.to_str().unwrap(),
+        "--out",
+        tmp.path().to_str().unwrap(),
+        "--shards",
+        "3",
+        "--cpus-per-task",
+        "2",
+        "--time",
+        "10",
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let dir = tmp.path().join("quickstart/slurm");
+    let array = std::fs::read_to_string(dir.join("shards.sbatch")).unwrap();
+    assert!(array.contains("#SBATCH --array=0-2\n"));
+    assert!(array.contains("#SBATCH --time=10\n"));
+    assert!(array.contains("--shard \"$SLURM_ARRAY_TASK_ID/$SLURM_ARRAY_TASK_COUNT\" --jobs 2"));
+    let merge = std::fs::read_to_string(dir.join("merge.sbatch")).unwrap();
+    assert!(merge.contains(" merge ") && merge.contains("--wait"));
+    let submit = std::fs::read_to_string(dir.join("submit.sh")).unwrap();
+    assert!(submit.contains("--dependency=afterok:"));
+    // The script is valid shell.
+    let o = std::process::Command::new("bash")
+        .args(["-n", dir.join("shards.sbatch").to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", text(&o.stderr));
+}
+
+#[test]
+fn work_precision_as_three_shards_and_merge_equals_a_local_run() {
+    if common::reference_mesh("coarser_bunny.mesh").is_none() {
+        return;
+    }
+    let tmp = TempDir::new("shards-work-precision");
+    let file = study("work_precision.toml");
+    let local = tmp.path().join("local");
+    run_study_ok(&file, &local, &["--quick"]);
+    let sharded = tmp.path().join("sharded");
+    let logs = run_shards(&file, &sharded, &[0, 1, 2], 3, &["--quick"]);
+    let (l, s) = (local.join("work_precision"), sharded.join("work_precision"));
+    assert_same_results(&l.join("runs.csv"), &s.join("runs.csv"));
+    assert_same_series(&l, &s);
+    // Each scene's reference was computed by one shard and read by the others.
+    for scene in ["cantilever", "bunny"] {
+        let line = format!("reference for {scene}: ");
+        let here = logs
+            .iter()
+            .filter(|l| {
+                l.lines()
+                    .any(|x| x.starts_with(&line) && x.contains("computed here"))
+            })
+            .count();
+        assert_eq!(here, 1, "{scene}: {logs:?}");
+    }
+    let report = std::fs::read_to_string(s.join("report.md")).unwrap();
+    assert!(report.contains("- bunny: rk4") || report.contains("- bunny: implicit-midpoint"));
+}
