@@ -5,6 +5,7 @@
 
 mod common;
 
+use common::results::assert_same_study;
 use common::{TempDir, run_study, run_study_ok, softbench};
 use softbench::study::shard::{assign, estimated_cost, runs_of};
 use softbench::study::{Shard, table::Table};
@@ -18,38 +19,6 @@ fn study(name: &str) -> PathBuf {
 
 fn text(bytes: &[u8]) -> String {
     String::from_utf8_lossy(bytes).into_owned()
-}
-
-/// Wall-clock measurements: the only columns allowed to differ between two runs.
-fn is_timing(column: &str) -> bool {
-    column.contains("seconds")
-}
-
-/// `a` and `b` hold the same runs in the same order, equal in every column but timings.
-fn assert_same_results(a: &Path, b: &Path) {
-    let read = |p: &Path| Table::read(p).unwrap().expect(&p.display().to_string());
-    let (ta, tb) = (read(a), read(b));
-    assert_eq!(ta.header, tb.header, "{} vs {}", a.display(), b.display());
-    assert_eq!(ta.rows.len(), tb.rows.len());
-    let mut compared = 0;
-    for (ra, rb) in ta.rows.iter().zip(&tb.rows) {
-        for (i, column) in ta.header.iter().enumerate() {
-            if !is_timing(column) {
-                assert_eq!(ra[i], rb[i], "run {}, column {column}", ra[0]);
-                compared += 1;
-            }
-        }
-    }
-    assert!(compared > 0);
-}
-
-/// The series files of two results folders agree in every column but timings.
-fn assert_same_series(a: &Path, b: &Path) {
-    let runs = Table::read(&a.join("runs.csv")).unwrap().unwrap();
-    for row in &runs.rows {
-        let name = format!("series/{}.csv", row[0]);
-        assert_same_results(&a.join(&name), &b.join(&name));
-    }
 }
 
 /// Run shards `ks` of `n` at the same time (separate processes), each asserted to succeed;
@@ -143,8 +112,7 @@ fn quickstart_as_three_shards_and_merge_equals_a_local_run() {
         "{logs:?}"
     );
     let (l, s) = (local.join("quickstart"), sharded.join("quickstart"));
-    assert_same_results(&l.join("runs.csv"), &s.join("runs.csv"));
-    assert_same_series(&l, &s);
+    assert_same_study(&l, &s);
     for plot in ["energy-soft_beam.png", "phases-jello_cube.svg"] {
         assert!(s.join(plot).is_file(), "no {plot}");
     }
@@ -318,8 +286,7 @@ fn work_precision_as_three_shards_and_merge_equals_a_local_run() {
     let sharded = tmp.path().join("sharded");
     let logs = run_shards(&file, &sharded, &[0, 1, 2], 3, &["--quick"]);
     let (l, s) = (local.join("work_precision"), sharded.join("work_precision"));
-    assert_same_results(&l.join("runs.csv"), &s.join("runs.csv"));
-    assert_same_series(&l, &s);
+    assert_same_study(&l, &s);
     // Each scene's reference was computed by one shard and read by the others.
     for scene in ["cantilever", "bunny"] {
         let line = format!("reference for {scene}: ");

@@ -80,6 +80,7 @@ pub fn assert_close(a: f64, b: f64, rel: f64) {
     );
 }
 pub mod bodies;
+pub mod results;
 
 /// Run the `softbench` binary with `args` (environment inherited) and collect its output.
 pub fn softbench(args: &[&str]) -> std::process::Output {
