@@ -302,3 +302,68 @@ fn work_precision_as_three_shards_and_merge_equals_a_local_run() {
     let report = std::fs::read_to_string(s.join("report.md")).unwrap();
     assert!(report.contains("- bunny: rk4") || report.contains("- bunny: implicit-midpoint"));
 }
+
+/// Regression: a reference was computed from the first *pending* run of its scene, so a
+/// study resumed after `--only '*cg*'` (or a shard holding only CG runs) scored its runs
+/// against an implicit-midpoint reference solved with CG instead of Cholesky, and its errors
+/// differed from a fresh run's in the 9th digit. Now every invocation uses the first run of
+/// the study.
+#[test]
+fn a_reference_comes_from_the_studys_first_run_whatever_is_pending() {
+    let tmp = TempDir::new("shards-template");
+    tmp.write(
+        "beam.toml",
+        r#"
+[mesh]
+generate = { box = [4, 1, 1], size = [1.0, 0.25, 0.25] }
+[material]
+model = "stable-neo-hookean"
+youngs_modulus = 2e4
+poisson_ratio = 0.3
+density = 1000.0
+[fixed]
+rule = { axis = "x", side = "min", tolerance = 1e-6 }
+[forces]
+gravity = [0.0, -9.81, 0.0]
+[run]
+dt = 0.01
+steps = 1
+"#,
+    );
+    let file = tmp.write(
+        "study.toml",
+        r#"name = "template"
+study = "work-precision"
+scenes = ["beam.toml"]
+[set]
+"integrator.newton.tolerance" = 1e-12
+[grid]
+"integrator.method" = ["backward-euler"]
+"integrator.linear_solver" = ["cholesky", "cg"]
+"run.dt" = [0.008, 0.004]
+[work-precision]
+horizon = 0.08
+samples = 2
+reference = { method = "implicit-midpoint", dt_factor = 8 }
+"#,
+    );
+    let fresh = tmp.path().join("fresh");
+    run_study_ok(&file, &fresh, &[]);
+    let resumed = tmp.path().join("resumed");
+    run_study_ok(&file, &resumed, &["--only", "cg"]);
+    run_study_ok(&file, &resumed, &[]);
+    let sharded = tmp.path().join("sharded");
+    // Shard 1 of 4 holds one CG run only.
+    let s = softbench::study::load(&file, false).unwrap();
+    let (one, _) = runs_of(&s, Shard { index: 1, count: 4 });
+    assert!(
+        one.iter().all(|r| r.id.contains("-cg-")),
+        "{:?}",
+        one.iter().map(|r| &r.id).collect::<Vec<_>>()
+    );
+    run_shards(&file, &sharded, &[1], 4, &[]);
+    run_shards(&file, &sharded, &[0, 2, 3], 4, &[]);
+    for other in [&resumed, &sharded] {
+        assert_same_study(&fresh.join("template"), &other.join("template"));
+    }
+}
