@@ -109,11 +109,12 @@ pub(super) fn merge_study(
     let runs_path = dir.join("runs.csv");
     table.write(&runs_path).map_err(io(&runs_path))?;
 
-    let study_file = std::path::absolute(&study.path).unwrap_or_else(|_| study.path.clone());
+    // The folder is the study's (named after it); its shards in the same mode count. (Not
+    // compared by study file path: nodes may mount the same file under different paths.)
     let records: Vec<ShardRecord> = ShardRecord::read_all(dir)
         .map_err(io(&dir.join("shards")))?
         .into_iter()
-        .filter(|r| r.study_file == study_file && r.quick == study.quick)
+        .filter(|r| r.quick == study.quick)
         .collect();
     // The references the shards stored, for the report.
     let store = SharedStore::new(dir);
