@@ -463,6 +463,7 @@ impl Integrator for Vbd {
             }
         }
         report.substeps = 1;
+        report.local_iterations = self.settings.iterations;
         Ok(())
     }
 }

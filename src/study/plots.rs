@@ -135,8 +135,17 @@ pub(super) struct SceneRows<'a> {
 /// Draws a chart: its file stem, its caption, the chart.
 pub(super) type Emit<'e> = dyn FnMut(String, &str, Chart) -> Result<(), PlotError> + 'e;
 
-/// Parameters that set a run's accuracy: the points along one work-precision line.
-const ACCURACY_KNOBS: [&str; 2] = ["run.dt", "integrator.adaptive.tolerance"];
+/// Parameters that set a run's accuracy: the points along one work-precision line (the step,
+/// an adaptive tolerance, a Newton tolerance, a local solver's iterations or substeps).
+const ACCURACY_KNOBS: [&str; 7] = [
+    "run.dt",
+    "integrator.adaptive.tolerance",
+    "integrator.newton.tolerance",
+    "integrator.vbd.iterations",
+    "integrator.projective_dynamics.iterations",
+    "integrator.xpbd.substeps",
+    "integrator.xpbd.iterations",
+];
 
 /// Remove plots of an earlier invocation that this one did not draw (a scene or time step
 /// no longer in the study), so the folder holds exactly what report.md shows.

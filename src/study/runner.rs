@@ -355,29 +355,44 @@ impl Shared {
         let references_of = kind.references.as_ref();
         let settings = references_of.and_then(|r| (r.settings)(&study.file));
         if let (Some(w), Some(references_of)) = (settings.as_ref(), references_of) {
-            // One reference per physics, `jobs` of them at a time (each is independent).
+            // One reference per physics (and dt, with `same_dt`), `jobs` of them at a time
+            // (each is independent).
             let mut needed: Vec<&RunSpec> = Vec::new();
             for spec in pending {
-                if !needed.iter().any(|s| s.physics == spec.physics) {
+                let key = work_precision::reference_key(w, spec);
+                if !needed
+                    .iter()
+                    .any(|s| work_precision::reference_key(w, s) == key)
+                {
                     needed.push(spec);
                 }
             }
             let compute = |spec: &RunSpec| {
                 let dt = (references_of.dt)(study, w, spec);
                 let method = w.reference.method.unwrap_or_else(|| {
-                    // RK4 where it is stable at dt (its limit is 2.83 / omega_max), else the
-                    // second-order implicit midpoint rule.
+                    // Same dt: the converged backward Euler step. Otherwise RK4 where it is
+                    // stable at dt (its limit is 2.83 / omega_max), else the second-order
+                    // implicit midpoint rule.
                     let name = match omega.get(&spec.physics).copied().flatten() {
+                        _ if w.reference.same_dt => "backward-euler",
                         Some(w) if dt < 2.5 / w => "rk4",
                         _ => "implicit-midpoint",
                     };
                     Method::from_name(name).expect("a built-in method")
                 });
-                let task = format!(
-                    "reference for {}: {} at dt = {dt:e} s and dt/2",
-                    spec.scene,
-                    method.name()
-                );
+                let task = if w.reference.same_dt {
+                    format!(
+                        "reference for {}: {} at dt = {dt:e} s, converged twice",
+                        spec.scene,
+                        method.name()
+                    )
+                } else {
+                    format!(
+                        "reference for {}: {} at dt = {dt:e} s and dt/2",
+                        spec.scene,
+                        method.name()
+                    )
+                };
                 progress.start(&task);
                 let result = work_precision::reference(spec, w, method, dt, parallelism);
                 progress.finish(&task);
@@ -407,20 +422,35 @@ impl Shared {
                             "reference for {} failed, so error_at_stable_dt is left empty: {m}",
                             spec.scene
                         ));
-                        failed_references.insert(spec.physics, (spec.scene.clone(), m));
+                        failed_references.insert(
+                            work_precision::reference_key(w, spec),
+                            (spec.scene.clone(), m),
+                        );
                         continue;
                     }
                     Err(m) => return Err(RunError::Run(format!("scene {}: {m}", spec.scene))),
                 };
+                let against = if reference.same_dt {
+                    "one at a 100x tighter Newton tolerance"
+                } else {
+                    "the one at twice its step"
+                };
                 progress.line(&format!(
-                    "reference for {}: {} at dt = {:e} s, {:.3e} from the one at twice its step ({:.1} s)",
+                    "reference for {}: {} at dt = {:e} s, {:.3e} from {against} ({:.1} s)",
                     spec.scene,
                     method.name(),
                     reference.dt,
                     reference.difference,
                     reference.wall_seconds
                 ));
-                references.insert(spec.physics, (spec.scene.clone(), reference));
+                // Same-dt references differ by material and dt within a scene: say which.
+                let label = match &spec.loaded.config.material {
+                    Some(m) if reference.same_dt => {
+                        format!("{} ({}, dt = {} s)", spec.scene, m.model, reference.dt)
+                    }
+                    _ => spec.scene.clone(),
+                };
+                references.insert(work_precision::reference_key(w, spec), (label, reference));
             }
         }
         Ok(Self {
@@ -437,9 +467,14 @@ fn measure(
     shared: &Shared,
     parallelism: Parallelism,
 ) -> Result<Measured, String> {
+    let key = super::kinds::spec(study.kind)
+        .references
+        .as_ref()
+        .and_then(|r| (r.settings)(&study.file))
+        .map_or(spec.physics, |w| work_precision::reference_key(&w, spec));
     let shared = super::kind::Shared {
         omega: shared.omega.get(&spec.physics).copied().flatten(),
-        reference: shared.references.get(&spec.physics).map(|(_, r)| r),
+        reference: shared.references.get(&key).map(|(_, r)| r),
     };
     (super::kinds::spec(study.kind).measure)(study, spec, &shared, parallelism)
 }

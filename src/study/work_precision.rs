@@ -36,6 +36,7 @@ pub const COLUMNS: &[&str] = &[
     "dt",
     "outcome",
     "error",
+    "error_l2",
     "energy_error",
     "wall_seconds",
     "force_evaluations",
@@ -43,6 +44,7 @@ pub const COLUMNS: &[&str] = &[
     "factorizations",
     "linear_iterations",
     "newton_iterations",
+    "local_iterations_per_step",
     "substeps",
     "scored",
     "error_unscored",
@@ -90,7 +92,7 @@ pub(super) const SPEC: KindSpec = KindSpec {
     needs_omega: |file| {
         file.work_precision
             .as_ref()
-            .is_some_and(|w| w.reference.method.is_none())
+            .is_some_and(|w| w.reference.method.is_none() && !w.reference.same_dt)
     },
     references: Some(References {
         settings: |file| file.work_precision.clone(),
@@ -110,13 +112,28 @@ pub(super) const SPEC: KindSpec = KindSpec {
     phase_dt_columns: &["dt"],
 };
 
-/// Error against wall time, cost and dt, one line per method.
+/// Error against wall time, time per step, cost and dt (and local-solver iterations where
+/// there are any), one line per method.
 fn scene_charts(s: &SceneRows, emit: &mut Emit) -> Result<(), PlotError> {
+    let iterative = s.rows.iter().any(|r| {
+        s.runs
+            .number(r, "local_iterations_per_step")
+            .is_some_and(|n| n > 0.0)
+    });
     for (x, x_label, what) in [
         ("wall_seconds", "wall time (s)", "time"),
+        ("step_seconds_median", "median wall time per step (s)", "step-time"),
         ("cost", "force + Hessian evaluations", "cost"),
         ("dt", "time step dt (s)", "dt"),
+        (
+            "local_iterations_per_step",
+            "local-solver iterations per step",
+            "iterations",
+        ),
     ] {
+        if what == "iterations" && !iterative {
+            continue;
+        }
         emit(
             format!("work-precision-{what}-{}", s.slug),
             &format!(
@@ -221,6 +238,9 @@ fn configure(
 /// The reference step for the physics of `spec`: as set, or the smallest dt of the grid over
 /// `dt_factor`.
 fn reference_dt(study: &Study, w: &WorkPrecisionSettings, spec: &RunSpec) -> f64 {
+    if w.reference.same_dt {
+        return spec.loaded.config.run.dt;
+    }
     w.reference.dt.unwrap_or_else(|| {
         let smallest = study
             .runs
@@ -230,6 +250,18 @@ fn reference_dt(study: &Study, w: &WorkPrecisionSettings, spec: &RunSpec) -> f64
             .fold(f64::INFINITY, f64::min);
         smallest / w.reference.dt_factor
     })
+}
+
+/// Which reference a run is scored against: one per physics, or with `same_dt` one per
+/// physics and time step.
+pub(super) fn reference_key(w: &WorkPrecisionSettings, spec: &RunSpec) -> u64 {
+    if !w.reference.same_dt {
+        return spec.physics;
+    }
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    (spec.physics, spec.loaded.config.run.dt.to_bits()).hash(&mut h);
+    h.finish()
 }
 
 /// A work-precision run's horizon and sample times must be whole numbers of its steps.
@@ -273,6 +305,9 @@ struct Snapshots {
 pub struct Reference {
     pub method: Method,
     pub dt: f64,
+    /// Whether it runs at the runs' own dt (and `difference` is the one from a second
+    /// reference at a tighter Newton tolerance, not at half the step).
+    pub same_dt: bool,
     snapshots: Snapshots,
     rest: Vec<f64>,
     /// Position error of the reference at `dt` against the one at `dt / 2`.
@@ -425,7 +460,8 @@ fn stride(settings: &WorkPrecisionSettings, dt: f64) -> usize {
 }
 
 /// Compute the reference for the physics of `template` (any run of it): `method` at `dt` and
-/// at `dt / 2`.
+/// at `dt / 2`, or with `same_dt` twice at `dt`, the second at a 100× tighter Newton
+/// tolerance (and always with the Cholesky solver, so the linear solves are exact).
 pub fn reference(
     template: &RunSpec,
     settings: &WorkPrecisionSettings,
@@ -433,12 +469,17 @@ pub fn reference(
     dt: f64,
     parallelism: Parallelism,
 ) -> Result<Reference, String> {
-    let solve = |dt: f64| -> Result<(Snapshots, f64, Vec<f64>), String> {
+    let same_dt = settings.reference.same_dt;
+    let solve = |dt: f64, tolerance: f64| -> Result<(Snapshots, f64, Vec<f64>), String> {
         let mut spec = template.clone();
         let integrator = &mut spec.loaded.config.integrator;
         integrator.method = method;
-        integrator.newton.tolerance = settings.reference.newton_tolerance;
+        integrator.newton.tolerance = tolerance;
         integrator.newton.max_iterations = integrator.newton.max_iterations.max(50);
+        if same_dt {
+            integrator.newton.require_convergence = true;
+            integrator.linear_solver = crate::solve::LinearSolverKind::cholesky();
+        }
         let mut scene = build(&spec, parallelism).map_err(|e| e.to_string())?;
         let stride = stride(settings, dt);
         let run = RunConfig {
@@ -462,13 +503,19 @@ pub fn reference(
             scene.initial.q.clone(),
         ))
     };
-    let (coarse, t1, rest) = solve(dt)?;
-    let (fine, t2, _) = solve(dt / 2.0)?;
+    let tolerance = settings.reference.newton_tolerance;
+    let (coarse, t1, rest) = solve(dt, tolerance)?;
+    let (fine, t2, _) = if same_dt {
+        solve(dt, tolerance / 100.0)?
+    } else {
+        solve(dt / 2.0, tolerance)?
+    };
     let (difference, energy_difference) =
         errors(&coarse, &fine, &rest).ok_or("the reference reached no sample time")?;
     Ok(Reference {
         method,
-        dt: dt / 2.0,
+        dt: if same_dt { dt } else { dt / 2.0 },
+        same_dt,
         snapshots: fine,
         rest,
         difference,
@@ -510,6 +557,10 @@ pub fn measure(
             let scored = error > floor;
             m.set("scored", if scored { "yes" } else { "no" }.into());
             m.set("error", cell(scored.then_some(error)));
+            m.set(
+                "error_l2",
+                cell(reference.relative_l2_error(&snapshots.q).filter(|_| scored)),
+            );
             m.set("error_unscored", cell((!scored).then_some(error)));
             m.set("energy_error", cell(Some(energy)));
             if !scored {
