@@ -236,5 +236,8 @@ fn pd_refuses_a_penalty_potential_and_names_the_responses_that_work() {
     let mut model = body("corotated", MassKind::Lumped, [2, 1, 1], false);
     model.add_vertex_potential(Box::new(Penalty));
     let err = pd(3).check_model(&model).unwrap_err().to_string();
-    assert!(err.contains("contact") && err.contains("projection"), "{err}");
+    assert!(
+        err.contains("contact") && err.contains("projection"),
+        "{err}"
+    );
 }

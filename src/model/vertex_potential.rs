@@ -72,7 +72,10 @@ impl Anchors {
 
     /// `Err` names the first of `potentials` that is not a set of anchors.
     pub fn check(potentials: &[Box<dyn VertexPotential>]) -> Result<(), &str> {
-        match potentials.iter().find(|p| !p.anchors(0.0, &mut |_, _, _| {})) {
+        match potentials
+            .iter()
+            .find(|p| !p.anchors(0.0, &mut |_, _, _| {}))
+        {
             Some(p) => Err(p.name()),
             None => Ok(()),
         }

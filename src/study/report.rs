@@ -105,7 +105,7 @@ fn render(
                     r.method.name(),
                     r.difference,
                     r.energy_difference,
-                    r.floor() / r.difference.max(f64::MIN_POSITIVE)
+                    r.floor_factor()
                 );
                 continue;
             }
@@ -117,7 +117,7 @@ fn render(
                 short(r.dt),
                 r.difference,
                 r.energy_difference,
-                r.floor() / r.difference.max(f64::MIN_POSITIVE)
+                r.floor_factor()
             );
         }
         let _ = writeln!(out);
