@@ -138,6 +138,12 @@ fn scene_charts(s: &SceneRows, emit: &mut Emit) -> Result<(), PlotError> {
         if what == "iterations" && !iterative {
             continue;
         }
+        // One step for every run: error against dt is a vertical line of points.
+        let mut dts: Vec<f64> = s.rows.iter().filter_map(|r| s.runs.number(r, "dt")).collect();
+        dts.dedup();
+        if what == "dt" && dts.windows(2).all(|w| w[0] == w[1]) {
+            continue;
+        }
         emit(
             format!("work-precision-{what}-{}", s.slug),
             &format!(
