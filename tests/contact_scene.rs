@@ -327,3 +327,82 @@ fn simulate_ball_drop_reports_contacts_with_every_response() {
         }
     }
 }
+
+/// The local solvers reach obstacles through the responses that wrap an integrator; penalty
+/// contact, a potential projective dynamics and XPBD have no form for, is refused when the
+/// scene is built, naming the responses that work.
+#[test]
+fn local_solvers_take_obstacles_through_projection_and_refuse_penalty_at_build() {
+    let ground = |response: &str| {
+        format!(
+            "[[obstacles]]\nkind = \"plane\"\npoint = [0.0, 0.0, 0.0]\nnormal = [0.0, 1.0, 0.0]\n\
+             [contact]\nresponse = \"{response}\"\n"
+        )
+    };
+    for (method, material) in [
+        ("vbd", "stable-neo-hookean"),
+        ("projective-dynamics", "corotated"),
+        ("xpbd", "xpbd-neo-hookean"),
+    ] {
+        for response in ["projection", "velocity-flip"] {
+            let mut config = parse(&ground(response)).unwrap();
+            config.integrator.method = softbench::integrate::Method::from_name(method).unwrap();
+            let m = config.material.as_mut().unwrap();
+            m.model = material.into();
+            m.mass = softbench::model::MassKind::Lumped;
+            config.run.steps = 60;
+            let loaded = LoadedScene {
+                path: PathBuf::from("scene.toml"),
+                config,
+            };
+            let mut scene =
+                scene::build(&loaded, &DataPaths::new(None), Parallelism::Sequential).unwrap();
+            let mut integrator = scene.integrator();
+            let mut state = scene.initial.clone();
+            let mut contacts = 0;
+            for _ in 0..scene.config.run.steps {
+                let report = integrator
+                    .step(&mut scene.model, &mut state, scene.config.run.dt)
+                    .unwrap();
+                contacts = contacts.max(report.contacts);
+            }
+            // It fell from 0.5 m onto the ground, and no vertex ended below it.
+            assert!(
+                contacts > 0,
+                "{method} / {response}: never touched the ground"
+            );
+            let lowest = state
+                .q
+                .iter()
+                .skip(1)
+                .step_by(3)
+                .fold(f64::INFINITY, |a, &y| a.min(y));
+            assert!(
+                lowest > -1e-6,
+                "{method} / {response}: a vertex at y = {lowest}"
+            );
+        }
+    }
+    for (method, material) in [
+        ("projective-dynamics", "corotated"),
+        ("xpbd", "xpbd-neo-hookean"),
+    ] {
+        let mut config = parse(&ground("penalty")).unwrap();
+        config.integrator.method = softbench::integrate::Method::from_name(method).unwrap();
+        let m = config.material.as_mut().unwrap();
+        m.model = material.into();
+        m.mass = softbench::model::MassKind::Lumped;
+        let loaded = LoadedScene {
+            path: PathBuf::from("scene.toml"),
+            config,
+        };
+        let err = match scene::build(&loaded, &DataPaths::new(None), Parallelism::Sequential) {
+            Ok(_) => panic!("{method} with penalty contact was built"),
+            Err(e) => e.to_string(),
+        };
+        assert!(
+            err.contains("integrator.method") && err.contains("projection"),
+            "{method}: {err}"
+        );
+    }
+}

@@ -235,6 +235,40 @@ fn every_model_has_zero_energy_and_zero_stress_at_rest() {
     }
 }
 
+/// The per-vertex terms VBD uses (closed forms where a material has one) equal `P n` and the
+/// full derivative contracted with `n ⊗ n`.
+#[test]
+fn every_vertex_term_matches_the_contracted_stress_and_derivative() {
+    let mut rng = Rng::new(77);
+    for (seed, (model, lame)) in all_models().into_iter().enumerate() {
+        for f in samples(&model, 300 + seed as u64) {
+            let n = Vector3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 2.0
+                - Vector3::repeat(1.0);
+            let (pn, h) = model.vertex_terms(&f, &n).unwrap();
+            let p = model.first_piola(&f).unwrap();
+            let d = model.first_piola_derivative(&f).unwrap();
+            // H[r, s] = Σ_{c,d} n_c n_d D[3c + r, 3d + s] (column-major vec(F)).
+            let block = Matrix3::from_fn(|r, s| {
+                (0..3)
+                    .flat_map(|c| (0..3).map(move |e| (c, e)))
+                    .map(|(c, e)| n[c] * n[e] * d[(3 * c + r, 3 * e + s)])
+                    .sum::<f64>()
+            });
+            let size = scale(&lame) * n.norm_squared();
+            assert!(
+                (pn - p * n).norm() <= 1e-12 * (p.norm() * n.norm()).max(size),
+                "{}: P n",
+                model.name()
+            );
+            assert!(
+                (h - block).norm() <= 1e-11 * block.norm().max(size),
+                "{}: vertex block {h} vs {block}",
+                model.name()
+            );
+        }
+    }
+}
+
 #[test]
 fn every_stress_derivative_is_symmetric() {
     for (seed, (model, lame)) in all_models().into_iter().enumerate() {

@@ -10,7 +10,7 @@ use softbench::integrate::projective_dynamics::{ProjectiveDynamics, ProjectiveDy
 use softbench::integrate::{Integrator, IntegratorSettings, Method, State};
 use softbench::material::{LameParameters, MaterialModel};
 use softbench::mesh::generate::box_mesh;
-use softbench::model::{Damping, MassKind, Model, ModelSpec};
+use softbench::model::{Damping, Drag, DragPath, MassKind, Model, ModelSpec, Waypoint};
 use softbench::parallel::Parallelism;
 use softbench::solve::LinearSolverKind;
 
@@ -169,4 +169,75 @@ fn pd_refuses_a_material_without_a_projective_form() {
         .to_string();
     assert!(err.contains("corotated"), "{err}");
     assert_eq!(state, State::at_rest(&model));
+}
+
+/// A drag on the free end of `model` along +x, released at `release`.
+fn drag(model: &mut Model, release: Option<f64>) {
+    let rest = model.rest_positions().to_vec();
+    let picked = Drag::pick(&rest, &Vector3::new(0.3, 0.1, 0.1), 0.01);
+    assert!(!picked.is_empty());
+    let w = |t, x| Waypoint {
+        t,
+        offset: Vector3::new(x, 0.0, 0.0),
+    };
+    let path = DragPath::new(vec![w(0.0, 0.0), w(0.1, 0.05)]).unwrap();
+    model.add_vertex_potential(Box::new(
+        Drag::new(&rest, picked, 50.0, path, release).unwrap(),
+    ));
+}
+
+#[test]
+fn pd_converges_to_backward_euler_with_a_drag_and_refactors_only_when_it_is_released() {
+    let mut model = body("corotated", MassKind::Lumped, [3, 1, 1], true);
+    drag(&mut model, Some(0.025));
+    let start = kicked(&model);
+    let mut reference = start.clone();
+    let mut state = start.clone();
+    let mut integ = pd(2000);
+    let mut factorizations = Vec::new();
+    for _ in 0..4 {
+        let be = backward_euler(&mut model, &reference, 0.01);
+        // Both from the same start, so the comparison is of one step each.
+        let mut from = reference.clone();
+        let report = integ.step(&mut model, &mut from, 0.01).unwrap();
+        factorizations.push(report.factorizations);
+        let error = distance(&from.q, &be.q) / distance(&be.q, &reference.q);
+        assert!(error < 1e-6, "t = {}: {error:.3e}", reference.t);
+        reference = be;
+        state = from;
+    }
+    assert_ne!(state.q, start.q);
+    // Factored at the first step and again when the drag lets go (end of step 3: t = 0.03).
+    assert_eq!(factorizations, vec![1, 0, 1, 0]);
+}
+
+#[test]
+fn pd_refuses_a_penalty_potential_and_names_the_responses_that_work() {
+    use softbench::model::VertexPotential;
+    #[derive(Debug)]
+    struct Penalty;
+    impl VertexPotential for Penalty {
+        fn name(&self) -> &str {
+            "contact"
+        }
+        fn energy(&self, _: f64, _: &[Vector3<f64>]) -> f64 {
+            0.0
+        }
+        fn gradient(&self, _: f64, _: &[Vector3<f64>], _: &mut dyn FnMut(usize, Vector3<f64>)) {}
+        fn hessian(
+            &self,
+            _: f64,
+            _: &[Vector3<f64>],
+            _: bool,
+            _: &mut dyn FnMut(usize, nalgebra::Matrix3<f64>),
+        ) {
+        }
+    }
+    let mut model = body("corotated", MassKind::Lumped, [2, 1, 1], false);
+    model.add_vertex_potential(Box::new(Penalty));
+    let err = pd(3).check_model(&model).unwrap_err().to_string();
+    assert!(
+        err.contains("contact") && err.contains("projection"),
+        "{err}"
+    );
 }

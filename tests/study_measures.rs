@@ -214,3 +214,181 @@ reference = { method = "rk4", dt_factor = 8 }
         );
     }
 }
+
+/// A clamped beam sagging under a drag: the scene of the same-dt test.
+const DRAGGED_BEAM: &str = r#"
+[mesh]
+generate = { box = [4, 1, 1], size = [0.4, 0.1, 0.1] }
+[material]
+model = "stable-neo-hookean"
+youngs_modulus = 1e5
+poisson_ratio = 0.4
+density = 1000.0
+mass = "lumped"
+[fixed]
+rule = { axis = "x", side = "min", tolerance = 1e-6 }
+[forces]
+gravity = [0.0, -9.81, 0.0]
+[[drag]]
+point = [0.4, 0.1, 0.1]
+radius = 0.01
+stiffness = 50.0
+path = [{ t = 0.0, offset = [0.0, 0.0, 0.0] }, { t = 0.04, offset = [0.05, 0.0, 0.0] }]
+[run]
+dt = 0.01
+steps = 1
+"#;
+
+#[test]
+fn same_dt_references_score_local_solvers_against_the_converged_step_of_their_own_energy() {
+    let tmp = TempDir::new("study-same-dt");
+    tmp.write("beam.toml", DRAGGED_BEAM);
+    let study = tmp.write(
+        "study.toml",
+        r#"name = "local"
+study = "work-precision"
+scenes = ["beam.toml"]
+[grid]
+"run.dt" = [0.01]
+[[methods]]
+method = "vbd"
+"integrator.vbd.iterations" = [2, 20, 200, 2000]
+[[methods]]
+method = "projective-dynamics"
+"material.model" = "corotated"
+"integrator.projective_dynamics.iterations" = [2, 20, 200, 2000]
+[[methods]]
+method = "xpbd"
+"material.model" = "xpbd-neo-hookean"
+"integrator.xpbd.substeps" = [10, 100]
+[[methods]]
+method = "backward-euler"
+"integrator.newton.tolerance" = 1e-10
+[work-precision]
+horizon = 0.04
+samples = 2
+reference = { same_dt = true }
+"#,
+    );
+    let out = tmp.path().join("results");
+    run_study_ok(&study, &out, &[]);
+    let dir = out.join("local");
+    let runs = Table::read(&dir.join("runs.csv")).unwrap().unwrap();
+    let rows = |method: &str, knob: &str| -> Vec<(f64, Option<f64>)> {
+        let mut v: Vec<(f64, Option<f64>)> = runs
+            .rows
+            .iter()
+            .filter(|r| runs.get(r, "method") == Some(method))
+            .map(|r| {
+                assert_eq!(runs.number(r, "reference_dt"), Some(0.01), "{method}");
+                assert_eq!(runs.get(r, "outcome"), Some("completed"), "{method}");
+                // Scored or not (below the reference's own accuracy), the error is recorded.
+                let error = runs
+                    .number(r, "error")
+                    .or_else(|| runs.number(r, "error_unscored"));
+                (runs.number(r, knob).unwrap_or(0.0), error)
+            })
+            .collect();
+        v.sort_by(|a, b| a.0.total_cmp(&b.0));
+        v
+    };
+    // The error of VBD and PD falls as their iterations grow, below 1e-6 relative at the end.
+    for (method, knob) in [
+        ("vbd", "integrator.vbd.iterations"),
+        (
+            "projective-dynamics",
+            "integrator.projective_dynamics.iterations",
+        ),
+    ] {
+        let e = rows(method, knob);
+        let errors: Vec<f64> = e.iter().map(|(_, e)| e.unwrap()).collect();
+        println!("{method}: {errors:?}");
+        assert!(
+            errors.windows(2).all(|w| w[1] < w[0] || w[1] < 1e-12),
+            "{method}: {errors:?}"
+        );
+        assert!(errors[0] > 1e-3, "{method}: {errors:?}");
+        assert!(*errors.last().unwrap() < 1e-6, "{method}: {errors:?}");
+        // Every run counted its iterations per step.
+        for r in runs
+            .rows
+            .iter()
+            .filter(|r| runs.get(r, "method") == Some(method))
+        {
+            assert_eq!(
+                runs.number(r, "local_iterations_per_step"),
+                runs.number(r, knob),
+                "{method}"
+            );
+        }
+    }
+    // Backward Euler converged as tightly as the reference is the reference: within its
+    // accuracy, so not scored.
+    let be = runs
+        .rows
+        .iter()
+        .find(|r| runs.get(r, "method") == Some("backward-euler"))
+        .unwrap();
+    assert_eq!(
+        runs.get(be, "scored"),
+        Some("no"),
+        "{:?}",
+        runs.get(be, "error_unscored")
+    );
+    // XPBD has its own reference (its energy), so it is scored and finite.
+    assert!(
+        rows("xpbd", "integrator.xpbd.substeps")
+            .iter()
+            .all(|(_, e)| e.is_some_and(f64::is_finite))
+    );
+    // One reference per material: three in the report, each converged at the runs' dt.
+    let report = std::fs::read_to_string(dir.join("report.md")).unwrap();
+    assert_eq!(
+        report.matches("converged at the runs' own dt").count(),
+        3,
+        "{report}"
+    );
+    for material in ["stable-neo-hookean", "corotated", "xpbd-neo-hookean"] {
+        assert!(
+            report.contains(&format!("beam ({material}, dt = 0.01 s)")),
+            "{report}"
+        );
+    }
+    // The charts against time per step and against iterations are drawn.
+    for chart in [
+        "work-precision-step-time-beam.png",
+        "work-precision-iterations-beam.png",
+    ] {
+        assert!(dir.join(chart).is_file(), "{chart}");
+    }
+}
+
+#[test]
+fn same_dt_is_refused_outside_work_precision_and_with_a_fixed_reference_dt() {
+    let tmp = TempDir::new("study-same-dt-bad");
+    tmp.write("beam.toml", DRAGGED_BEAM);
+    let study = tmp.write(
+        "study.toml",
+        r#"name = "local"
+study = "work-precision"
+scenes = ["beam.toml"]
+[grid]
+"run.dt" = [0.01]
+[work-precision]
+horizon = 0.04
+reference = { same_dt = true, dt = 0.001 }
+"#,
+    );
+    let o = common::softbench(&[
+        "run",
+        study.to_str().unwrap(),
+        "--out",
+        tmp.path().join("out").to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("reference.dt") && err.contains("same_dt"),
+        "{err}"
+    );
+}

@@ -11,7 +11,7 @@ use softbench::integrate::xpbd::{Xpbd, XpbdSettings};
 use softbench::integrate::{Integrator, IntegratorSettings, Method, State};
 use softbench::material::{LameParameters, MaterialModel};
 use softbench::mesh::generate::box_mesh;
-use softbench::model::{MassKind, Model, ModelSpec};
+use softbench::model::{Drag, DragPath, MassKind, Model, ModelSpec, Waypoint};
 use softbench::parallel::Parallelism;
 
 fn body(cells: [usize; 3], clamped: bool) -> Model {
@@ -192,4 +192,57 @@ fn xpbd_refuses_a_material_that_is_not_its_constraint_energy() {
         .unwrap_err()
         .to_string();
     assert!(err.contains("xpbd-neo-hookean"), "{err}");
+}
+
+#[test]
+fn xpbd_with_a_drag_matches_backward_euler_on_its_energy() {
+    let mut model = body([3, 1, 1], true);
+    let rest = model.rest_positions().to_vec();
+    let picked = Drag::pick(&rest, &Vector3::new(0.3, 0.1, 0.1), 0.01);
+    let w = |t, x| Waypoint {
+        t,
+        offset: Vector3::new(x, 0.0, 0.0),
+    };
+    let path = DragPath::new(vec![w(0.0, 0.0), w(0.05, 0.05)]).unwrap();
+    model.add_vertex_potential(Box::new(
+        Drag::new(&rest, picked, 200.0, path, None).unwrap(),
+    ));
+    let start = State::at_rest(&model);
+    let (dt, steps) = (0.01, 5);
+    let be = run(&mut model, backward_euler().as_mut(), &start, dt, steps);
+    let fine = run(
+        &mut model,
+        backward_euler().as_mut(),
+        &start,
+        dt / 64.0,
+        64 * steps,
+    );
+    let settings = XpbdSettings {
+        substeps: 200,
+        iterations: 2,
+    };
+    let xpbd = run(&mut model, &mut Xpbd::new(settings), &start, dt, steps);
+    let be_error = distance(&be.q, &fine.q);
+    let xpbd_to_fine = distance(&xpbd.q, &fine.q);
+    let moved = distance(&fine.q, &start.q);
+    eprintln!("moved {moved:.3e}; BE error {be_error:.3e}; xpbd to fine {xpbd_to_fine:.3e}");
+    assert!(be_error > 1e-3 * moved, "the test needs a visible BE error");
+    assert!(
+        xpbd_to_fine < 0.2 * be_error,
+        "xpbd is {xpbd_to_fine:.3e} from the fine solution (backward Euler: {be_error:.3e})"
+    );
+}
+
+#[test]
+fn xpbd_refuses_consistent_mass() {
+    let lame = LameParameters::from_youngs_poisson(1e4, 0.3).unwrap();
+    let material = MaterialModel::from_name("xpbd-neo-hookean", lame).unwrap();
+    let mut spec = ModelSpec::elastic(box_mesh([2, 1, 1], [0.2, 0.1, 0.1]), material, 1000.0);
+    spec.mass_kind = MassKind::Consistent;
+    let model = Model::new(spec).unwrap();
+    let err = Xpbd::new(XpbdSettings::default())
+        .check_model(&model)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("lumped"), "{err}");
 }

@@ -371,7 +371,7 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
     let mut built = scene::build(&loaded, &DataPaths::from_env(), Parallelism::Rayon)?;
     let config = &built.config;
     let mut integrator = built.integrator();
-    let linear_solver = (!config.integrator.method.is_explicit())
+    let linear_solver = (config.integrator.method.uses_linear_solver())
         .then(|| config.integrator.linear_solver.to_string());
     let content = export
         .map(|format| frame_content(format, &loaded, &built.model))

@@ -239,6 +239,10 @@ impl Integrator for WithContactResponse {
         self.inner.is_explicit()
     }
 
+    fn check_model(&self, model: &Model) -> Result<(), StepError> {
+        self.inner.check_model(model)
+    }
+
     fn advance(
         &mut self,
         model: &mut Model,

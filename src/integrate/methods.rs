@@ -50,6 +50,9 @@ pub struct MethodEntry {
     pub explicit: bool,
     /// Solves a nonlinear system by Newton (so Newton's cap and tolerance can decide results).
     pub newton: bool,
+    /// Solves sparse linear systems with the scene's `linear_solver` (false for explicit
+    /// methods and for the local solvers VBD and XPBD, whose 3×3 solves need none).
+    pub linear_solver: bool,
     /// Can run the constrained contact response (Newton on the end-of-step positions).
     pub constrained_contact: bool,
     /// Builds it.
@@ -78,6 +81,7 @@ impl Entry for MethodEntry {
             ("order", order),
             ("kind", kind.to_owned()),
             ("newton", yes_no(self.newton)),
+            ("linear-solver", yes_no(self.linear_solver)),
             ("constrained-contact", yes_no(self.constrained_contact)),
         ]
     }
@@ -96,6 +100,7 @@ pub const fn explicit(
         order,
         explicit: true,
         newton: false,
+        linear_solver: false,
         constrained_contact: false,
         build,
     }
@@ -116,6 +121,7 @@ pub const fn implicit(
         order,
         explicit: false,
         newton: true,
+        linear_solver: true,
         constrained_contact: end_position,
         build,
     }
@@ -162,7 +168,7 @@ static BUILTIN: [MethodEntry; 26] = [
     explicit("adaptive-midpoint", 2, "explicit midpoint with step-doubling error control", |s, _| adaptive("adaptive-midpoint", s, Box::new(midpoint::midpoint()))),
     explicit("adaptive-rk4", 4, "RK4 with step-doubling error control", |s, _| adaptive("adaptive-rk4", s, Box::new(rk4::rk4()))),
     explicit("dopri5", 5, "Dormand-Prince 5(4) with embedded error control", |s, _| Box::new(Adaptive::embedded(dopri5::dopri5(), s.adaptive))),
-    MethodEntry { name: "linearly-implicit-euler", description: "one Newton step of backward Euler per step", order: 1, explicit: false, newton: false, constrained_contact: false, build: |s, _| Box::new(LinearlyImplicitEuler::new(s.linear_solver.build(&s.solver), s.newton.project_hessian)) },
+    MethodEntry { name: "linearly-implicit-euler", description: "one Newton step of backward Euler per step", order: 1, explicit: false, newton: false, linear_solver: true, constrained_contact: false, build: |s, _| Box::new(LinearlyImplicitEuler::new(s.linear_solver.build(&s.solver), s.newton.project_hessian)) },
     implicit("backward-euler", 1, true, "Newton with line search; unconditionally stable, dissipative", |s, c| newton_scheme(s, c, BackwardEuler)),
     implicit("implicit-midpoint", 2, false, "Newton on the midpoint; symplectic, no numerical damping", |s, c| newton_scheme(s, c, ImplicitMidpoint)),
     implicit("bdf1", 1, true, "BDF order 1 (= backward Euler)", |s, c| bdf("bdf1", 1, s, c)),
@@ -174,9 +180,9 @@ static BUILTIN: [MethodEntry; 26] = [
     implicit("newmark", 2, true, "Newmark(β, γ); default trapezoidal (1/4, 1/2), order 1 if γ ≠ 1/2", |s, c| newton_scheme(s, c, Newmark::new("newmark", NewmarkParameters::newmark(s.newmark)))),
     implicit("generalized-alpha", 2, true, "generalized-α (Chung-Hulbert), high frequencies damped to ρ∞", |s, c| newton_scheme(s, c, Newmark::new("generalized-alpha", NewmarkParameters::generalized_alpha(s.generalized_alpha)))),
     implicit("hht-alpha", 2, true, "Hilber-Hughes-Taylor α, high-frequency dissipation", |s, c| newton_scheme(s, c, Newmark::new("hht-alpha", NewmarkParameters::hht(s.hht)))),
-    MethodEntry { name: "vbd", description: "vertex block descent: colored Gauss-Seidel 3x3 Newton steps; converges to the backward Euler step (any material)", order: 1, explicit: false, newton: false, constrained_contact: false, build: |s, _| Box::new(Vbd::new(s.vbd)) },
-    MethodEntry { name: "projective-dynamics", description: "local/global iterations, prefactored global matrix; converges to backward Euler on its projective energy (corotated)", order: 1, explicit: false, newton: false, constrained_contact: false, build: |s, _| Box::new(ProjectiveDynamics::new(s.projective_dynamics, s.linear_solver.build(&s.solver))) },
-    MethodEntry { name: "xpbd", description: "XPBD with Neo-Hookean constraints, substepped; converges to the dynamics of its constraint energy (xpbd-neo-hookean)", order: 1, explicit: false, newton: false, constrained_contact: false, build: |s, _| Box::new(Xpbd::new(s.xpbd)) },
+    MethodEntry { name: "vbd", description: "vertex block descent: colored Gauss-Seidel 3x3 Newton steps; converges to the backward Euler step (any material)", order: 1, explicit: false, newton: false, linear_solver: false, constrained_contact: false, build: |s, _| Box::new(Vbd::new(s.vbd)) },
+    MethodEntry { name: "projective-dynamics", description: "local/global iterations, prefactored global matrix; converges to backward Euler on its projective energy (corotated)", order: 1, explicit: false, newton: false, linear_solver: true, constrained_contact: false, build: |s, _| Box::new(ProjectiveDynamics::new(s.projective_dynamics, s.linear_solver.build(&s.solver))) },
+    MethodEntry { name: "xpbd", description: "XPBD with Neo-Hookean constraints, substepped; converges to the dynamics of its constraint energy (xpbd-neo-hookean)", order: 1, explicit: false, newton: false, linear_solver: false, constrained_contact: false, build: |s, _| Box::new(Xpbd::new(s.xpbd)) },
     implicit("static", 0, true, "equilibrium under each time's loads (no inertia); gravity ramped if Newton fails", |s, c| Box::new(Static::new(s.static_solve, s.linear_solver.build(&s.solver), s.newton, c))),
 ];
 
@@ -203,6 +209,11 @@ impl Method {
     /// tolerance can decide its result).
     pub fn uses_newton(self) -> bool {
         self.entry().newton
+    }
+
+    /// Whether the method solves sparse linear systems with the scene's linear solver.
+    pub fn uses_linear_solver(self) -> bool {
+        self.entry().linear_solver
     }
 }
 

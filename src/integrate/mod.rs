@@ -79,6 +79,13 @@ pub trait Integrator: Send {
     /// Whether the method never asks for a Hessian.
     fn is_explicit(&self) -> bool;
 
+    /// Refuse a model this method cannot integrate (a material, potential or force it has no
+    /// form for), with the reason. Called when a scene is built, so a study fails at load
+    /// instead of at its first step; `advance` may check again.
+    fn check_model(&self, _model: &Model) -> Result<(), StepError> {
+        Ok(())
+    }
+
     /// Advance `state.q` and `state.v` by `dt` (not `state.t`), recording work in `report`.
     /// On error the state must be left as it was.
     fn advance(

@@ -9,15 +9,19 @@
 //! - volume: `(3 lambda)/2 dist²(F, {tr S = 3})`, projection `F − t R` with
 //!   `t = (tr S − 3)/3` (the singular values moved onto the plane `Σσ = 3`).
 //!
-//! Springs are projective too (`k/2 dist²(x_i − x_j, sphere of radius L)`). So the
-//! converged reference is `backward-euler` on the same scene with material `corotated`.
-//! Damping enters as backward Euler's quadratic term `dt/2 (x − q)ᵀ D (x − q)` (D at x̂), which
-//! adds `dt D` to the global matrix: with damping the matrix is refactored every step.
-//! A scene with another material or per-vertex potentials (drag, penalty contact) is refused
-//! with a typed error: their energies have no projective form here.
+//! Springs are projective too (`k/2 dist²(x_i − x_j, sphere of radius L)`), and so is a drag
+//! (`k/2 |x − target(t)|²`, a projection onto a point: it adds `dt² k` to the matrix's
+//! diagonal while it pulls). So the converged reference is `backward-euler` on the same scene
+//! with material `corotated`. Damping enters as backward Euler's quadratic term
+//! `dt/2 (x − q)ᵀ D (x − q)` (D at x̂), which adds `dt D` to the global matrix: with damping the
+//! matrix is refactored every step. A scene with another material or a per-vertex potential
+//! that is not a set of anchors (penalty contact) is refused when the scene is built: their
+//! energies have no projective form here (obstacles take the `projection` or `velocity-flip`
+//! response instead).
 //!
-//! Global step: `(M + dt² Σ w Gᵀ G) x = M x̂ + dt² (m g + Σ w Gᵀ p) − (fixed-vertex terms)`,
-//! the matrix factored once per dt (symbolic once) by the scene's linear solver. Local step:
+//! Global step: `(M + dt² Σ w Gᵀ G + dt² K) x = M x̂ + dt² (m g + Σ w Gᵀ p + K t) − (fixed-vertex
+//! terms)`, the matrix factored once per dt and drag state (symbolic once) by the scene's
+//! linear solver. Local step:
 //! the projections of every tet, in parallel into a per-tet buffer, gathered per vertex in a
 //! fixed order, so results are identical for any thread count. Velocity `v = (x − q)/dt`.
 
@@ -25,7 +29,7 @@ use super::vbd::incidence;
 use super::{Integrator, State, StepError, StepReport};
 use crate::fem::TetRest;
 use crate::material::{MaterialModel, RotationVariantSvd};
-use crate::model::{Model, ModelError};
+use crate::model::{Anchors, Model, ModelError};
 use crate::parallel::{Parallelism, for_each_chunk};
 use crate::solve::LinearSolver;
 use crate::sparse::SymmetricMatrix;
@@ -70,11 +74,18 @@ fn unsupported(field: &str, value: impl ToString, expected: &str) -> StepError {
 pub struct ProjectiveDynamics {
     settings: ProjectiveDynamicsSettings,
     solver: Box<dyn LinearSolver>,
-    /// The dt the factored matrix belongs to and the number of DOFs it was built for.
+    /// The dt the matrices belong to and the number of DOFs they were built for.
     factored: Option<(f64, usize)>,
-    /// `M + dt² Σ w Gᵀ G`, and with damping also `D(x̂)` and the matrix plus `dt D`.
+    /// `M + dt² Σ w Gᵀ G`; the system matrix (plus `dt² K` and `dt D`), and `D(x̂)`.
     base: Option<SymmetricMatrix>,
-    damping: Option<(SymmetricMatrix, SymmetricMatrix)>,
+    system: Option<SymmetricMatrix>,
+    damping: Option<SymmetricMatrix>,
+    /// The anchors at the step's end, and the stiffness per vertex the factorization holds
+    /// (`None`: nothing factored yet).
+    anchors: Anchors,
+    factored_anchors: Option<Vec<f64>>,
+    /// The diagonal slots of the free DOFs in the Hessian pattern.
+    diagonal: Vec<usize>,
     damping_q: Vec<f64>,
     /// Per free vertex: `4 tet + corner` of its tets; `2 spring + side` of its springs.
     tet_ptr: Vec<usize>,
@@ -100,7 +111,11 @@ impl ProjectiveDynamics {
             solver,
             factored: None,
             base: None,
+            system: None,
             damping: None,
+            anchors: Anchors::default(),
+            factored_anchors: None,
+            diagonal: Vec::new(),
             damping_q: Vec::new(),
             tet_ptr: Vec::new(),
             tet_corner: Vec::new(),
@@ -119,11 +134,12 @@ impl ProjectiveDynamics {
     /// The corotated constants `(w_arap, w_volume) = (2 mu, 3 lambda)`, or the reason the
     /// model has no projective form here.
     fn weights(model: &Model) -> Result<(f64, f64), StepError> {
-        if let Some(p) = model.vertex_potentials().first() {
+        if let Err(name) = Anchors::check(model.vertex_potentials()) {
             return Err(unsupported(
                 "vertex potential",
-                p.name(),
-                "projective-dynamics supports no per-vertex potentials (drag, penalty contact)",
+                name,
+                "projective-dynamics takes drags (anchors) but no other per-vertex potential; \
+                 for obstacles use contact.response = \"projection\" or \"velocity-flip\"",
             ));
         }
         match model.elastic_elements().map(|e| *e.material) {
@@ -194,10 +210,12 @@ impl ProjectiveDynamics {
             }
         }
         self.solver.analyze(pattern)?;
-        if !model.has_damping() {
-            self.solver.factor(&a)?;
-        }
+        self.diagonal = (0..n)
+            .map(|i| pattern.find(i, i).expect("the pattern holds the diagonal"))
+            .collect();
+        self.system = Some(a.clone());
         self.base = Some(a);
+        self.factored_anchors = None;
         self.factored = Some((dt, n));
         self.tet_targets = vec![0.0; 9 * tets.len()];
         self.spring_targets = vec![0.0; 3 * springs.len()];
@@ -232,6 +250,10 @@ impl Integrator for ProjectiveDynamics {
         "projective-dynamics"
     }
 
+    fn check_model(&self, model: &Model) -> Result<(), StepError> {
+        Self::weights(model).map(|_| ())
+    }
+
     fn order(&self) -> u32 {
         1
     }
@@ -251,33 +273,57 @@ impl Integrator for ProjectiveDynamics {
         let n = model.num_dofs();
         if self.factored != Some((dt, n)) {
             self.set_up(model, dt, wa + wv)?;
-            report.factorizations += u32::from(!model.has_damping());
         }
         let dofs = model.dofs();
         let free = dofs.free_vertices();
         for (i, (q, v)) in state.q.iter().zip(&state.v).enumerate() {
             self.x_hat[i] = q + dt * v;
         }
-        // Constant part of the right-hand side: M x̂ + dt² m g − dt² L_fixed x_fixed.
+        // Drags pull towards their targets at the step's end, as in backward Euler.
+        self.anchors
+            .gather(model.vertex_potentials(), dofs.num_vertices(), state.t + dt)
+            .map_err(|name| unsupported("vertex potential", name, "anchors"))?;
+        // Constant part of the right-hand side: M x̂ + dt² (m g + K t) − dt² L_fixed x_fixed.
         model.mass().mul_vec(&self.x_hat, &mut self.inertia);
         let masses = model.vertex_masses();
         let g = model.gravity().unwrap_or_else(Vector3::zeros);
         for (f, &v) in free.iter().enumerate() {
+            let pull = masses[v] * g + self.anchors.pull[v];
             for k in 0..3 {
                 let i = 3 * f + k;
-                self.inertia[i] += dt * dt * (masses[v] * g[k] - self.fixed_coupling[i]);
+                self.inertia[i] += dt * dt * (pull[k] - self.fixed_coupling[i]);
             }
         }
-        if model.has_damping() {
+        // The system matrix changes with damping (D at x̂) and when a drag starts or ends.
+        let anchors = &self.anchors.stiffness;
+        let unchanged = self.factored_anchors.as_ref().is_some_and(|k| {
+            k.len() == free.len() && free.iter().zip(k).all(|(&v, k)| anchors[v] == *k)
+        });
+        if model.has_damping() || !unchanged {
+            let factored = self.factored_anchors.get_or_insert_with(Vec::new);
+            factored.clear();
+            factored.extend(free.iter().map(|&v| anchors[v]));
             let base = self.base.as_ref().expect("set up");
-            let (d, a) = self
-                .damping
-                .get_or_insert_with(|| (model.new_hessian(), model.new_hessian()));
-            model.damping_matrix(&self.x_hat, d)?;
+            let a = self.system.as_mut().expect("set up");
             a.values_mut().copy_from_slice(base.values());
-            a.axpby(1.0, dt, d);
-            self.solver.factor(a)?;
+            for (f, k) in factored.iter().enumerate() {
+                for j in 0..3 {
+                    a.values_mut()[self.diagonal[3 * f + j]] += dt * dt * k;
+                }
+            }
+            if model.has_damping() {
+                let d = self.damping.get_or_insert_with(|| model.new_hessian());
+                model.damping_matrix(&self.x_hat, d)?;
+                a.axpby(1.0, dt, d);
+            }
+            if let Err(e) = self.solver.factor(a) {
+                self.factored_anchors = None;
+                return Err(e.into());
+            }
             report.factorizations += 1;
+        }
+        if model.has_damping() {
+            let d = self.damping.as_ref().expect("assembled above");
             self.damping_q.resize(n, 0.0);
             d.mul_vec(&state.q, &mut self.damping_q);
             for (r, dq) in self.inertia.iter_mut().zip(&self.damping_q) {
@@ -352,6 +398,7 @@ impl Integrator for ProjectiveDynamics {
             *q = x;
         }
         report.substeps = 1;
+        report.local_iterations = self.settings.iterations;
         Ok(())
     }
 }

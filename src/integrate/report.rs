@@ -59,6 +59,9 @@ pub struct StepReport {
     pub max_penetration: f64,
     /// Quadratic programs solved (the constrained contact response).
     pub qp_solves: u32,
+    /// Iterations of a local solver: VBD's Gauss–Seidel sweeps, projective dynamics'
+    /// local/global iterations, XPBD's constraint sweeps (substeps × iterations).
+    pub local_iterations: u32,
 }
 
 impl StepReport {
@@ -68,6 +71,7 @@ impl StepReport {
         self.substeps += other.substeps;
         self.rejected_substeps += other.rejected_substeps;
         self.newton_iterations += other.newton_iterations;
+        self.local_iterations += other.local_iterations;
         self.newton_unconverged += other.newton_unconverged;
         self.line_search_backtracks += other.line_search_backtracks;
         self.linear_solves += other.linear_solves;

@@ -24,7 +24,7 @@
 use super::colouring::Colouring;
 use super::{Integrator, State, StepError, StepReport};
 use crate::fem::{ProjectToPsd, TetRest};
-use crate::material::{Corotated, Material, MaterialModel, Matrix9};
+use crate::material::{Corotated, Material, MaterialModel};
 use crate::model::{ElasticElements, MassMatrix, Model, Spring};
 use crate::parallel::{Parallelism, for_each_chunk};
 use crate::sparse::SymmetricMatrix;
@@ -275,19 +275,6 @@ fn row_block(
     (g, h)
 }
 
-/// `Bᵀ D B` for one vertex of a tet: the 3×3 block `H[r, s] = Σ_{c,d} n_c n_d D[3c+r, 3d+s]`.
-#[inline]
-fn vertex_block(d: &Matrix9, n: &Vector3<f64>) -> Matrix3<f64> {
-    let mut h = Matrix3::zeros();
-    for s in 0..3 {
-        let col = d.column(s) * n[0] + d.column(s + 3) * n[1] + d.column(s + 6) * n[2];
-        for r in 0..3 {
-            h[(r, s)] = n[0] * col[r] + n[1] * col[r + 3] + n[2] * col[r + 6];
-        }
-    }
-    h
-}
-
 impl<M: Material> Local<'_, M> {
     /// The local Newton step of free vertex `f` at positions `x`.
     fn step(&self, f: usize, x: &[Vector3<f64>]) -> Result<Vector3<f64>, StepError> {
@@ -306,11 +293,10 @@ impl<M: Material> Local<'_, M> {
                 det_f: err.det_f,
                 material: self.material_name,
             };
-            let p = self.material.first_piola(&fm).map_err(fail)?;
-            let d = self.material.first_piola_derivative(&fm).map_err(fail)?;
             let n = rest.shape_gradient(a);
-            gp += p * n * rest.volume;
-            hp += vertex_block(&d, &n) * rest.volume;
+            let (pn, block) = self.material.vertex_terms(&fm, &n).map_err(fail)?;
+            gp += pn * rest.volume;
+            hp += block * rest.volume;
         }
         let mut buf6 = [0.0; 6];
         let mut buf36 = [0.0; 36];
@@ -463,6 +449,7 @@ impl Integrator for Vbd {
             }
         }
         report.substeps = 1;
+        report.local_iterations = self.settings.iterations;
         Ok(())
     }
 }

@@ -6,11 +6,15 @@
 //! Its energy is `mu/2 ‖F‖² + lambda/2 (J − 1 − mu/lambda)²` per unit volume, material
 //! `xpbd-neo-hookean` ([`crate::material::ConstraintNeoHookean`]): as substeps grow, XPBD
 //! follows the dynamics of that energy (with lumped mass), so it matches `backward-euler` on
-//! that material within backward Euler's discretization error. Other materials, springs,
-//! damping and per-vertex potentials are refused with a typed error.
+//! that material within backward Euler's discretization error. A drag is a compliant
+//! zero-length constraint per picked vertex, `C = x − target(t)` with compliance `1/k` (its
+//! potential `k/2 |x − target|²` exactly). Other materials, consistent mass, springs, damping
+//! and other per-vertex potentials (penalty contact: use the `projection` or `velocity-flip`
+//! response) are refused when the scene is built.
 //!
 //! Each substep `h = dt/substeps`: `v += h g`, `x += h v`, multipliers reset, `iterations`
-//! Gauss–Seidel sweeps over the tets, `v = (x − x_start)/h`. Tets of one colour share no free
+//! Gauss–Seidel sweeps over the drag constraints (targets at the substep's end) and then the
+//! tets, `v = (x − x_start)/h`. Tets of one colour share no free
 //! vertex ([`super::colouring`]), so each colour is solved in parallel into a buffer and then
 //! applied: the result is that of a sequential sweep, whatever the thread count.
 
@@ -18,7 +22,7 @@ use super::colouring::Colouring;
 use super::{Integrator, State, StepError, StepReport};
 use crate::fem::TetRest;
 use crate::material::{ConstraintNeoHookean, MaterialModel, cofactor};
-use crate::model::{Model, ModelError};
+use crate::model::{Anchors, MassKind, Model, ModelError};
 use crate::parallel::for_each_chunk;
 use nalgebra::{Matrix3, Vector3};
 
@@ -51,8 +55,10 @@ impl XpbdSettings {
     }
 }
 
-/// Tets per parallel task.
-const CHUNK: usize = 16;
+/// Tets per parallel task: a colour of the 12k-tet box (about 500 tets) makes a few tasks per
+/// thread; smaller chunks cost more in scheduling (50 substeps × every colour per step) than
+/// they balance.
+const CHUNK: usize = 128;
 
 fn unsupported(field: &str, value: impl ToString, expected: &str) -> StepError {
     StepError::Model(ModelError::InvalidParameter {
@@ -77,6 +83,9 @@ pub struct Xpbd {
     lambda: Vec<[f64; 2]>,
     /// Per tet of a colour: 12 position changes and 2 multiplier changes.
     out: Vec<f64>,
+    /// The drags at the current substep's end, and their multipliers per vertex.
+    anchors: Anchors,
+    anchor_lambda: Vec<Vector3<f64>>,
 }
 
 impl Xpbd {
@@ -104,22 +113,35 @@ impl Xpbd {
                 "xpbd has no springs",
             ));
         }
-        if let Some(p) = model.vertex_potentials().first() {
+        if let Err(name) = Anchors::check(model.vertex_potentials()) {
             return Err(unsupported(
                 "vertex potential",
-                p.name(),
-                "xpbd supports no per-vertex potentials (drag, penalty contact)",
+                name,
+                "xpbd takes drags (anchors) but no other per-vertex potential; for obstacles \
+                 use contact.response = \"projection\" or \"velocity-flip\"",
             ));
         }
-        match model.elastic_elements().map(|e| *e.material) {
-            None => Ok(None),
-            Some(MaterialModel::ConstraintNeoHookean(m)) => Ok(Some(m)),
-            Some(other) => Err(unsupported(
-                "material.model",
-                other.name(),
-                "xpbd converges to the energy of its constraints: use material `xpbd-neo-hookean`",
-            )),
+        let material = match model.elastic_elements().map(|e| *e.material) {
+            None => None,
+            Some(MaterialModel::ConstraintNeoHookean(m)) => Some(m),
+            Some(other) => {
+                return Err(unsupported(
+                    "material.model",
+                    other.name(),
+                    "xpbd converges to the energy of its constraints: use material \
+                     `xpbd-neo-hookean`",
+                ));
+            }
+        };
+        if model.mass().kind() != MassKind::Lumped {
+            return Err(unsupported(
+                "material.mass",
+                "consistent",
+                "xpbd moves vertices with their lumped masses; set material.mass = \"lumped\" \
+                 so its converged reference has the same mass",
+            ));
         }
+        Ok(material)
     }
 
     fn set_up(&mut self, model: &Model, q: &[f64]) {
@@ -149,8 +171,28 @@ impl Xpbd {
         self.x_start = self.x.clone();
         self.v = vec![Vector3::zeros(); self.x.len()];
         self.lambda = vec![[0.0; 2]; tets.len()];
+        self.anchor_lambda = vec![Vector3::zeros(); self.x.len()];
         self.out = vec![0.0; 14 * self.colouring.largest_group()];
         self.num_dofs = Some(model.num_dofs());
+    }
+}
+
+impl Xpbd {
+    /// One sweep over the drag constraints `C = x_v − t_v` (compliance `1/K_v`): each is
+    /// linear, so its update is exact for the current multiplier.
+    fn solve_anchors(&mut self, free: &[usize], h2: f64) {
+        for &v in free {
+            let k = self.anchors.stiffness[v];
+            if k <= 0.0 {
+                continue;
+            }
+            let alpha_tilde = 1.0 / (k * h2);
+            let c = self.x[v] - self.anchors.pull[v] / k;
+            let w = self.inverse_mass[v];
+            let dl = (-c - self.anchor_lambda[v] * alpha_tilde) / (w + alpha_tilde);
+            self.x[v] += dl * w;
+            self.anchor_lambda[v] += dl;
+        }
     }
 }
 
@@ -165,7 +207,9 @@ fn project(
     lambda: f64,
     alpha_tilde: f64,
 ) -> f64 {
-    let g = grads.map(|n| dc_df * n);
+    // dC/dx_a = (dC/dF) n_a, and the four shape gradients sum to zero.
+    let g123 = [dc_df * grads[1], dc_df * grads[2], dc_df * grads[3]];
+    let g = [-(g123[0] + g123[1] + g123[2]), g123[0], g123[1], g123[2]];
     let denominator: f64 = (0..4).map(|a| w[a] * g[a].norm_squared()).sum::<f64>() + alpha_tilde;
     if denominator <= 0.0 {
         return 0.0;
@@ -228,6 +272,10 @@ impl Integrator for Xpbd {
         false
     }
 
+    fn check_model(&self, model: &Model) -> Result<(), StepError> {
+        Self::material(model).map(|_| ())
+    }
+
     fn advance(
         &mut self,
         model: &mut Model,
@@ -252,20 +300,28 @@ impl Integrator for Xpbd {
         let g = model.gravity().unwrap_or_else(Vector3::zeros);
         let par = model.parallelism();
         let h = dt / f64::from(self.settings.substeps);
-        for _ in 0..self.settings.substeps {
+        let pulled = !model.vertex_potentials().is_empty();
+        for s in 0..self.settings.substeps {
             for &v in free {
                 self.x_start[v] = self.x[v];
                 self.v[v] += g * h;
                 self.x[v] += self.v[v] * h;
             }
             self.lambda.fill([0.0; 2]);
-            let Some(m) = material else {
-                for &v in free {
-                    self.v[v] = (self.x[v] - self.x_start[v]) / h;
-                }
-                continue;
-            };
+            if pulled {
+                let t = state.t + h * f64::from(s + 1);
+                self.anchors
+                    .gather(model.vertex_potentials(), self.x.len(), t)
+                    .map_err(|name| unsupported("vertex potential", name, "anchors"))?;
+                self.anchor_lambda.fill(Vector3::zeros());
+            }
             for _ in 0..self.settings.iterations {
+                if pulled {
+                    self.solve_anchors(free, h * h);
+                }
+                let Some(m) = material else {
+                    continue;
+                };
                 for c in 0..self.colouring.num_colours() {
                     let group = self.colouring.group(c);
                     let (x, inverse_mass, lambda) = (&self.x, &self.inverse_mass, &self.lambda);
@@ -296,6 +352,7 @@ impl Integrator for Xpbd {
             state.v[3 * f..3 * f + 3].copy_from_slice(self.v[v].as_slice());
         }
         report.substeps = self.settings.substeps;
+        report.local_iterations = self.settings.substeps * self.settings.iterations;
         Ok(())
     }
 }

@@ -12,7 +12,7 @@
 //! void material (both zero) has lambda = 0; it uses alpha = 1 (its energy is zero anyway).
 
 use super::{InvalidDeformation, LameParameters, Material, Matrix9, cofactor, det_hessian, vec9};
-use nalgebra::Matrix3;
+use nalgebra::{Matrix3, Vector3};
 
 /// The XPBD constraint Neo-Hookean energy.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -68,5 +68,20 @@ impl Material for ConstraintNeoHookean {
             h[(i, i)] += self.mu;
         }
         Ok(h)
+    }
+
+    /// Closed form, as for Stable Neo-Hookean: `mu |n|² I + lambda (cof F n)(cof F n)ᵀ`.
+    #[inline]
+    fn vertex_terms(
+        &self,
+        f: &Matrix3<f64>,
+        n: &Vector3<f64>,
+    ) -> Result<(Vector3<f64>, Matrix3<f64>), InvalidDeformation> {
+        let dj = f.determinant() - self.alpha;
+        let gn = cofactor(f) * n;
+        let p = f * n * self.mu + gn * (self.lambda * dj);
+        let mut h = Matrix3::identity() * (self.mu * n.norm_squared());
+        h.ger(self.lambda, &gn, &gn, 1.0);
+        Ok((p, h))
     }
 }

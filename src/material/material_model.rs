@@ -174,4 +174,13 @@ impl MaterialModel {
     pub fn first_piola_derivative(&self, f: &Matrix3<f64>) -> Result<Matrix9, InvalidDeformation> {
         with_material!(self, |m| m.first_piola_derivative(f))
     }
+
+    /// [`Material::vertex_terms`], dispatching per call: for tests and one-off evaluations.
+    pub fn vertex_terms(
+        &self,
+        f: &Matrix3<f64>,
+        n: &nalgebra::Vector3<f64>,
+    ) -> Result<(nalgebra::Vector3<f64>, Matrix3<f64>), InvalidDeformation> {
+        with_material!(self, |m| m.vertex_terms(f, n))
+    }
 }

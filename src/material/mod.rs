@@ -26,7 +26,7 @@ pub use stable_neo_hookean::StableNeoHookean;
 pub use stvk::StVenantKirchhoff;
 pub use svd::RotationVariantSvd;
 
-use nalgebra::{Matrix3, SMatrix, SVector};
+use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
 /// The 9×9 derivative of the first Piola–Kirchhoff stress with respect to `vec(F)`.
 pub type Matrix9 = SMatrix<f64, 9, 9>;
@@ -53,6 +53,35 @@ pub trait Material: Copy + Send + Sync + std::fmt::Debug {
 
     /// dP/dF as a 9×9 matrix over column-major `vec(F)` (symmetric).
     fn first_piola_derivative(&self, f: &Matrix3<f64>) -> Result<Matrix9, InvalidDeformation>;
+
+    /// For one tet vertex with shape gradient `n` (F changes by `δx nᵀ` when the vertex moves
+    /// by δx): `P n` and the vertex's 3×3 Hessian block `Σ_{c,d} n_c n_d ∂P_{·c}/∂F_{·d}`
+    /// (per unit rest volume). Vertex block descent needs only these; a material with a
+    /// closed form overrides the default, which builds the whole 9×9 derivative.
+    #[inline]
+    fn vertex_terms(
+        &self,
+        f: &Matrix3<f64>,
+        n: &Vector3<f64>,
+    ) -> Result<(Vector3<f64>, Matrix3<f64>), InvalidDeformation> {
+        let p = self.first_piola(f)?;
+        let d = self.first_piola_derivative(f)?;
+        Ok((p * n, vertex_block(&d, n)))
+    }
+}
+
+/// `Bᵀ D B` for one vertex: `H[r, s] = Σ_{c,d} n_c n_d D[3c+r, 3d+s]` over column-major
+/// `vec(F)` (F changes by `δx nᵀ` when the vertex moves by δx).
+#[inline]
+pub fn vertex_block(d: &Matrix9, n: &Vector3<f64>) -> Matrix3<f64> {
+    let mut h = Matrix3::zeros();
+    for s in 0..3 {
+        let col = d.column(s) * n[0] + d.column(s + 3) * n[1] + d.column(s + 6) * n[2];
+        for r in 0..3 {
+            h[(r, s)] = n[0] * col[r] + n[1] * col[r + 3] + n[2] * col[r + 6];
+        }
+    }
+    h
 }
 
 /// `vec(M)`: the 9 entries of a 3×3 matrix in column-major order, `vec(M)[i + 3 j] = M[(i, j)]`.

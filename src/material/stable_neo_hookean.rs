@@ -16,7 +16,7 @@
 //! given Lamé constants.
 
 use super::{InvalidDeformation, LameParameters, Material, Matrix9, cofactor, det_hessian, vec9};
-use nalgebra::Matrix3;
+use nalgebra::{Matrix3, Vector3};
 
 /// The Stable Neo-Hookean energy with its own (reparameterized) constants.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -106,5 +106,26 @@ impl Material for StableNeoHookean {
             h[(i, i)] += diagonal;
         }
         Ok(h)
+    }
+
+    /// Closed form: contracting dP/dF with `n ⊗ n` turns `I` into `|n|² I`, `vec(F) vec(F)ᵀ`
+    /// into `(F n)(F n)ᵀ` and `vec(cof F) vec(cof F)ᵀ` into `(cof F n)(cof F n)ᵀ`, and removes
+    /// the `d²J/dF²` term (J is affine along `δx nᵀ`).
+    #[inline]
+    fn vertex_terms(
+        &self,
+        f: &Matrix3<f64>,
+        n: &Vector3<f64>,
+    ) -> Result<(Vector3<f64>, Matrix3<f64>), InvalidDeformation> {
+        let ic1 = f.norm_squared() + 1.0;
+        let dj = f.determinant() - self.alpha;
+        let fn_ = f * n;
+        let gn = cofactor(f) * n;
+        let shear = self.mu * (1.0 - 1.0 / ic1);
+        let p = fn_ * shear + gn * (self.lambda * dj);
+        let mut h = Matrix3::identity() * (shear * n.norm_squared());
+        h.ger(2.0 * self.mu / (ic1 * ic1), &fn_, &fn_, 1.0);
+        h.ger(self.lambda, &gn, &gn, 1.0);
+        Ok((p, h))
     }
 }

@@ -229,4 +229,14 @@ impl VertexPotential for Drag {
             add(v, Matrix3::identity() * self.stiffness);
         }
     }
+
+    fn anchors(&self, t: f64, add: &mut dyn FnMut(usize, f64, Vector3<f64>)) -> bool {
+        if self.is_active(t) {
+            let offset = self.path.offset(t);
+            for (&v, a) in self.vertices.iter().zip(&self.anchors) {
+                add(v, self.stiffness, a + offset);
+            }
+        }
+        true
+    }
 }

@@ -34,7 +34,7 @@ pub use mass::{MassKind, MassMatrix};
 pub use pattern::BlockPattern;
 pub use spectrum::{HighestMode, SpectrumError, SpectrumSettings, highest_mode};
 pub use springs::Spring;
-pub use vertex_potential::VertexPotential;
+pub use vertex_potential::{Anchors, VertexPotential};
 
 use crate::material::MaterialModel;
 use crate::mesh::TetMesh;

@@ -85,6 +85,9 @@ pub struct Sample {
     /// What the excess is compared with: the scene's energy scale plus the positive work done
     /// so far (J).
     pub energy_budget: f64,
+    /// Local-solver iterations since the previous row (VBD sweeps, projective-dynamics
+    /// local/global iterations, XPBD constraint sweeps).
+    pub local_iterations: u64,
 }
 
 /// What watches a run: every sampled row, and (optionally) the state after every step —
@@ -214,6 +217,7 @@ fn sample(
         dissipated: balance.dissipated(),
         energy_excess: balance.excess(energies.total()),
         energy_budget: balance.budget(),
+        local_iterations: work.local_iterations.into(),
     }
 }
 

@@ -610,6 +610,16 @@ pub fn build(
         message: e.message,
     })?;
     let contact = Contact::build(&c.obstacles, &c.contact, &mut model);
+    // A method that has no form for the model's material or potentials says so now, not at
+    // its first step.
+    c.integrator
+        .build()
+        .check_model(&model)
+        .map_err(|e| SceneError::Invalid {
+            path: path.clone(),
+            key: "integrator.method".into(),
+            message: format!("`{}` cannot run this scene: {e}", c.integrator.method),
+        })?;
     let initial = initial_state(
         &model,
         &c.initial,

@@ -199,8 +199,15 @@ fn default_samples() -> usize {
 #[serde(deny_unknown_fields, default)]
 pub struct ReferenceSettings {
     /// The method. Default: RK4 when it is stable at the reference step (below 2.5/omega_max),
-    /// else implicit midpoint (second order, stable at any step).
+    /// else implicit midpoint (second order, stable at any step); with `same_dt`, backward
+    /// Euler.
     pub method: Option<Method>,
+    /// Work-precision only: the reference runs at each run's own dt, so a run's error is its
+    /// distance from the converged step it approximates (the iteration error of VBD,
+    /// projective dynamics, XPBD or a truncated Newton solve), not from the exact motion.
+    /// Its own accuracy is then its difference from a second reference at a Newton
+    /// tolerance 100× tighter. Default false.
+    pub same_dt: bool,
     /// The reference step (s). Default: the smallest dt of the grid divided by `dt_factor`.
     pub dt: Option<f64>,
     /// Default 8.
@@ -216,6 +223,7 @@ impl Default for ReferenceSettings {
     fn default() -> Self {
         Self {
             method: None,
+            same_dt: false,
             dt: None,
             dt_factor: 8.0,
             newton_tolerance: 1e-10,

@@ -292,7 +292,9 @@ fn resolve_run(
             }
         }
     }
-    let linear_solver = (!method.is_explicit()).then_some(config.integrator.linear_solver);
+    let linear_solver = method
+        .uses_linear_solver()
+        .then_some(config.integrator.linear_solver);
     Ok(Some((
         method,
         linear_solver,

@@ -97,6 +97,11 @@ pub fn summary_cells(s: &RunSummary) -> Vec<(&'static str, String)> {
             f(f64::from(t.newton_iterations) / steps),
         ),
         ("substeps", t.substeps.to_string()),
+        ("local_iterations", t.local_iterations.to_string()),
+        (
+            "local_iterations_per_step",
+            f(f64::from(t.local_iterations) / steps),
+        ),
         ("assemble_seconds", f(t.times.assemble)),
         ("factor_seconds", f(t.times.factor)),
         ("solve_seconds", f(t.times.solve)),

@@ -135,8 +135,33 @@ pub(super) struct SceneRows<'a> {
 /// Draws a chart: its file stem, its caption, the chart.
 pub(super) type Emit<'e> = dyn FnMut(String, &str, Chart) -> Result<(), PlotError> + 'e;
 
-/// Parameters that set a run's accuracy: the points along one work-precision line.
-const ACCURACY_KNOBS: [&str; 2] = ["run.dt", "integrator.adaptive.tolerance"];
+/// Parameters that set a run's accuracy: the points along one work-precision line (the step,
+/// an adaptive tolerance, a Newton tolerance, a local solver's iterations or substeps).
+const ACCURACY_KNOBS: [&str; 7] = [
+    "run.dt",
+    "integrator.adaptive.tolerance",
+    "integrator.newton.tolerance",
+    "integrator.vbd.iterations",
+    "integrator.projective_dynamics.iterations",
+    "integrator.xpbd.substeps",
+    "integrator.xpbd.iterations",
+];
+
+/// Where a run sits along its work-precision line: larger for smaller steps and tolerances
+/// and for more iterations or substeps (the sum of their logs, so a row's knobs combine).
+fn accuracy_rank(runs: &Table, row: &[String]) -> f64 {
+    ACCURACY_KNOBS
+        .iter()
+        .filter_map(|k| Some((*k, runs.number(row, k).filter(|v| *v > 0.0)?)))
+        .map(|(k, v)| {
+            if k.ends_with("iterations") || k.ends_with("substeps") {
+                v.ln()
+            } else {
+                -v.ln()
+            }
+        })
+        .sum()
+}
 
 /// Remove plots of an earlier invocation that this one did not draw (a scene or time step
 /// no longer in the study), so the folder holds exactly what report.md shows.
@@ -299,7 +324,9 @@ pub(super) fn work_precision_chart(
     x: &str,
     x_label: &str,
 ) -> LineChart {
-    let mut lines: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
+    // Points carry their accuracy rank, so a line runs from the cheapest setting to the most
+    // accurate one whatever the noise in its x (wall times on a busy machine).
+    let mut lines: BTreeMap<String, Vec<(f64, f64, f64)>> = BTreeMap::new();
     for r in rows {
         let Some(error) = runs.number(r, "error") else {
             continue;
@@ -315,7 +342,7 @@ pub(super) fn work_precision_chart(
             lines
                 .entry(label(runs, params, r, &ACCURACY_KNOBS))
                 .or_default()
-                .push((xv, error));
+                .push((accuracy_rank(runs, r), xv, error));
         }
     }
     LineChart {
@@ -327,7 +354,8 @@ pub(super) fn work_precision_chart(
         series: lines
             .into_iter()
             .map(|(label, mut points)| {
-                points.sort_by(|a, b| a.0.total_cmp(&b.0));
+                points.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
+                let points = points.into_iter().map(|(_, x, e)| (x, e)).collect();
                 Series { label, points }
             })
             .collect(),

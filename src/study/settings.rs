@@ -124,6 +124,24 @@ pub(super) fn check_reference(
             "must be > 0 s".into(),
         ));
     }
+    if r.same_dt && table != "work-precision" {
+        return Err(bad(
+            &format!("{table}.reference.same_dt"),
+            "only a work-precision study compares runs with a reference at their own dt".into(),
+        ));
+    }
+    if r.same_dt && r.dt.is_some() {
+        return Err(bad(
+            &format!("{table}.reference.dt"),
+            "with same_dt = true the reference runs at each run's own dt; remove `dt`".into(),
+        ));
+    }
+    if !(r.newton_tolerance.is_finite() && r.newton_tolerance > 0.0) {
+        return Err(bad(
+            &format!("{table}.reference.newton_tolerance"),
+            format!("must be > 0 (got {})", r.newton_tolerance),
+        ));
+    }
     Ok(())
 }
 

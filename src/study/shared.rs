@@ -8,6 +8,7 @@
 //! never from the first run that happens to be pending, so it is the same for a fresh
 //! study, a resumed one and every shard.
 
+use super::config::WorkPrecisionSettings;
 use super::progress::Progress;
 use super::runner::RunError;
 use super::shared_store::{SharedStore, bits, from_bits};
@@ -37,10 +38,13 @@ pub(super) enum Source<'a> {
 pub(super) struct Shared {
     /// Highest mode by physics (`None` where it could not be computed).
     pub omega: HashMap<u64, Option<f64>>,
-    /// Reference solution by physics, with its scene's name.
+    /// Reference solution by physics (and dt, with `same_dt`: see
+    /// [`work_precision::reference_key`]), with its label.
     pub references: BTreeMap<u64, (String, Reference)>,
     /// References that failed (stability studies go on without them): scene and message.
     pub failed_references: BTreeMap<u64, (String, String)>,
+    /// The reference settings the keys were made with.
+    settings: Option<WorkPrecisionSettings>,
 }
 
 impl Shared {
@@ -111,23 +115,43 @@ impl Shared {
         let references_of = kind.references.as_ref();
         let settings = references_of.and_then(|r| (r.settings)(&study.file));
         if let (Some(w), Some(references_of)) = (settings.as_ref(), references_of) {
-            // One reference per physics, `jobs` of them at a time (each is independent).
+            // One reference per physics (and dt, with `same_dt`): the first run of the study
+            // with each key the runs need, `jobs` of them at a time (each is independent).
+            let key = |s: &RunSpec| work_precision::reference_key(w, s);
+            let mut templates: Vec<&RunSpec> = Vec::new();
+            for spec in &study.runs {
+                if runs.iter().any(|r| key(r) == key(spec))
+                    && !templates.iter().any(|t| key(t) == key(spec))
+                {
+                    templates.push(spec);
+                }
+            }
             let compute = |spec: &RunSpec| -> Result<Option<Solved>, RunError> {
                 let dt = (references_of.dt)(study, w, spec);
                 let method = w.reference.method.unwrap_or_else(|| {
-                    // RK4 where it is stable at dt (its limit is 2.83 / omega_max), else the
-                    // second-order implicit midpoint rule.
+                    // Same dt: the converged backward Euler step. Otherwise RK4 where it is
+                    // stable at dt (its limit is 2.83 / omega_max), else the second-order
+                    // implicit midpoint rule.
                     let name = match omega.get(&spec.physics).copied().flatten() {
+                        _ if w.reference.same_dt => "backward-euler",
                         Some(w) if dt < 2.5 / w => "rk4",
                         _ => "implicit-midpoint",
                     };
                     Method::from_name(name).expect("a built-in method")
                 });
-                let task = format!(
-                    "reference for {}: {} at dt = {dt:e} s and dt/2",
-                    spec.scene,
-                    method.name()
-                );
+                let task = if w.reference.same_dt {
+                    format!(
+                        "reference for {}: {} at dt = {dt:e} s, converged twice",
+                        spec.scene,
+                        method.name()
+                    )
+                } else {
+                    format!(
+                        "reference for {}: {} at dt = {dt:e} s and dt/2",
+                        spec.scene,
+                        method.name()
+                    )
+                };
                 let solved_here = std::cell::Cell::new(false);
                 let solve = || {
                     solved_here.set(true);
@@ -190,7 +214,7 @@ impl Shared {
                             "reference for {} failed, so error_at_stable_dt is left empty: {m}",
                             spec.scene
                         ));
-                        failed_references.insert(spec.physics, (spec.scene.clone(), m));
+                        failed_references.insert(key(spec), (spec.scene.clone(), m));
                         continue;
                     }
                     Err(m) => return Err(RunError::Run(format!("scene {}: {m}", spec.scene))),
@@ -200,29 +224,46 @@ impl Shared {
                     Source::Stored(_) => ", computed here for every shard",
                     _ => "",
                 };
+                let against = if reference.same_dt {
+                    "one at a 100x tighter Newton tolerance"
+                } else {
+                    "the one at twice its step"
+                };
                 progress.line(&format!(
-                    "reference for {}: {} at dt = {:e} s, {:.3e} from the one at twice its step ({:.1} s{origin})",
+                    "reference for {}: {} at dt = {:e} s, {:.3e} from {against} ({:.1} s{origin})",
                     spec.scene,
                     method.name(),
                     reference.dt,
                     reference.difference,
                     reference.wall_seconds
                 ));
-                references.insert(spec.physics, (spec.scene.clone(), reference));
+                // Same-dt references differ by material and dt within a scene: say which.
+                let label = match &spec.loaded.config.material {
+                    Some(m) if reference.same_dt => {
+                        format!("{} ({}, dt = {} s)", spec.scene, m.model, reference.dt)
+                    }
+                    _ => spec.scene.clone(),
+                };
+                references.insert(key(spec), (label, reference));
             }
         }
         Ok(Self {
             omega,
             references,
             failed_references,
+            settings,
         })
     }
 
     /// What one run gets.
     pub(super) fn of(&self, spec: &RunSpec) -> super::kind::Shared<'_> {
+        let key = self
+            .settings
+            .as_ref()
+            .map_or(spec.physics, |w| work_precision::reference_key(w, spec));
         super::kind::Shared {
             omega: self.omega.get(&spec.physics).copied().flatten(),
-            reference: self.references.get(&spec.physics).map(|(_, r)| r),
+            reference: self.references.get(&key).map(|(_, r)| r),
         }
     }
 }

@@ -36,6 +36,7 @@ pub const COLUMNS: &[&str] = &[
     "dt",
     "outcome",
     "error",
+    "error_l2",
     "energy_error",
     "wall_seconds",
     "force_evaluations",
@@ -43,6 +44,7 @@ pub const COLUMNS: &[&str] = &[
     "factorizations",
     "linear_iterations",
     "newton_iterations",
+    "local_iterations_per_step",
     "substeps",
     "scored",
     "error_unscored",
@@ -91,7 +93,7 @@ pub(super) const SPEC: KindSpec = KindSpec {
     needs_omega: |file| {
         file.work_precision
             .as_ref()
-            .is_some_and(|w| w.reference.method.is_none())
+            .is_some_and(|w| w.reference.method.is_none() && !w.reference.same_dt)
     },
     references: Some(References {
         settings: |file| file.work_precision.clone(),
@@ -111,13 +113,42 @@ pub(super) const SPEC: KindSpec = KindSpec {
     phase_dt_columns: &["dt"],
 };
 
-/// Error against wall time, cost and dt, one line per method.
+/// Error against wall time, time per step, cost and dt (and local-solver iterations where
+/// there are any), one line per method.
 fn scene_charts(s: &SceneRows, emit: &mut Emit) -> Result<(), PlotError> {
+    let iterative = s.rows.iter().any(|r| {
+        s.runs
+            .number(r, "local_iterations_per_step")
+            .is_some_and(|n| n > 0.0)
+    });
     for (x, x_label, what) in [
         ("wall_seconds", "wall time (s)", "time"),
+        (
+            "step_seconds_median",
+            "median wall time per step (s)",
+            "step-time",
+        ),
         ("cost", "force + Hessian evaluations", "cost"),
         ("dt", "time step dt (s)", "dt"),
+        (
+            "local_iterations_per_step",
+            "local-solver iterations per step",
+            "iterations",
+        ),
     ] {
+        if what == "iterations" && !iterative {
+            continue;
+        }
+        // One step for every run: error against dt is a vertical line of points.
+        let mut dts: Vec<f64> = s
+            .rows
+            .iter()
+            .filter_map(|r| s.runs.number(r, "dt"))
+            .collect();
+        dts.dedup();
+        if what == "dt" && dts.windows(2).all(|w| w[0] == w[1]) {
+            continue;
+        }
         emit(
             format!("work-precision-{what}-{}", s.slug),
             &format!(
@@ -222,6 +253,9 @@ fn configure(
 /// The reference step for the physics of `spec`: as set, or the smallest dt of the grid over
 /// `dt_factor`.
 fn reference_dt(study: &Study, w: &WorkPrecisionSettings, spec: &RunSpec) -> f64 {
+    if w.reference.same_dt {
+        return spec.loaded.config.run.dt;
+    }
     w.reference.dt.unwrap_or_else(|| {
         let smallest = study
             .runs
@@ -231,6 +265,18 @@ fn reference_dt(study: &Study, w: &WorkPrecisionSettings, spec: &RunSpec) -> f64
             .fold(f64::INFINITY, f64::min);
         smallest / w.reference.dt_factor
     })
+}
+
+/// Which reference a run is scored against: one per physics, or with `same_dt` one per
+/// physics and time step.
+pub(super) fn reference_key(w: &WorkPrecisionSettings, spec: &RunSpec) -> u64 {
+    if !w.reference.same_dt {
+        return spec.physics;
+    }
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    (spec.physics, spec.loaded.config.run.dt.to_bits()).hash(&mut h);
+    h.finish()
 }
 
 /// A work-precision run's horizon and sample times must be whole numbers of its steps.
@@ -274,6 +320,9 @@ struct Snapshots {
 pub struct Reference {
     pub method: Method,
     pub dt: f64,
+    /// Whether it runs at the runs' own dt (and `difference` is the one from a second
+    /// reference at a tighter Newton tolerance, not at half the step).
+    pub same_dt: bool,
     snapshots: Snapshots,
     rest: Vec<f64>,
     /// Position error of the reference at `dt` against the one at `dt / 2`.
@@ -291,6 +340,11 @@ impl Reference {
     /// The sample times (s): `horizon k / samples`, k = 1..samples.
     pub fn times(&self) -> &[f64] {
         &self.times
+    }
+
+    /// Errors below this factor times `difference` are not scored.
+    pub fn floor_factor(&self) -> f64 {
+        self.floor_factor
     }
 
     /// Errors at or below this are within the reference's own accuracy.
@@ -426,7 +480,8 @@ fn stride(settings: &WorkPrecisionSettings, dt: f64) -> usize {
 }
 
 /// Compute the reference for the physics of `template` (any run of it): `method` at `dt` and
-/// at `dt / 2`.
+/// at `dt / 2`, or with `same_dt` twice at `dt`, the second at a 100× tighter Newton
+/// tolerance (and always with the Cholesky solver, so the linear solves are exact).
 pub fn reference(
     template: &RunSpec,
     settings: &WorkPrecisionSettings,
@@ -434,12 +489,17 @@ pub fn reference(
     dt: f64,
     parallelism: Parallelism,
 ) -> Result<Reference, String> {
-    let solve = |dt: f64| -> Result<(Snapshots, f64, Vec<f64>), String> {
+    let same_dt = settings.reference.same_dt;
+    let solve = |dt: f64, tolerance: f64| -> Result<(Snapshots, f64, Vec<f64>), String> {
         let mut spec = template.clone();
         let integrator = &mut spec.loaded.config.integrator;
         integrator.method = method;
-        integrator.newton.tolerance = settings.reference.newton_tolerance;
+        integrator.newton.tolerance = tolerance;
         integrator.newton.max_iterations = integrator.newton.max_iterations.max(50);
+        if same_dt {
+            integrator.newton.require_convergence = true;
+            integrator.linear_solver = crate::solve::LinearSolverKind::cholesky();
+        }
         let mut scene = build(&spec, parallelism).map_err(|e| e.to_string())?;
         let stride = stride(settings, dt);
         let run = RunConfig {
@@ -463,13 +523,19 @@ pub fn reference(
             scene.initial.q.clone(),
         ))
     };
-    let (coarse, t1, rest) = solve(dt)?;
-    let (fine, t2, _) = solve(dt / 2.0)?;
+    let tolerance = settings.reference.newton_tolerance;
+    let (coarse, t1, rest) = solve(dt, tolerance)?;
+    let (fine, t2, _) = if same_dt {
+        solve(dt, tolerance / 100.0)?
+    } else {
+        solve(dt / 2.0, tolerance)?
+    };
     let (difference, energy_difference) =
         errors(&coarse, &fine, &rest).ok_or("the reference reached no sample time")?;
     Ok(Reference {
         method,
-        dt: dt / 2.0,
+        dt: if same_dt { dt } else { dt / 2.0 },
+        same_dt,
         snapshots: fine,
         rest,
         difference,
@@ -511,6 +577,10 @@ pub fn measure(
             let scored = error > floor;
             m.set("scored", if scored { "yes" } else { "no" }.into());
             m.set("error", cell(scored.then_some(error)));
+            m.set(
+                "error_l2",
+                cell(reference.relative_l2_error(&snapshots.q).filter(|_| scored)),
+            );
             m.set("error_unscored", cell((!scored).then_some(error)));
             m.set("energy_error", cell(Some(energy)));
             if !scored {
@@ -572,6 +642,10 @@ fn orders(out: &mut String, runs: &Table) {
             continue;
         }
         points.sort_by(|a, b| a.0.total_cmp(&b.0));
+        // Points at one dt differ by another knob (iterations, a tolerance): no order in dt.
+        if points.windows(2).any(|w| w[0].0 == w[1].0) {
+            continue;
+        }
         let ((d1, e1), (d2, e2)) = (points[0], points[1]);
         let order = (e2 / e1).ln() / (d2 / d1).ln();
         let _ = writeln!(
@@ -604,6 +678,8 @@ pub(super) struct StoredReference {
     wall_seconds: u64,
     times: Vec<u64>,
     floor_factor: u64,
+    #[serde(default)]
+    same_dt: bool,
 }
 
 impl Reference {
@@ -627,6 +703,7 @@ impl Reference {
             wall_seconds: bits(self.wall_seconds),
             times: all(&self.times),
             floor_factor: bits(self.floor_factor),
+            same_dt: self.same_dt,
         }
     }
 
@@ -660,6 +737,7 @@ impl Reference {
             wall_seconds: from_bits(s.wall_seconds),
             times: all(&s.times),
             floor_factor: from_bits(s.floor_factor),
+            same_dt: s.same_dt,
         })
     }
 }
