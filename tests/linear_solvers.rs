@@ -35,7 +35,12 @@ fn cg(tolerance: f64, preconditioner: Preconditioner) -> CgSolver {
 /// orderings, and threads.
 fn direct_settings() -> Vec<DirectSettings> {
     let mut v = Vec::new();
-    for ordering in [Ordering::Amd, Ordering::Identity] {
+    for ordering in [
+        Ordering::Amd,
+        Ordering::Metis,
+        Ordering::Auto,
+        Ordering::Identity,
+    ] {
         for supernodal in [
             Supernodal::Supernodal,
             Supernodal::Simplicial,

@@ -41,6 +41,19 @@ fn is_indefinite(e: &SolveError) -> bool {
     )
 }
 
+/// What the solver's current analysis is, into the step report.
+fn record_solver(stats: &crate::solve::SolverStats, report: &mut StepReport) {
+    report.factor_nnz = report.factor_nnz.max(stats.factor_nnz);
+    report.factor_flops = report.factor_flops.max(stats.factor_flops);
+    report.linear_solver = stats.chosen;
+    report.ordering = stats.ordering;
+    report.factor_threads = if stats.parallel_factor {
+        rayon::current_num_threads() as u32
+    } else {
+        1
+    };
+}
+
 impl ImplicitSystem {
     pub fn new(solver: Box<dyn LinearSolver>, always_project: bool) -> Self {
         Self {
@@ -125,7 +138,7 @@ impl ImplicitSystem {
         report.times.factor += start.elapsed().as_secs_f64();
         let factored = result?;
         report.factorizations += 1;
-        report.factor_nnz = report.factor_nnz.max(self.solver.stats().factor_nnz);
+        record_solver(self.solver.stats(), report);
         match factored.negative_pivots {
             Some(negative_pivots) if negative_pivots > 0 => {
                 Err(SolveError::Indefinite { negative_pivots })

@@ -9,7 +9,8 @@ use faer::sparse::linalg::cholesky::{
     factorize_symbolic_cholesky,
 };
 
-use super::{DirectSettings, Ordering, SolveError, Supernodal};
+use super::ordering::{FactorCost, Ordering, nested_dissection};
+use super::{DirectSettings, SolveError, Supernodal};
 use crate::parallel::Parallelism;
 use crate::sparse::SparsityPattern;
 
@@ -30,43 +31,50 @@ pub struct FaerFactor {
     pub par: Par,
     /// Entries of L (lower triangle with diagonal), counted exactly.
     pub nnz: usize,
+    /// Predicted flops of one numeric factorization (Σ c_j² over L's column counts).
+    pub flops: f64,
+    /// The ordering used (`Amd`, `Metis` or `Identity`; never `Auto`).
+    pub ordering: Ordering,
 }
+
+/// Predicted factorization flops from which the numeric phase runs on rayon's pool. Measured
+/// with `cargo bench --bench ordering` (two cores): see DESIGN.md, "Threads that reach the
+/// solver".
+pub const PARALLEL_MIN_FLOPS: f64 = 2.0e9;
 
 impl FaerFactor {
     /// Orders and symbolically factors `pattern` (read as its lower triangle) and allocates
-    /// the value and scratch storage.
+    /// the value and scratch storage. With `Ordering::Auto` both AMD and nested dissection
+    /// are analyzed and the one with fewer predicted flops is kept.
     pub fn analyze(
         pattern: &SparsityPattern,
         settings: &DirectSettings,
         kind: ScratchKind,
     ) -> Result<Self, SolveError> {
-        // Identity goes through a custom identity permutation: with `SymmetricOrdering::Identity`
-        // faer's numeric phase transposes A instead of extracting the `Side` triangle, so the
-        // simplicial path would read both triangles of our storage and compute garbage.
-        let identity: Vec<usize> = (0..pattern.dim()).collect();
-        let ordering = match settings.ordering {
-            Ordering::Amd => SymmetricOrdering::Amd,
-            Ordering::Identity => SymmetricOrdering::Custom(faer::perm::PermRef::new_checked(
-                &identity,
-                &identity,
-                pattern.dim(),
-            )),
+        let (symbolic, ordering, cost) = match settings.ordering {
+            Ordering::Auto => {
+                let amd = symbolic_analysis(pattern, settings, Ordering::Amd)?;
+                let nd = symbolic_analysis(pattern, settings, Ordering::Metis)?;
+                let (amd_cost, nd_cost) = (factor_cost(pattern, &amd), factor_cost(pattern, &nd));
+                if nd_cost.flops < amd_cost.flops {
+                    (nd, Ordering::Metis, nd_cost)
+                } else {
+                    (amd, Ordering::Amd, amd_cost)
+                }
+            }
+            o => {
+                let s = symbolic_analysis(pattern, settings, o)?;
+                let cost = factor_cost(pattern, &s);
+                (s, o, cost)
+            }
         };
-        let threshold = match settings.supernodal {
-            Supernodal::Auto => SupernodalThreshold::AUTO,
-            Supernodal::Simplicial => SupernodalThreshold::FORCE_SIMPLICIAL,
-            Supernodal::Supernodal => SupernodalThreshold::FORCE_SUPERNODAL,
-        };
-        let params = CholeskySymbolicParams {
-            supernodal_flop_ratio_threshold: threshold,
-            ..Default::default()
-        };
-        let symbolic =
-            factorize_symbolic_cholesky(pattern.as_faer(), faer::Side::Lower, ordering, params)
-                .map_err(|e| SolveError::Analysis(format!("{e:?}")))?;
         let par = match settings.parallelism {
-            Parallelism::Sequential => Par::Seq,
-            Parallelism::Rayon => Par::rayon(0),
+            Parallelism::Rayon
+                if cost.flops >= PARALLEL_MIN_FLOPS && rayon::current_num_threads() > 1 =>
+            {
+                Par::rayon(0)
+            }
+            _ => Par::Seq,
         };
         let factor_req = match kind {
             ScratchKind::Llt => {
@@ -87,14 +95,20 @@ impl FaerFactor {
             ))
         })?;
         values.resize(symbolic.len_val(), 0.0);
-        let nnz = exact_nnz(&symbolic);
         Ok(Self {
             symbolic,
             values,
             mem,
             par,
-            nnz,
+            nnz: cost.nnz,
+            flops: cost.flops,
+            ordering,
         })
+    }
+
+    /// Whether the numeric phase runs on several threads.
+    pub fn is_parallel(&self) -> bool {
+        !matches!(self.par, Par::Seq)
     }
 
     /// The original column of the failed pivot reported as `index` by faer. faer 0.24.4
@@ -111,16 +125,99 @@ impl FaerFactor {
     }
 }
 
-/// nnz(L) with the diagonal: supernodes store their diagonal block densely (upper part
-/// included), so `len_val` overcounts.
-fn exact_nnz(symbolic: &SymbolicCholesky<usize>) -> usize {
-    match symbolic.raw() {
-        SymbolicCholeskyRaw::Simplicial(s) => s.len_val(),
-        SymbolicCholeskyRaw::Supernodal(s) => (0..s.n_supernodes())
-            .map(|k| {
-                let ncols = s.supernode_end()[k] - s.supernode_begin()[k];
-                ncols * (ncols + 1) / 2 + s.supernode(k).pattern().len() * ncols
-            })
-            .sum(),
+/// The symbolic Cholesky factorization of `pattern` in the given ordering (not `Auto`).
+fn symbolic_analysis(
+    pattern: &SparsityPattern,
+    settings: &DirectSettings,
+    ordering: Ordering,
+) -> Result<SymbolicCholesky<usize>, SolveError> {
+    // Identity goes through a custom identity permutation: with `SymmetricOrdering::Identity`
+    // faer's numeric phase transposes A instead of extracting the `Side` triangle, so the
+    // simplicial path would read both triangles of our storage and compute garbage.
+    let custom: Vec<usize> = match ordering {
+        Ordering::Identity => (0..pattern.dim()).collect(),
+        Ordering::Metis => nested_dissection(pattern)?,
+        Ordering::Amd | Ordering::Auto => Vec::new(),
+    };
+    let inverse = inverse_permutation(&custom);
+    let faer_ordering = match ordering {
+        Ordering::Amd | Ordering::Auto => SymmetricOrdering::Amd,
+        Ordering::Identity | Ordering::Metis => SymmetricOrdering::Custom(
+            faer::perm::PermRef::new_checked(&custom, &inverse, pattern.dim()),
+        ),
+    };
+    let threshold = match settings.supernodal {
+        Supernodal::Auto => SupernodalThreshold::AUTO,
+        Supernodal::Simplicial => SupernodalThreshold::FORCE_SIMPLICIAL,
+        Supernodal::Supernodal => SupernodalThreshold::FORCE_SUPERNODAL,
+    };
+    let params = CholeskySymbolicParams {
+        supernodal_flop_ratio_threshold: threshold,
+        ..Default::default()
+    };
+    factorize_symbolic_cholesky(pattern.as_faer(), faer::Side::Lower, faer_ordering, params)
+        .map_err(|e| SolveError::Analysis(format!("{e:?}")))
+}
+
+/// `inv[perm[i]] = i`.
+fn inverse_permutation(perm: &[usize]) -> Vec<usize> {
+    let mut inv = vec![0; perm.len()];
+    for (i, &p) in perm.iter().enumerate() {
+        inv[p] = i;
     }
+    inv
+}
+
+/// nnz(L) (diagonal included) and predicted flops from the exact column counts of L in the
+/// analysis's ordering: the elimination tree (Liu's algorithm with path compression), then
+/// each row's subtree (O(nnz(L)) time, O(n) memory). faer's supernodal storage would
+/// overcount: relaxed supernodes store explicit zeros and the upper part of diagonal blocks.
+/// These are the counts CHOLMOD reports (`lnz`, `fl`), so they compare across programs.
+pub fn factor_cost(pattern: &SparsityPattern, symbolic: &SymbolicCholesky<usize>) -> FactorCost {
+    let n = pattern.dim();
+    let identity: Vec<usize>;
+    let (fwd, inv) = match symbolic.perm() {
+        Some(p) => p.arrays(),
+        None => {
+            identity = (0..n).collect();
+            (&identity[..], &identity[..])
+        }
+    };
+    let (cp, ri) = (pattern.col_ptr(), pattern.row_idx());
+    // Entries of new column k above the diagonal, in the new order (= row k left of it).
+    let upper = |k: usize| ri[cp[fwd[k]]..cp[fwd[k] + 1]].iter().map(|&r| inv[r]);
+    const NONE: usize = usize::MAX;
+    let mut parent = vec![NONE; n];
+    let mut ancestor = vec![NONE; n];
+    for k in 0..n {
+        for mut i in upper(k) {
+            while i != NONE && i < k {
+                let next = ancestor[i];
+                ancestor[i] = k;
+                if next == NONE {
+                    parent[i] = k;
+                }
+                i = next;
+            }
+        }
+    }
+    let mut counts = vec![1usize; n];
+    let mut mark = ancestor;
+    mark.fill(NONE);
+    for k in 0..n {
+        mark[k] = k;
+        for i in upper(k) {
+            let mut j = i;
+            while j < k && mark[j] != k {
+                counts[j] += 1;
+                mark[j] = k;
+                j = parent[j];
+            }
+        }
+    }
+    let mut cost = FactorCost::default();
+    for c in counts {
+        cost.add_column(c);
+    }
+    cost
 }

@@ -201,6 +201,10 @@ impl<F: Factorization> LinearSolver for FaerDirectSolver<F> {
             let f = FaerFactor::analyze(pattern, &self.settings, F::SCRATCH)?;
             self.stats.factor_nnz = f.nnz;
             self.stats.factor_storage = f.values.len();
+            self.stats.factor_flops = f.flops;
+            self.stats.ordering = f.ordering.name();
+            self.stats.parallel_factor = f.is_parallel();
+            self.stats.chosen = F::NAME;
             self.factor = Some(f);
             self.analyzed.set(pattern);
             self.b = vec![0.0; pattern.dim()];

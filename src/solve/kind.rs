@@ -3,6 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::ordering::Ordering;
 use super::{CgSettings, CgSolver, CholeskySolver, DenseCholeskySolver, LdltSolver, LinearSolver};
 use crate::parallel::Parallelism;
 use crate::registry::{Entry, Fact, Registry};
@@ -11,14 +12,16 @@ use crate::registry::{Entry, Fact, Registry};
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct DirectSettings {
-    /// Fill-reducing ordering. Default: AMD.
+    /// Fill-reducing ordering: `amd`, `metis` (nested dissection) or `auto` (the one with
+    /// fewer predicted flops, from both symbolic analyses). Default: AMD.
     pub ordering: Ordering,
     /// Supernodal or simplicial factorization. Default: `Auto` (faer's flop-ratio
     /// threshold; in 3D supernodal wins by ~20×).
     pub supernodal: Supernodal,
-    /// Threads for the numeric factorization. Default: sequential (two threads give only
-    /// ~1.2× on the factorization, and runs stay reproducible). A run setting, not part of a
-    /// config file.
+    /// Threads for the numeric factorization and solves: with `Rayon`, faer runs on rayon's
+    /// pool when the predicted factorization flops reach [`PARALLEL_MIN_FLOPS`] (smaller
+    /// factorizations ran slower on two threads). Set from the run's parallelism (the CLI's
+    /// `--threads`) when a scene builds its integrator; not part of a config file.
     #[serde(skip)]
     pub parallelism: Parallelism,
 }
@@ -31,17 +34,6 @@ impl Default for DirectSettings {
             parallelism: Parallelism::Sequential,
         }
     }
-}
-
-/// Fill-reducing ordering for the direct solvers.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Ordering {
-    /// Approximate minimum degree.
-    #[default]
-    Amd,
-    /// The caller's ordering (for tests and comparisons).
-    Identity,
 }
 
 /// Choice between faer's simplicial and supernodal factorizations.

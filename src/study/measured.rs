@@ -107,7 +107,27 @@ pub fn summary_cells(s: &RunSummary) -> Vec<(&'static str, String)> {
         ),
         ("energy_excess_peak", f(s.energy_excess_peak)),
         ("energy_limit", f(s.energy_limit)),
+        ("linear_solver_used", t.linear_solver.to_owned()),
+        ("ordering", t.ordering.to_owned()),
+        ("factor_nnz", t.factor_nnz.to_string()),
+        ("factor_flops", f(t.factor_flops)),
+        ("factor_threads", t.factor_threads.to_string()),
+        (
+            "linear_iterations_per_solve",
+            f(t.linear_iterations as f64 / f64::from(t.linear_solves.max(1))),
+        ),
     ]
+}
+
+/// The process's peak resident memory so far (MiB), from `getrusage`. A study runs its runs
+/// in one process, so this is an upper bound for the run that just ended (exact for the
+/// largest run when runs go from small to large).
+pub fn peak_rss_mib() -> Option<f64> {
+    // SAFETY: getrusage writes one plain struct we own.
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    let ok = unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut usage) } == 0;
+    // Linux reports ru_maxrss in KiB.
+    ok.then(|| usage.ru_maxrss as f64 / 1024.0)
 }
 
 /// The caps and tolerances of a run's integrator that can decide its result, reported next

@@ -39,6 +39,13 @@ pub const COLUMNS: &[&str] = &[
     "factor_seconds",
     "solve_seconds",
     "qp_seconds",
+    "linear_solver_used",
+    "ordering",
+    "factor_nnz",
+    "factor_flops",
+    "factor_threads",
+    "linear_iterations_per_solve",
+    "peak_rss_mib",
 ];
 
 /// What the rest of the study code asks of a trajectory (and the runs of a sweep) study.
@@ -99,6 +106,7 @@ pub fn measure(spec: &RunSpec, parallelism: Parallelism) -> Result<Measured, Str
     };
     m.cells.extend(cap_cells(spec));
     m.set("dt", cell(Some(run.dt)));
+    m.set("peak_rss_mib", cell(super::measured::peak_rss_mib()));
     let conserved = Conservation::of(&scene);
     let (p, l) = momentum_drift(&rows, &conserved);
     m.set("momentum_drift", cell(p));
