@@ -12,10 +12,25 @@ use softbench::solve::{
 use softbench::sparse::SymmetricMatrix;
 
 fn analyzed(a: &SymmetricMatrix, ordering: Ordering, parallelism: Parallelism) -> CholeskySolver {
+    analyzed_with(
+        a,
+        ordering,
+        parallelism,
+        softbench::solve::PARALLEL_MIN_FLOPS,
+    )
+}
+
+fn analyzed_with(
+    a: &SymmetricMatrix,
+    ordering: Ordering,
+    parallelism: Parallelism,
+    parallel_min_flops: f64,
+) -> CholeskySolver {
     let mut s = CholeskySolver::new(DirectSettings {
         ordering,
         supernodal: Supernodal::Auto,
         parallelism,
+        parallel_min_flops,
     });
     s.analyze(a.pattern()).unwrap();
     s
@@ -121,6 +136,7 @@ fn predicted_flops_are_the_sum_of_squared_column_counts() {
                 ordering: Ordering::Identity,
                 supernodal,
                 parallelism: Parallelism::Sequential,
+                ..Default::default()
             });
             s.analyze(a.pattern()).unwrap();
             assert_eq!(s.stats().factor_nnz, counts.iter().sum::<usize>());
@@ -132,7 +148,7 @@ fn predicted_flops_are_the_sum_of_squared_column_counts() {
 
 #[test]
 fn threaded_factorization_is_reproducible_and_agrees_to_round_off() {
-    // Large enough (several GFlop) for the flops rule to run faer on the pool.
+    // Threads from the first flop on, so the dense kernels of every supernode split.
     let a = fem_box([24, 12, 12]).matrix;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(2)
@@ -140,7 +156,7 @@ fn threaded_factorization_is_reproducible_and_agrees_to_round_off() {
         .unwrap();
     let on_two_threads = || {
         pool.install(|| {
-            let mut s = analyzed(&a, Ordering::Metis, Parallelism::Rayon);
+            let mut s = analyzed_with(&a, Ordering::Metis, Parallelism::Rayon, 0.0);
             let x = solve(&mut s, &a).0;
             (s.stats().parallel_factor, x)
         })

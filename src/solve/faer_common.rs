@@ -37,10 +37,47 @@ pub struct FaerFactor {
     pub ordering: Ordering,
 }
 
-/// Predicted factorization flops from which the numeric phase runs on rayon's pool. Measured
-/// with `cargo bench --bench ordering` (two cores): see DESIGN.md, "Threads that reach the
-/// solver".
-pub const PARALLEL_MIN_FLOPS: f64 = 2.0e9;
+/// The symbolic factorization of a pattern in its chosen ordering, with its predicted cost:
+/// what a solver that decides between direct and iterative reads before allocating a factor.
+pub struct SymbolicAnalysis {
+    pub symbolic: SymbolicCholesky<usize>,
+    /// `Amd`, `Metis` or `Identity` (never `Auto`).
+    pub ordering: Ordering,
+    pub cost: FactorCost,
+}
+
+impl SymbolicAnalysis {
+    /// Orders and symbolically factors `pattern`; `Auto` keeps the cheaper of AMD and METIS.
+    pub fn new(pattern: &SparsityPattern, settings: &DirectSettings) -> Result<Self, SolveError> {
+        let single = |ordering| -> Result<Self, SolveError> {
+            let symbolic = symbolic_analysis(pattern, settings, ordering)?;
+            let cost = factor_cost(pattern, &symbolic);
+            Ok(Self {
+                symbolic,
+                ordering,
+                cost,
+            })
+        };
+        match settings.ordering {
+            Ordering::Auto => {
+                let (amd, nd) = (single(Ordering::Amd)?, single(Ordering::Metis)?);
+                Ok(if nd.cost.flops < amd.cost.flops {
+                    nd
+                } else {
+                    amd
+                })
+            }
+            o => single(o),
+        }
+    }
+}
+
+/// Predicted factorization flops from which the numeric phase runs on rayon's pool. faer
+/// parallelizes inside each supernode's dense kernels, which pays only for large fronts: on a
+/// quiet two-core machine two threads gave 1.2–1.5× on the 49k-tet box (1.2e10 flops with
+/// METIS, 2.0e10 with AMD) and were 1.3–1.5× slower on the 12k-tet box (6.9e8) and the
+/// 56k-tet armadillo. `cargo bench --bench ordering` measures both sides of the rule.
+pub const PARALLEL_MIN_FLOPS: f64 = 5.0e9;
 
 impl FaerFactor {
     /// Orders and symbolically factors `pattern` (read as its lower triangle) and allocates
@@ -51,26 +88,24 @@ impl FaerFactor {
         settings: &DirectSettings,
         kind: ScratchKind,
     ) -> Result<Self, SolveError> {
-        let (symbolic, ordering, cost) = match settings.ordering {
-            Ordering::Auto => {
-                let amd = symbolic_analysis(pattern, settings, Ordering::Amd)?;
-                let nd = symbolic_analysis(pattern, settings, Ordering::Metis)?;
-                let (amd_cost, nd_cost) = (factor_cost(pattern, &amd), factor_cost(pattern, &nd));
-                if nd_cost.flops < amd_cost.flops {
-                    (nd, Ordering::Metis, nd_cost)
-                } else {
-                    (amd, Ordering::Amd, amd_cost)
-                }
-            }
-            o => {
-                let s = symbolic_analysis(pattern, settings, o)?;
-                let cost = factor_cost(pattern, &s);
-                (s, o, cost)
-            }
-        };
+        Self::allocate(SymbolicAnalysis::new(pattern, settings)?, settings, kind)
+    }
+
+    /// Allocates the value and scratch storage for an analysis.
+    pub fn allocate(
+        analysis: SymbolicAnalysis,
+        settings: &DirectSettings,
+        kind: ScratchKind,
+    ) -> Result<Self, SolveError> {
+        let SymbolicAnalysis {
+            symbolic,
+            ordering,
+            cost,
+        } = analysis;
         let par = match settings.parallelism {
             Parallelism::Rayon
-                if cost.flops >= PARALLEL_MIN_FLOPS && rayon::current_num_threads() > 1 =>
+                if cost.flops >= settings.parallel_min_flops
+                    && rayon::current_num_threads() > 1 =>
             {
                 Par::rayon(0)
             }

@@ -3,6 +3,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::PARALLEL_MIN_FLOPS;
+use super::auto::AutoSolver;
 use super::ordering::Ordering;
 use super::{CgSettings, CgSolver, CholeskySolver, DenseCholeskySolver, LdltSolver, LinearSolver};
 use crate::parallel::Parallelism;
@@ -19,11 +21,14 @@ pub struct DirectSettings {
     /// threshold; in 3D supernodal wins by ~20×).
     pub supernodal: Supernodal,
     /// Threads for the numeric factorization and solves: with `Rayon`, faer runs on rayon's
-    /// pool when the predicted factorization flops reach [`PARALLEL_MIN_FLOPS`] (smaller
+    /// pool when the predicted factorization flops reach `parallel_min_flops` (smaller
     /// factorizations ran slower on two threads). Set from the run's parallelism (the CLI's
     /// `--threads`) when a scene builds its integrator; not part of a config file.
     #[serde(skip)]
     pub parallelism: Parallelism,
+    /// Predicted factorization flops (Σ c_j²) from which the factorization runs on threads.
+    /// Default: [`PARALLEL_MIN_FLOPS`].
+    pub parallel_min_flops: f64,
 }
 
 impl Default for DirectSettings {
@@ -32,6 +37,7 @@ impl Default for DirectSettings {
             ordering: Ordering::Amd,
             supernodal: Supernodal::Auto,
             parallelism: Parallelism::Sequential,
+            parallel_min_flops: PARALLEL_MIN_FLOPS,
         }
     }
 }
@@ -92,7 +98,7 @@ impl Entry for SolverEntry {
 
 /// The built-in linear solvers, one line each. A new backend adds its line here; a program
 /// that depends on softbench can instead [`Registry::register`] its own in [`LINEAR_SOLVERS`].
-static BUILTIN: [SolverEntry; 4] = [
+static BUILTIN: [SolverEntry; 5] = [
     SolverEntry {
         name: "cholesky",
         description: "sparse LL^T (faer, supernodal), symbolic analysis reused; SPD systems",
@@ -115,6 +121,13 @@ static BUILTIN: [SolverEntry; 4] = [
         build: |s| Box::new(CgSolver::new(s.cg)),
     },
     SolverEntry {
+        name: "auto",
+        description: "cholesky or cg with AMG, whichever the symbolic analysis predicts cheaper",
+        direct: false,
+        reports_inertia: false,
+        build: |s| Box::new(AutoSolver::new(*s)),
+    },
+    SolverEntry {
         name: "dense",
         description: "dense LL^T, for tiny systems and tests",
         direct: true,
@@ -127,7 +140,8 @@ static BUILTIN: [SolverEntry; 4] = [
 pub static LINEAR_SOLVERS: Registry<SolverEntry> = Registry::new("linear solver", &BUILTIN);
 
 crate::registry_handle! {
-    /// A linear solver by name (`"cholesky" | "ldlt" | "cg" | "dense"`, or a registered one).
+    /// A linear solver by name (`"cholesky" | "ldlt" | "cg" | "auto" | "dense"`, or a registered
+    /// one).
     pub struct LinearSolverKind(SolverEntry) in LINEAR_SOLVERS;
 }
 

@@ -18,6 +18,8 @@
 //! differs from the analyzed one, NaN input, or CG running out of iterations each come back as
 //! a [`SolveError`] the caller can act on.
 
+mod amg;
+pub mod auto;
 pub mod cg;
 mod common;
 pub mod dense;
@@ -32,6 +34,7 @@ use std::time::Duration;
 
 use crate::sparse::{SparsityPattern, SymmetricMatrix};
 
+pub use auto::{AutoPrediction, AutoSolver};
 pub use cg::{CgSettings, CgSolver, Preconditioner};
 pub use common::symmetric_mul_vec;
 pub(crate) use common::{
@@ -82,6 +85,10 @@ pub trait LinearSolver: Send {
         x.copy_from_slice(rhs);
         self.solve(x)
     }
+
+    /// The current positions of the unknowns (stacked xyz per vertex), for preconditioners
+    /// that build the rigid-body modes (AMG); called before `factor`. Default: ignored.
+    fn set_coordinates(&mut self, _positions: &[f64]) {}
 
     /// Cumulative counters and timers since construction.
     fn stats(&self) -> &SolverStats;
