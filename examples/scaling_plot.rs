@@ -8,7 +8,6 @@
 //! `cargo run --release --example scaling_plot -- results/solver_scaling [min_tets max_tets]`
 
 use std::collections::BTreeMap;
-use std::io::Write;
 use std::path::Path;
 
 use anyhow::{Context, bail};

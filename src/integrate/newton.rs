@@ -485,7 +485,7 @@ impl Newton {
             }
             self.system.solve(model, x, &mut self.dx, report)?;
             let slope = dot(&self.potential.g, &self.dx);
-            if reused && !(slope < 0.0) {
+            if reused && (slope.is_nan() || slope >= 0.0) {
                 // The kept factorization no longer gives a descent direction: refactor.
                 self.system.invalidate();
                 continue;

@@ -420,11 +420,11 @@ fn aggregate(a: &Csr, nodes: &[usize]) -> Vec<usize> {
     }
     // Pass 2: leftovers join the aggregate of a neighbour (the first aggregated one).
     let after_pass1 = agg.clone();
-    for k in 0..count {
-        if agg[k] == FREE
+    for (k, a) in agg.iter_mut().enumerate() {
+        if *a == FREE
             && let Some(&m) = neighbours(k).iter().find(|&&m| after_pass1[m] != FREE)
         {
-            agg[k] = after_pass1[m];
+            *a = after_pass1[m];
         }
     }
     // Pass 3: isolated nodes form their own aggregates.
@@ -519,10 +519,10 @@ fn smooth_prolongator(a: &Csr, inv_diag: &[f64], tentative: &Csr) -> Csr {
     let omega = 4.0 / (3.0 * rho);
     // S = I − ω D⁻¹ A, then S P_tent.
     let mut s = a.clone();
-    for i in 0..s.nrows {
+    for (i, d) in inv_diag.iter().enumerate() {
         let (start, end) = (s.ptr[i], s.ptr[i + 1]);
         for k in start..end {
-            let v = -omega * inv_diag[i] * s.val[k];
+            let v = -omega * d * s.val[k];
             s.val[k] = if s.idx[k] == i { 1.0 + v } else { v };
         }
     }
