@@ -35,7 +35,12 @@ fn cg(tolerance: f64, preconditioner: Preconditioner) -> CgSolver {
 /// orderings, and threads.
 fn direct_settings() -> Vec<DirectSettings> {
     let mut v = Vec::new();
-    for ordering in [Ordering::Amd, Ordering::Identity] {
+    for ordering in [
+        Ordering::Amd,
+        Ordering::Metis,
+        Ordering::Auto,
+        Ordering::Identity,
+    ] {
         for supernodal in [
             Supernodal::Supernodal,
             Supernodal::Simplicial,
@@ -45,6 +50,7 @@ fn direct_settings() -> Vec<DirectSettings> {
                 ordering,
                 supernodal,
                 parallelism: Parallelism::Sequential,
+                ..Default::default()
             });
         }
     }
@@ -562,7 +568,7 @@ fn solver_kinds_parse_from_their_names_and_build() {
     }
     let err = "lu".parse::<LinearSolverKind>().unwrap_err().to_string();
     assert!(
-        err.contains("`lu`") && err.contains("cholesky, ldlt, cg, dense"),
+        err.contains("`lu`") && err.contains("cholesky, ldlt, cg, auto, dense"),
         "{err}"
     );
     let err = "cholesk"
@@ -612,7 +618,10 @@ fn settings_deserialize_with_documented_defaults() {
     let err = serde_json::from_str::<LinearSolverKind>(r#""qr""#)
         .unwrap_err()
         .to_string();
-    assert!(err.contains("valid: cholesky, ldlt, cg, dense"), "{err}");
+    assert!(
+        err.contains("valid: cholesky, ldlt, cg, auto, dense"),
+        "{err}"
+    );
     assert!(serde_json::from_str::<SolverSettings>(r#"{"cg": {"tol": 1e-6}}"#).is_err());
 }
 

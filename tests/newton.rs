@@ -419,3 +419,63 @@ fn steps_report_the_size_of_their_factor() {
         "explicit methods factor no system (the mass factor is not a step's)"
     );
 }
+
+/// Ten backward-Euler steps of the clamped, kicked block with Newton converged tightly and
+/// the factorization kept for `refactor_every` iterations: (positions, totals).
+fn modified_newton_run(refactor_every: u32) -> (Vec<f64>, StepReport) {
+    let mut model = block(true, true);
+    let mut state = kicked(&model);
+    let mut integ = IntegratorSettings {
+        method: Method::from_name("backward-euler").unwrap(),
+        newton: NewtonSettings {
+            tolerance: 1e-10,
+            max_iterations: 100,
+            require_convergence: true,
+            refactor_every,
+            ..Default::default()
+        },
+        ..Default::default()
+    }
+    .build();
+    let mut total = StepReport::default();
+    for _ in 0..10 {
+        let r = integ.step(&mut model, &mut state, 0.02).unwrap();
+        total.absorb(&r);
+    }
+    (state.q, total)
+}
+
+#[test]
+fn modified_newton_trades_factorizations_for_iterations_and_reaches_the_same_step() {
+    let (q_full, full) = modified_newton_run(1);
+    let (q_mod, modified) = modified_newton_run(4);
+    // Full Newton factors once per iteration.
+    assert_eq!(full.factorizations, full.newton_iterations);
+    assert!(
+        modified.factorizations < full.factorizations,
+        "factorizations {} vs {}",
+        modified.factorizations,
+        full.factorizations
+    );
+    assert!(modified.newton_iterations > full.newton_iterations);
+    // At most one factorization per four iterations, plus the forced refactors.
+    assert!(modified.factorizations as f64 >= f64::from(modified.newton_iterations) / 4.0);
+    let scale = q_full.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let diff = q_full
+        .iter()
+        .zip(&q_mod)
+        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    assert!(
+        diff < 1e-7 * scale,
+        "modified Newton moved the state by {diff:e}"
+    );
+}
+
+#[test]
+fn refactor_every_zero_is_rejected_with_its_name() {
+    let s = NewtonSettings {
+        refactor_every: 0,
+        ..Default::default()
+    };
+    assert!(s.validate().unwrap_err().contains("newton.refactor_every"));
+}

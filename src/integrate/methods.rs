@@ -293,6 +293,14 @@ impl IntegratorSettings {
         Ok(())
     }
 
+    /// These settings with the linear solvers running at `parallelism` (a run setting, never
+    /// read from a scene file).
+    pub fn with_parallelism(mut self, parallelism: crate::parallel::Parallelism) -> Self {
+        self.solver.direct.parallelism = parallelism;
+        self.solver.cg.parallelism = parallelism;
+        self
+    }
+
     /// Build the integrator these settings describe.
     pub fn build(&self) -> Box<dyn Integrator> {
         (self.method.entry().build)(self, None)

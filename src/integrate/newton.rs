@@ -51,6 +51,12 @@ pub struct NewtonSettings {
     /// On failure, retry the step as two steps of dt/2, at most this many times nested.
     /// Default 0 (off).
     pub retry_halvings: u32,
+    /// Newton iterations, counted across steps, that share one factorization of the system
+    /// matrix. 1 (the default) is full Newton; k > 1 is modified Newton: the matrix is
+    /// refactored every k-th iteration, and also when β (the time step) changes or when the
+    /// kept factorization does not give a descent direction. Fewer factorizations for more,
+    /// linearly converging, iterations.
+    pub refactor_every: u32,
 }
 
 impl Default for NewtonSettings {
@@ -65,6 +71,7 @@ impl Default for NewtonSettings {
             project_hessian: false,
             require_convergence: false,
             retry_halvings: 0,
+            refactor_every: 1,
         }
     }
 }
@@ -76,6 +83,10 @@ impl NewtonSettings {
             (
                 self.max_iterations >= 1,
                 "newton.max_iterations must be >= 1",
+            ),
+            (
+                self.refactor_every >= 1,
+                "newton.refactor_every must be >= 1 (1 = full Newton)",
             ),
             (
                 self.tolerance.is_finite() && self.tolerance >= 0.0,
@@ -466,12 +477,19 @@ impl Newton {
             if g_norm <= s.tolerance * scale {
                 return Ok(true);
             }
-            self.system.factor(model, x, p.beta, report)?;
+            let reused = self
+                .system
+                .factor_or_reuse(model, x, p.beta, s.refactor_every, report)?;
             for (dx, g) in self.dx.iter_mut().zip(&self.potential.g) {
                 *dx = -g;
             }
             self.system.solve(model, x, &mut self.dx, report)?;
             let slope = dot(&self.potential.g, &self.dx);
+            if reused && (slope.is_nan() || slope >= 0.0) {
+                // The kept factorization no longer gives a descent direction: refactor.
+                self.system.invalidate();
+                continue;
+            }
             if slope.is_nan() || slope >= 0.0 {
                 return Err(StepError::NewtonFailed {
                     iterations,

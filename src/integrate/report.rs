@@ -44,6 +44,14 @@ pub struct StepReport {
     pub max_relative_residual: f64,
     /// Entries of the largest sparse factor (nnz(L), or the IC(0) factor for CG) built.
     pub factor_nnz: usize,
+    /// Predicted flops of that factor's numeric factorization (Σ c_j² over its column counts).
+    pub factor_flops: f64,
+    /// The linear solver that did the work (what `auto` chose; empty without a solve).
+    pub linear_solver: &'static str,
+    /// Its fill-reducing ordering (`amd`, `metis`) or, for CG, its preconditioner.
+    pub ordering: &'static str,
+    /// Threads of the numeric factorization (1 when kept sequential by the flops rule).
+    pub factor_threads: u32,
     /// Times an indefinite system matrix was replaced by its projected (PSD) form.
     pub indefinite_fallbacks: u32,
     /// Times a failed step was retried as two steps of half the size.
@@ -79,6 +87,12 @@ impl StepReport {
         self.factorizations += other.factorizations;
         self.max_relative_residual = self.max_relative_residual.max(other.max_relative_residual);
         self.factor_nnz = self.factor_nnz.max(other.factor_nnz);
+        self.factor_flops = self.factor_flops.max(other.factor_flops);
+        if !other.linear_solver.is_empty() {
+            self.linear_solver = other.linear_solver;
+            self.ordering = other.ordering;
+            self.factor_threads = other.factor_threads;
+        }
         self.indefinite_fallbacks += other.indefinite_fallbacks;
         self.dt_halvings += other.dt_halvings;
         self.times.assemble += other.times.assemble;

@@ -30,6 +30,11 @@ pub struct ImplicitSystem {
     damping_active: bool,
     /// Whether the matrix has the mass term (false for a static solve: `beta K` alone).
     mass_term: bool,
+    /// Solves since the current factorization, and whether it may be reused (modified
+    /// Newton); `beta` of that factorization.
+    uses: u32,
+    reusable: bool,
+    factored_beta: f64,
 }
 
 fn is_indefinite(e: &SolveError) -> bool {
@@ -39,6 +44,19 @@ fn is_indefinite(e: &SolveError) -> bool {
             | SolveError::NegativeCurvature { .. }
             | SolveError::Indefinite { .. }
     )
+}
+
+/// What the solver's current analysis is, into the step report.
+fn record_solver(stats: &crate::solve::SolverStats, report: &mut StepReport) {
+    report.factor_nnz = report.factor_nnz.max(stats.factor_nnz);
+    report.factor_flops = report.factor_flops.max(stats.factor_flops);
+    report.linear_solver = stats.chosen;
+    report.ordering = stats.ordering;
+    report.factor_threads = if stats.parallel_factor {
+        rayon::current_num_threads() as u32
+    } else {
+        1
+    };
 }
 
 impl ImplicitSystem {
@@ -54,6 +72,9 @@ impl ImplicitSystem {
             gamma: 0.0,
             damping_active: false,
             mass_term: true,
+            uses: 0,
+            reusable: false,
+            factored_beta: 0.0,
         }
     }
 
@@ -119,13 +140,14 @@ impl ImplicitSystem {
 
     /// Factor the assembled matrix. A factorization that reports negative pivots (LDLᵀ) is
     /// counted as done but returned as `Indefinite`: the matrix is not positive definite.
-    fn factor_current(&mut self, report: &mut StepReport) -> Result<(), SolveError> {
+    fn factor_current(&mut self, x: &[f64], report: &mut StepReport) -> Result<(), SolveError> {
         let start = Instant::now();
+        self.solver.set_coordinates(x);
         let result = self.solver.factor(self.matrix.as_ref().expect("assembled"));
         report.times.factor += start.elapsed().as_secs_f64();
         let factored = result?;
         report.factorizations += 1;
-        report.factor_nnz = report.factor_nnz.max(self.solver.stats().factor_nnz);
+        record_solver(self.solver.stats(), report);
         match factored.negative_pivots {
             Some(negative_pivots) if negative_pivots > 0 => {
                 Err(SolveError::Indefinite { negative_pivots })
@@ -179,16 +201,44 @@ impl ImplicitSystem {
         report: &mut StepReport,
     ) -> Result<(), StepError> {
         self.beta = beta;
+        self.reusable = false;
         self.assemble(model, x, self.always_project, report)?;
-        match self.factor_current(report) {
+        match self.factor_current(x, report) {
             Err(e) if is_indefinite(&e) && !self.projected => {
                 report.indefinite_fallbacks += 1;
                 self.assemble(model, x, true, report)?;
-                self.factor_current(report)?;
+                self.factor_current(x, report)?;
             }
             other => other?,
         }
         Ok(())
+    }
+
+    /// Modified Newton: keep the current factorization when it has served fewer than
+    /// `refactor_every` iterations and was made with the same `beta`; otherwise
+    /// [`Self::factor`]. Returns whether the kept factorization is used.
+    pub fn factor_or_reuse(
+        &mut self,
+        model: &mut Model,
+        x: &[f64],
+        beta: f64,
+        refactor_every: u32,
+        report: &mut StepReport,
+    ) -> Result<bool, StepError> {
+        if self.reusable && self.uses < refactor_every && self.factored_beta == beta {
+            self.uses += 1;
+            return Ok(true);
+        }
+        self.factor(model, x, beta, report)?;
+        self.uses = 1;
+        self.reusable = true;
+        self.factored_beta = beta;
+        Ok(false)
+    }
+
+    /// The next [`Self::factor_or_reuse`] refactors.
+    pub fn invalidate(&mut self) {
+        self.reusable = false;
     }
 
     /// Solve `H x = b` in place for the last factored `H`. If CG finds the matrix indefinite,
@@ -211,7 +261,7 @@ impl ImplicitSystem {
         {
             report.indefinite_fallbacks += 1;
             self.assemble(model, x_assembled, true, report)?;
-            self.factor_current(report)?;
+            self.factor_current(x_assembled, report)?;
             rhs.copy_from_slice(&self.rhs_copy);
             let start = Instant::now();
             result = self.solver.solve(rhs);

@@ -73,6 +73,8 @@ pub struct Sample {
     pub qp_seconds: f64,
     /// Entries of the largest sparse factor built since the previous row (nnz(L)).
     pub factor_nnz: u64,
+    /// Predicted flops of that factorization.
+    pub factor_flops: f64,
     /// Steps since the previous row whose Newton solve stopped unconverged.
     pub newton_unconverged_steps: u64,
     /// Net work done on the body by time-dependent potentials since the start (J).
@@ -212,6 +214,7 @@ fn sample(
         qp_solves: work.qp_solves.into(),
         qp_seconds: work.times.qp,
         factor_nnz: work.factor_nnz as u64,
+        factor_flops: work.factor_flops,
         newton_unconverged_steps: w.unconverged_steps,
         driven_work: balance.driven_work(),
         dissipated: balance.dissipated(),

@@ -342,10 +342,18 @@ pub struct Scene {
 
 impl Scene {
     /// The scene's integrator, with its contact response if it has obstacles.
+    ///
+    /// The linear solvers run with the model's parallelism (the CLI's `--threads` sizes the
+    /// pool), so the direct solvers' factorization and CG's mat-vecs get the same threads as
+    /// assembly.
     pub fn integrator(&self) -> Box<dyn Integrator> {
+        let settings = self
+            .config
+            .integrator
+            .with_parallelism(self.model.parallelism());
         match &self.contact {
-            Some(contact) => contact.integrator(&self.config.integrator),
-            None => self.config.integrator.build(),
+            Some(contact) => contact.integrator(&settings),
+            None => settings.build(),
         }
     }
 }

@@ -106,7 +106,7 @@ impl CgSolver {
         let mut residual_time = Duration::ZERO;
         let result = pcg(
             a,
-            &self.precond,
+            &mut self.precond,
             &mut self.w,
             &self.settings,
             x_is_zero,
@@ -139,7 +139,7 @@ impl CgSolver {
 /// PCG on `A x = w.b` starting from `w.x`. Returns (iterations, true relative residual).
 fn pcg(
     a: &SymmetricMatrix,
-    m: &PrecondState,
+    m: &mut PrecondState,
     w: &mut Work,
     s: &CgSettings,
     x_is_zero: bool,
@@ -247,6 +247,8 @@ impl LinearSolver for CgSolver {
             self.analyzed.set(pattern);
             self.stats.factor_nnz = self.precond.factor_nnz();
             self.stats.factor_storage = self.precond.factor_nnz();
+            self.stats.ordering = self.settings.preconditioner.name();
+            self.stats.chosen = "cg";
             self.stats.analyses += 1;
         }
         self.stats.analyze_time += start.elapsed();
@@ -310,6 +312,10 @@ impl LinearSolver for CgSolver {
             x.copy_from_slice(&self.w.x);
         }
         result
+    }
+
+    fn set_coordinates(&mut self, positions: &[f64]) {
+        self.precond.set_coordinates(positions);
     }
 
     fn stats(&self) -> &SolverStats {

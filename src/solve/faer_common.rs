@@ -9,7 +9,8 @@ use faer::sparse::linalg::cholesky::{
     factorize_symbolic_cholesky,
 };
 
-use super::{DirectSettings, Ordering, SolveError, Supernodal};
+use super::ordering::{FactorCost, Ordering, nested_dissection};
+use super::{DirectSettings, SolveError, Supernodal};
 use crate::parallel::Parallelism;
 use crate::sparse::SparsityPattern;
 
@@ -30,43 +31,85 @@ pub struct FaerFactor {
     pub par: Par,
     /// Entries of L (lower triangle with diagonal), counted exactly.
     pub nnz: usize,
+    /// Predicted flops of one numeric factorization (Σ c_j² over L's column counts).
+    pub flops: f64,
+    /// The ordering used (`Amd`, `Metis` or `Identity`; never `Auto`).
+    pub ordering: Ordering,
 }
+
+/// The symbolic factorization of a pattern in its chosen ordering, with its predicted cost:
+/// what a solver that decides between direct and iterative reads before allocating a factor.
+pub struct SymbolicAnalysis {
+    pub symbolic: SymbolicCholesky<usize>,
+    /// `Amd`, `Metis` or `Identity` (never `Auto`).
+    pub ordering: Ordering,
+    pub cost: FactorCost,
+}
+
+impl SymbolicAnalysis {
+    /// Orders and symbolically factors `pattern`; `Auto` keeps the cheaper of AMD and METIS.
+    pub fn new(pattern: &SparsityPattern, settings: &DirectSettings) -> Result<Self, SolveError> {
+        let single = |ordering| -> Result<Self, SolveError> {
+            let symbolic = symbolic_analysis(pattern, settings, ordering)?;
+            let cost = factor_cost(pattern, &symbolic);
+            Ok(Self {
+                symbolic,
+                ordering,
+                cost,
+            })
+        };
+        match settings.ordering {
+            Ordering::Auto => {
+                let (amd, nd) = (single(Ordering::Amd)?, single(Ordering::Metis)?);
+                Ok(if nd.cost.flops < amd.cost.flops {
+                    nd
+                } else {
+                    amd
+                })
+            }
+            o => single(o),
+        }
+    }
+}
+
+/// Predicted factorization flops from which the numeric phase runs on rayon's pool. faer
+/// parallelizes inside each supernode's dense kernels, which pays only for large fronts: on a
+/// quiet two-core machine two threads gave 1.2–1.5× on the 49k-tet box (1.2e10 flops with
+/// METIS, 2.0e10 with AMD) and were 1.3–1.5× slower on the 12k-tet box (6.9e8) and the
+/// 56k-tet armadillo. `cargo bench --bench ordering` measures both sides of the rule.
+pub const PARALLEL_MIN_FLOPS: f64 = 5.0e9;
 
 impl FaerFactor {
     /// Orders and symbolically factors `pattern` (read as its lower triangle) and allocates
-    /// the value and scratch storage.
+    /// the value and scratch storage. With `Ordering::Auto` both AMD and nested dissection
+    /// are analyzed and the one with fewer predicted flops is kept.
     pub fn analyze(
         pattern: &SparsityPattern,
         settings: &DirectSettings,
         kind: ScratchKind,
     ) -> Result<Self, SolveError> {
-        // Identity goes through a custom identity permutation: with `SymmetricOrdering::Identity`
-        // faer's numeric phase transposes A instead of extracting the `Side` triangle, so the
-        // simplicial path would read both triangles of our storage and compute garbage.
-        let identity: Vec<usize> = (0..pattern.dim()).collect();
-        let ordering = match settings.ordering {
-            Ordering::Amd => SymmetricOrdering::Amd,
-            Ordering::Identity => SymmetricOrdering::Custom(faer::perm::PermRef::new_checked(
-                &identity,
-                &identity,
-                pattern.dim(),
-            )),
-        };
-        let threshold = match settings.supernodal {
-            Supernodal::Auto => SupernodalThreshold::AUTO,
-            Supernodal::Simplicial => SupernodalThreshold::FORCE_SIMPLICIAL,
-            Supernodal::Supernodal => SupernodalThreshold::FORCE_SUPERNODAL,
-        };
-        let params = CholeskySymbolicParams {
-            supernodal_flop_ratio_threshold: threshold,
-            ..Default::default()
-        };
-        let symbolic =
-            factorize_symbolic_cholesky(pattern.as_faer(), faer::Side::Lower, ordering, params)
-                .map_err(|e| SolveError::Analysis(format!("{e:?}")))?;
+        Self::allocate(SymbolicAnalysis::new(pattern, settings)?, settings, kind)
+    }
+
+    /// Allocates the value and scratch storage for an analysis.
+    pub fn allocate(
+        analysis: SymbolicAnalysis,
+        settings: &DirectSettings,
+        kind: ScratchKind,
+    ) -> Result<Self, SolveError> {
+        let SymbolicAnalysis {
+            symbolic,
+            ordering,
+            cost,
+        } = analysis;
         let par = match settings.parallelism {
-            Parallelism::Sequential => Par::Seq,
-            Parallelism::Rayon => Par::rayon(0),
+            Parallelism::Rayon
+                if cost.flops >= settings.parallel_min_flops
+                    && rayon::current_num_threads() > 1 =>
+            {
+                Par::rayon(0)
+            }
+            _ => Par::Seq,
         };
         let factor_req = match kind {
             ScratchKind::Llt => {
@@ -87,14 +130,20 @@ impl FaerFactor {
             ))
         })?;
         values.resize(symbolic.len_val(), 0.0);
-        let nnz = exact_nnz(&symbolic);
         Ok(Self {
             symbolic,
             values,
             mem,
             par,
-            nnz,
+            nnz: cost.nnz,
+            flops: cost.flops,
+            ordering,
         })
+    }
+
+    /// Whether the numeric phase runs on several threads.
+    pub fn is_parallel(&self) -> bool {
+        !matches!(self.par, Par::Seq)
     }
 
     /// The original column of the failed pivot reported as `index` by faer. faer 0.24.4
@@ -111,16 +160,99 @@ impl FaerFactor {
     }
 }
 
-/// nnz(L) with the diagonal: supernodes store their diagonal block densely (upper part
-/// included), so `len_val` overcounts.
-fn exact_nnz(symbolic: &SymbolicCholesky<usize>) -> usize {
-    match symbolic.raw() {
-        SymbolicCholeskyRaw::Simplicial(s) => s.len_val(),
-        SymbolicCholeskyRaw::Supernodal(s) => (0..s.n_supernodes())
-            .map(|k| {
-                let ncols = s.supernode_end()[k] - s.supernode_begin()[k];
-                ncols * (ncols + 1) / 2 + s.supernode(k).pattern().len() * ncols
-            })
-            .sum(),
+/// The symbolic Cholesky factorization of `pattern` in the given ordering (not `Auto`).
+fn symbolic_analysis(
+    pattern: &SparsityPattern,
+    settings: &DirectSettings,
+    ordering: Ordering,
+) -> Result<SymbolicCholesky<usize>, SolveError> {
+    // Identity goes through a custom identity permutation: with `SymmetricOrdering::Identity`
+    // faer's numeric phase transposes A instead of extracting the `Side` triangle, so the
+    // simplicial path would read both triangles of our storage and compute garbage.
+    let custom: Vec<usize> = match ordering {
+        Ordering::Identity => (0..pattern.dim()).collect(),
+        Ordering::Metis => nested_dissection(pattern)?,
+        Ordering::Amd | Ordering::Auto => Vec::new(),
+    };
+    let inverse = inverse_permutation(&custom);
+    let faer_ordering = match ordering {
+        Ordering::Amd | Ordering::Auto => SymmetricOrdering::Amd,
+        Ordering::Identity | Ordering::Metis => SymmetricOrdering::Custom(
+            faer::perm::PermRef::new_checked(&custom, &inverse, pattern.dim()),
+        ),
+    };
+    let threshold = match settings.supernodal {
+        Supernodal::Auto => SupernodalThreshold::AUTO,
+        Supernodal::Simplicial => SupernodalThreshold::FORCE_SIMPLICIAL,
+        Supernodal::Supernodal => SupernodalThreshold::FORCE_SUPERNODAL,
+    };
+    let params = CholeskySymbolicParams {
+        supernodal_flop_ratio_threshold: threshold,
+        ..Default::default()
+    };
+    factorize_symbolic_cholesky(pattern.as_faer(), faer::Side::Lower, faer_ordering, params)
+        .map_err(|e| SolveError::Analysis(format!("{e:?}")))
+}
+
+/// `inv[perm[i]] = i`.
+fn inverse_permutation(perm: &[usize]) -> Vec<usize> {
+    let mut inv = vec![0; perm.len()];
+    for (i, &p) in perm.iter().enumerate() {
+        inv[p] = i;
     }
+    inv
+}
+
+/// nnz(L) (diagonal included) and predicted flops from the exact column counts of L in the
+/// analysis's ordering: the elimination tree (Liu's algorithm with path compression), then
+/// each row's subtree (O(nnz(L)) time, O(n) memory). faer's supernodal storage would
+/// overcount: relaxed supernodes store explicit zeros and the upper part of diagonal blocks.
+/// These are the counts CHOLMOD reports (`lnz`, `fl`), so they compare across programs.
+pub fn factor_cost(pattern: &SparsityPattern, symbolic: &SymbolicCholesky<usize>) -> FactorCost {
+    let n = pattern.dim();
+    let identity: Vec<usize>;
+    let (fwd, inv) = match symbolic.perm() {
+        Some(p) => p.arrays(),
+        None => {
+            identity = (0..n).collect();
+            (&identity[..], &identity[..])
+        }
+    };
+    let (cp, ri) = (pattern.col_ptr(), pattern.row_idx());
+    // Entries of new column k above the diagonal, in the new order (= row k left of it).
+    let upper = |k: usize| ri[cp[fwd[k]]..cp[fwd[k] + 1]].iter().map(|&r| inv[r]);
+    const NONE: usize = usize::MAX;
+    let mut parent = vec![NONE; n];
+    let mut ancestor = vec![NONE; n];
+    for k in 0..n {
+        for mut i in upper(k) {
+            while i != NONE && i < k {
+                let next = ancestor[i];
+                ancestor[i] = k;
+                if next == NONE {
+                    parent[i] = k;
+                }
+                i = next;
+            }
+        }
+    }
+    let mut counts = vec![1usize; n];
+    let mut mark = ancestor;
+    mark.fill(NONE);
+    for k in 0..n {
+        mark[k] = k;
+        for i in upper(k) {
+            let mut j = i;
+            while j < k && mark[j] != k {
+                counts[j] += 1;
+                mark[j] = k;
+                j = parent[j];
+            }
+        }
+    }
+    let mut cost = FactorCost::default();
+    for c in counts {
+        cost.add_column(c);
+    }
+    cost
 }

@@ -29,7 +29,7 @@ use faer::sparse::linalg::cholesky::supernodal::SupernodalLdltRef;
 use faer::sparse::linalg::cholesky::{LdltRef, LltRef, SymbolicCholeskyRaw};
 use faer::{Conj, MatMut, Side};
 
-use super::faer_common::{FaerFactor, ScratchKind};
+use super::faer_common::{FaerFactor, ScratchKind, SymbolicAnalysis};
 use super::{
     Analyzed, DirectSettings, FactorReport, LinearSolver, ResidualCheck, SolveError, SolveReport,
     SolverStats, check_rhs, finish_direct_solve, record_factor,
@@ -176,6 +176,37 @@ impl<F: Factorization> FaerDirectSolver<F> {
         }
     }
 
+    /// `analyze`, with the symbolic analysis already done by the caller (`Some`) or done here.
+    pub(crate) fn analyze_with(
+        &mut self,
+        pattern: &Arc<SparsityPattern>,
+        analysis: Option<SymbolicAnalysis>,
+    ) -> Result<(), SolveError> {
+        let start = Instant::now();
+        if self.analyzed.is_current(pattern) {
+            self.stats.analyses_reused += 1;
+        } else {
+            let analysis = match analysis {
+                Some(a) => a,
+                None => SymbolicAnalysis::new(pattern, &self.settings)?,
+            };
+            let f = FaerFactor::allocate(analysis, &self.settings, F::SCRATCH)?;
+            self.stats.factor_nnz = f.nnz;
+            self.stats.factor_storage = f.values.len();
+            self.stats.factor_flops = f.flops;
+            self.stats.ordering = f.ordering.name();
+            self.stats.parallel_factor = f.is_parallel();
+            self.stats.chosen = F::NAME;
+            self.factor = Some(f);
+            self.analyzed.set(pattern);
+            self.b = vec![0.0; pattern.dim()];
+            self.ax = vec![0.0; pattern.dim()];
+            self.stats.analyses += 1;
+        }
+        self.stats.analyze_time += start.elapsed();
+        Ok(())
+    }
+
     fn factor_inner(&mut self, a: &SymmetricMatrix) -> Result<FactorReport, SolveError> {
         let a = self.analyzed.load(a)?;
         let f = self
@@ -194,21 +225,7 @@ impl<F: Factorization> LinearSolver for FaerDirectSolver<F> {
     }
 
     fn analyze(&mut self, pattern: &Arc<SparsityPattern>) -> Result<(), SolveError> {
-        let start = Instant::now();
-        if self.analyzed.is_current(pattern) {
-            self.stats.analyses_reused += 1;
-        } else {
-            let f = FaerFactor::analyze(pattern, &self.settings, F::SCRATCH)?;
-            self.stats.factor_nnz = f.nnz;
-            self.stats.factor_storage = f.values.len();
-            self.factor = Some(f);
-            self.analyzed.set(pattern);
-            self.b = vec![0.0; pattern.dim()];
-            self.ax = vec![0.0; pattern.dim()];
-            self.stats.analyses += 1;
-        }
-        self.stats.analyze_time += start.elapsed();
-        Ok(())
+        self.analyze_with(pattern, None)
     }
 
     fn factor(&mut self, a: &SymmetricMatrix) -> Result<FactorReport, SolveError> {

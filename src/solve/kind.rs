@@ -3,6 +3,9 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::PARALLEL_MIN_FLOPS;
+use super::auto::AutoSolver;
+use super::ordering::Ordering;
 use super::{CgSettings, CgSolver, CholeskySolver, DenseCholeskySolver, LdltSolver, LinearSolver};
 use crate::parallel::Parallelism;
 use crate::registry::{Entry, Fact, Registry};
@@ -11,16 +14,21 @@ use crate::registry::{Entry, Fact, Registry};
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct DirectSettings {
-    /// Fill-reducing ordering. Default: AMD.
+    /// Fill-reducing ordering: `amd`, `metis` (nested dissection) or `auto` (the one with
+    /// fewer predicted flops, from both symbolic analyses). Default: AMD.
     pub ordering: Ordering,
     /// Supernodal or simplicial factorization. Default: `Auto` (faer's flop-ratio
     /// threshold; in 3D supernodal wins by ~20×).
     pub supernodal: Supernodal,
-    /// Threads for the numeric factorization. Default: sequential (two threads give only
-    /// ~1.2× on the factorization, and runs stay reproducible). A run setting, not part of a
-    /// config file.
+    /// Threads for the numeric factorization and solves: with `Rayon`, faer runs on rayon's
+    /// pool when the predicted factorization flops reach `parallel_min_flops` (smaller
+    /// factorizations ran slower on two threads). Set from the run's parallelism (the CLI's
+    /// `--threads`) when a scene builds its integrator; not part of a config file.
     #[serde(skip)]
     pub parallelism: Parallelism,
+    /// Predicted factorization flops (Σ c_j²) from which the factorization runs on threads.
+    /// Default: [`PARALLEL_MIN_FLOPS`].
+    pub parallel_min_flops: f64,
 }
 
 impl Default for DirectSettings {
@@ -29,19 +37,9 @@ impl Default for DirectSettings {
             ordering: Ordering::Amd,
             supernodal: Supernodal::Auto,
             parallelism: Parallelism::Sequential,
+            parallel_min_flops: PARALLEL_MIN_FLOPS,
         }
     }
-}
-
-/// Fill-reducing ordering for the direct solvers.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Ordering {
-    /// Approximate minimum degree.
-    #[default]
-    Amd,
-    /// The caller's ordering (for tests and comparisons).
-    Identity,
 }
 
 /// Choice between faer's simplicial and supernodal factorizations.
@@ -100,7 +98,7 @@ impl Entry for SolverEntry {
 
 /// The built-in linear solvers, one line each. A new backend adds its line here; a program
 /// that depends on softbench can instead [`Registry::register`] its own in [`LINEAR_SOLVERS`].
-static BUILTIN: [SolverEntry; 4] = [
+static BUILTIN: [SolverEntry; 5] = [
     SolverEntry {
         name: "cholesky",
         description: "sparse LL^T (faer, supernodal), symbolic analysis reused; SPD systems",
@@ -123,6 +121,13 @@ static BUILTIN: [SolverEntry; 4] = [
         build: |s| Box::new(CgSolver::new(s.cg)),
     },
     SolverEntry {
+        name: "auto",
+        description: "cholesky or cg with AMG, whichever the symbolic analysis predicts cheaper",
+        direct: false,
+        reports_inertia: false,
+        build: |s| Box::new(AutoSolver::new(*s)),
+    },
+    SolverEntry {
         name: "dense",
         description: "dense LL^T, for tiny systems and tests",
         direct: true,
@@ -135,7 +140,8 @@ static BUILTIN: [SolverEntry; 4] = [
 pub static LINEAR_SOLVERS: Registry<SolverEntry> = Registry::new("linear solver", &BUILTIN);
 
 crate::registry_handle! {
-    /// A linear solver by name (`"cholesky" | "ldlt" | "cg" | "dense"`, or a registered one).
+    /// A linear solver by name (`"cholesky" | "ldlt" | "cg" | "auto" | "dense"`, or a registered
+    /// one).
     pub struct LinearSolverKind(SolverEntry) in LINEAR_SOLVERS;
 }
 

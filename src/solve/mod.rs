@@ -18,12 +18,15 @@
 //! differs from the analyzed one, NaN input, or CG running out of iterations each come back as
 //! a [`SolveError`] the caller can act on.
 
+mod amg;
+pub mod auto;
 pub mod cg;
 mod common;
 pub mod dense;
 mod faer_common;
 pub mod faer_direct;
 mod kind;
+pub mod ordering;
 mod precond;
 
 use std::sync::Arc;
@@ -31,17 +34,19 @@ use std::time::Duration;
 
 use crate::sparse::{SparsityPattern, SymmetricMatrix};
 
+pub use auto::{AutoPrediction, AutoSolver};
 pub use cg::{CgSettings, CgSolver, Preconditioner};
 pub use common::symmetric_mul_vec;
 pub(crate) use common::{
     Analyzed, ResidualCheck, check_rhs, dot, finish_direct_solve, norm, record_factor,
 };
 pub use dense::DenseCholeskySolver;
+pub use faer_common::PARALLEL_MIN_FLOPS;
 pub use faer_direct::{CholeskySolver, FaerDirectSolver, LdltSolver};
 pub use kind::{
-    DirectSettings, LINEAR_SOLVERS, LinearSolverKind, Ordering, SolverEntry, SolverSettings,
-    Supernodal,
+    DirectSettings, LINEAR_SOLVERS, LinearSolverKind, SolverEntry, SolverSettings, Supernodal,
 };
+pub use ordering::Ordering;
 
 /// A solver for symmetric systems over a fixed sparsity pattern: analyze once, factor per
 /// matrix, solve per right-hand side.
@@ -80,6 +85,10 @@ pub trait LinearSolver: Send {
         x.copy_from_slice(rhs);
         self.solve(x)
     }
+
+    /// The current positions of the unknowns (stacked xyz per vertex), for preconditioners
+    /// that build the rigid-body modes (AMG); called before `factor`. Default: ignored.
+    fn set_coordinates(&mut self, _positions: &[f64]) {}
 
     /// Cumulative counters and timers since construction.
     fn stats(&self) -> &SolverStats;
@@ -199,4 +208,14 @@ pub struct SolverStats {
     /// f64 values stored for the current factor (≥ `factor_nnz`: supernodes are stored as
     /// dense blocks).
     pub factor_storage: usize,
+    /// Predicted flops of one numeric factorization (Σ c_j² over the factor's column counts;
+    /// 0 for solvers without a factor).
+    pub factor_flops: f64,
+    /// The fill-reducing ordering of the current factor (`amd`, `metis`, `identity`), or the
+    /// preconditioner of an iterative solver; empty before the first analysis.
+    pub ordering: &'static str,
+    /// Whether the current factorization runs on several threads.
+    pub parallel_factor: bool,
+    /// What `auto` chose (the solver that did the work), or this solver's own name.
+    pub chosen: &'static str,
 }

@@ -112,23 +112,62 @@ pub fn summary_cells(s: &RunSummary) -> Vec<(&'static str, String)> {
         ),
         ("energy_excess_peak", f(s.energy_excess_peak)),
         ("energy_limit", f(s.energy_limit)),
+        ("linear_solver_used", t.linear_solver.to_owned()),
+        ("ordering", t.ordering.to_owned()),
+        ("factor_nnz", t.factor_nnz.to_string()),
+        ("factor_flops", f(t.factor_flops)),
+        ("factor_threads", t.factor_threads.to_string()),
+        (
+            "linear_iterations_per_solve",
+            f(t.linear_iterations as f64 / f64::from(t.linear_solves.max(1))),
+        ),
     ]
 }
 
+/// Starts a new peak-memory window: on Linux, writing 5 to `/proc/self/clear_refs` resets
+/// the process's resident high-water mark (VmHWM). Elsewhere, or if it fails, the peak stays
+/// the process's since its start.
+pub fn reset_peak_rss() {
+    let _ = std::fs::write("/proc/self/clear_refs", "5");
+}
+
+/// The process's peak resident memory (MiB) since the last [`reset_peak_rss`]: VmHWM from
+/// `/proc/self/status`, else `getrusage`'s since the start. With `--jobs` above 1, runs share
+/// the window, so this bounds a run's peak from above.
+pub fn peak_rss_mib() -> Option<f64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok();
+    let hwm = status.as_deref().and_then(|s| {
+        s.lines()
+            .find_map(|l| l.strip_prefix("VmHWM:"))
+            .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<f64>().ok())
+    });
+    if let Some(kib) = hwm {
+        return Some(kib / 1024.0);
+    }
+    // SAFETY: getrusage writes one plain struct we own.
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    let ok = unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut usage) } == 0;
+    // Linux reports ru_maxrss in KiB.
+    ok.then(|| usage.ru_maxrss as f64 / 1024.0)
+}
+
 /// The caps and tolerances of a run's integrator that can decide its result, reported next
-/// to it: Newton's iteration cap and whether convergence was required.
+/// to it: Newton's iteration cap, whether convergence was required, and how many iterations
+/// share a factorization (modified Newton).
 pub fn cap_cells(spec: &RunSpec) -> Vec<(&'static str, String)> {
     let integrator = &spec.loaded.config.integrator;
     if !integrator.method.uses_newton() {
         return vec![
             ("newton_max_iterations", String::new()),
             ("newton_required", String::new()),
+            ("newton_refactor_every", String::new()),
         ];
     }
     let newton = &integrator.newton;
     vec![
         ("newton_max_iterations", newton.max_iterations.to_string()),
         ("newton_required", newton.require_convergence.to_string()),
+        ("newton_refactor_every", newton.refactor_every.to_string()),
     ]
 }
 

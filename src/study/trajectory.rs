@@ -33,12 +33,22 @@ pub const COLUMNS: &[&str] = &[
     "newton_unconverged_steps",
     "newton_max_iterations",
     "newton_required",
+    "newton_refactor_every",
     "energy_excess_peak",
     "energy_limit",
     "assemble_seconds",
     "factor_seconds",
     "solve_seconds",
     "qp_seconds",
+    "tets",
+    "free_dofs",
+    "linear_solver_used",
+    "ordering",
+    "factor_nnz",
+    "factor_flops",
+    "factor_threads",
+    "linear_iterations_per_solve",
+    "peak_rss_mib",
 ];
 
 /// What the rest of the study code asks of a trajectory (and the runs of a sweep) study.
@@ -88,6 +98,7 @@ pub(super) const SPEC: KindSpec = KindSpec {
 
 /// Run one trajectory.
 pub fn measure(spec: &RunSpec, parallelism: Parallelism) -> Result<Measured, String> {
+    super::measured::reset_peak_rss();
     let mut scene = build(spec, parallelism).map_err(|e| e.to_string())?;
     let run = scene.config.run;
     let (summary, rows) = run_rows(&mut scene, &run);
@@ -100,6 +111,9 @@ pub fn measure(spec: &RunSpec, parallelism: Parallelism) -> Result<Measured, Str
     };
     m.cells.extend(cap_cells(spec));
     m.set("dt", cell(Some(run.dt)));
+    m.set("peak_rss_mib", cell(super::measured::peak_rss_mib()));
+    m.set("tets", scene.model.tets().len().to_string());
+    m.set("free_dofs", (3 * scene.model.dofs().num_free()).to_string());
     let conserved = Conservation::of(&scene);
     let (p, l) = momentum_drift(&rows, &conserved);
     m.set("momentum_drift", cell(p));
