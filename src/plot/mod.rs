@@ -26,7 +26,8 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use crate::io::write_atomic;
 
-pub use style::{HEIGHT, WIDTH};
+pub use style::{HEIGHT, WIDTH, register_fonts};
+pub use text::width as text_width;
 
 /// A line with markers.
 #[derive(Clone, Debug, Default)]

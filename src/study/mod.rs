@@ -18,6 +18,7 @@ mod load;
 mod machine;
 mod measured;
 mod meta;
+pub mod pictures;
 pub mod plots;
 mod progress;
 mod report;

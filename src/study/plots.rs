@@ -58,6 +58,7 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
                 )?;
             }
         }
+        plots.extend(pictures(dir, runs, params)?);
         remove_stale(dir, &plots);
         return Ok(plots);
     }
@@ -117,8 +118,15 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
             )),
         )?;
     }
+    plots.extend(pictures(dir, runs, params)?);
     remove_stale(dir, &plots);
     Ok(plots)
+}
+
+/// The study's pictures of the bodies (see [`super::pictures`]).
+fn pictures(dir: &Path, runs: &Table, params: &[String]) -> Result<Vec<Plot>, PlotError> {
+    super::pictures::draw(dir, runs, params, crate::render::Coloring::VolumeRatio)
+        .map_err(|e| PlotError::Draw(e.to_string()))
 }
 
 /// One scene's rows of `runs.csv`, for the charts a kind draws of it.
@@ -155,7 +163,7 @@ fn remove_stale(dir: &Path, drawn: &[Plot]) {
 }
 
 /// Scenes in order of first appearance.
-fn scenes(runs: &Table) -> Vec<String> {
+pub(super) fn scenes(runs: &Table) -> Vec<String> {
     let mut seen = Vec::new();
     for r in &runs.rows {
         if let Some(s) = runs.get(r, "scene")
@@ -167,7 +175,7 @@ fn scenes(runs: &Table) -> Vec<String> {
     seen
 }
 
-fn slug(s: &str) -> String {
+pub(super) fn slug(s: &str) -> String {
     s.chars()
         .map(|c| {
             if c.is_ascii_alphanumeric() || c == '-' {
@@ -180,7 +188,7 @@ fn slug(s: &str) -> String {
 }
 
 /// "method / solver" plus any other swept parameter except `skip`.
-fn label(runs: &Table, params: &[String], row: &[String], skip: &[&str]) -> String {
+pub(super) fn label(runs: &Table, params: &[String], row: &[String], skip: &[&str]) -> String {
     let mut label = runs.get(row, "method").unwrap_or("?").to_owned();
     if let Some(solver) = runs
         .get(row, "linear_solver")
