@@ -15,7 +15,7 @@ pub const BODY: Rgb = [90, 140, 200];
 pub const OBSTACLE: Rgb = [175, 175, 170];
 
 /// An orthographic camera looking at a box from a fixed direction: 35° around the up axis
-/// and 25° above the horizon, so the body is seen from the front-right and slightly above.
+/// from the front (+z when up is +y) towards the right (+x) and 25° above the horizon.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
     center: [f64; 3],
@@ -114,10 +114,11 @@ impl Camera {
     pub fn framing(bounds: &Bounds, up: P3, width: u32, height: u32) -> Self {
         let up = normalized(f64s(&up)).unwrap_or([0.0, 1.0, 0.0]);
         // Any direction not parallel to up gives the horizontal reference.
-        let seed = if up[0].abs() < 0.9 {
-            [1.0, 0.0, 0.0]
-        } else {
+        // (With up = +y the front is +z and the side +x: the eye is in front, to the right.)
+        let seed = if up[2].abs() < 0.9 {
             [0.0, 0.0, 1.0]
+        } else {
+            [1.0, 0.0, 0.0]
         };
         let side = normalized(cross(up, seed)).expect("seed not parallel to up");
         let front = cross(side, up);
