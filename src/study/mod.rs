@@ -9,6 +9,7 @@
 pub mod config;
 mod context;
 mod error;
+pub mod findings;
 pub mod format;
 mod grid;
 mod identity;
