@@ -27,6 +27,7 @@ fn main() -> anyhow::Result<()> {
         .iter()
         .map(|&(label, c, order)| Series {
             label: label.into(),
+            ended: false,
             points: dts
                 .iter()
                 .map(|&dt| {
@@ -44,6 +45,7 @@ fn main() -> anyhow::Result<()> {
     series.push(Series {
         label: "explicit-euler".into(),
         points: vec![(1e-5, f64::INFINITY)],
+        ended: false,
     });
     let line = LineChart {
         title: "Energy error after 1 s against time step".into(),

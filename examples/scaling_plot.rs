@@ -162,6 +162,7 @@ fn main() -> anyhow::Result<()> {
                 series.push(Series {
                     label: format!("{solver} ({shown})"),
                     points,
+                    ended: false,
                 });
             }
             if series.is_empty() {

@@ -46,6 +46,7 @@ pub mod parallel;
 pub mod plot;
 pub mod quote;
 pub mod registry;
+pub mod render;
 pub mod rng;
 pub mod run;
 pub mod scene;

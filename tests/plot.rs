@@ -24,10 +24,12 @@ fn line_chart() -> LineChart {
             Series {
                 label: "symplectic-euler".into(),
                 points: dts.iter().map(|&dt| (dt, 0.5 * dt)).collect(),
+                ended: false,
             },
             Series {
                 label: "rk4".into(),
                 points: dts.iter().map(|&dt| (dt, 1e3 * dt.powi(4))).collect(),
+                ended: false,
             },
         ],
     }
@@ -180,6 +182,7 @@ fn nan_and_negative_values_on_log_axes_are_skipped() {
     line.series.push(Series {
         label: "blew-up".into(),
         points: vec![(1e-4, f64::NAN), (-1.0, 1.0)],
+        ended: false,
     });
     check(
         dir.path(),
@@ -226,6 +229,7 @@ fn empty_charts_still_produce_files_saying_no_data() {
             series: vec![Series {
                 label: "nan".into(),
                 points: vec![(1.0, f64::NAN)],
+                ended: false,
             }],
             ..Default::default()
         }),
@@ -317,4 +321,23 @@ fn an_unwritable_target_is_an_io_error_naming_the_path() {
         matches!(&err, softbench::plot::PlotError::Io { path, .. } if path.starts_with(dir.path())),
         "{err}"
     );
+}
+
+#[test]
+fn ten_series_have_ten_distinguishable_styles() {
+    use softbench::plot::series_look;
+    let looks: Vec<_> = (0..10).map(series_look).collect();
+    for i in 0..10 {
+        for j in 0..i {
+            let (a, b) = (looks[i], looks[j]);
+            assert!(
+                a.0 != b.0 || a.1 != b.1,
+                "series {i} and {j} share colour and marker"
+            );
+            // Series that share a colour differ in line style too.
+            if a.0 == b.0 {
+                assert_ne!(a.2, b.2, "series {i} and {j} share colour and dash");
+            }
+        }
+    }
 }

@@ -27,6 +27,7 @@ use softbench::mesh::{AnyMesh, MeshError, MeshFormat, MeshReport, TetMesh, read_
 use softbench::model::Model;
 use softbench::parallel::Parallelism;
 use softbench::registry::{Listing, NamedEnum};
+use softbench::render::{self, Coloring, RunPictures, SnapshotRecorder, Snapshots, Surface};
 use softbench::run::{self, OutcomeKind};
 use softbench::scene::{self, LoadedScene, SceneError};
 use softbench::solve::LINEAR_SOLVERS;
@@ -60,6 +61,9 @@ enum Command {
     Slurm(SlurmArgs),
     /// Redraw the plots of a results folder from its CSV files.
     Plot(PlotArgs),
+    /// Draw pictures of the bodies from stored snapshots: for a `simulate --render` folder its
+    /// filmstrip.png and animation.gif; for a study folder one panel PNG and one GIF per scene.
+    Render(RenderArgs),
     /// List the integrators, linear solvers, materials, contact responses, scenes and studies,
     /// one line each.
     List,
@@ -137,6 +141,15 @@ struct PlotArgs {
 }
 
 #[derive(Args)]
+struct RenderArgs {
+    /// A `simulate --render` output folder (with run.snapshots) or a study's results folder.
+    dir: PathBuf,
+    /// Body colour: `j` (det F of the tet under each face) or `plain`.
+    #[arg(long, default_value = "j", value_parser = ["j", "plain"])]
+    color: String,
+}
+
+#[derive(Args)]
 struct SimulateArgs {
     /// Scene file (TOML).
     scene: PathBuf,
@@ -159,6 +172,10 @@ struct SimulateArgs {
     /// If another softbench is writing the output folder, wait for it instead of stopping.
     #[arg(long)]
     wait: bool,
+    /// Keep the body's surface at 31 times (run.snapshots) and draw filmstrip.png (6 times)
+    /// and animation.gif into the output folder.
+    #[arg(long)]
+    render: bool,
 }
 
 #[derive(Args)]
@@ -183,6 +200,7 @@ fn main() -> ExitCode {
         Command::Merge(args) => merge(&args),
         Command::Slurm(args) => slurm(&args),
         Command::Plot(args) => plot(&args),
+        Command::Render(args) => render_folder(&args),
         Command::List => list(),
     };
     match result {
@@ -394,39 +412,57 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
     };
     let frames_dir = args.out.join("frames");
     let mut frames_written = 0;
-    let summary = match content {
-        None => run::run(
-            &mut built.model,
-            integrator.as_mut(),
-            &mut state,
-            &config.run,
-            &mut write_row,
-        )
-        .context("cannot write the output")?,
-        Some(content) => {
-            let mut frames = FrameWriter::new(
+    let surface = args
+        .render
+        .then(|| picture_surface(&loaded, &built.model))
+        .transpose()?;
+    let obstacles = built.contact.as_ref().map(|c| c.obstacles().clone());
+    let mut frames = None;
+    let rows_out: &mut dyn run::Observer = match content {
+        Some(content) => frames.insert(
+            FrameWriter::new(
                 &frames_dir,
                 every,
                 config.run.steps,
                 content,
                 &mut write_row,
             )
-            .context("cannot write the frames")?;
-            let summary = run::run(
-                &mut built.model,
-                integrator.as_mut(),
-                &mut state,
-                &config.run,
-                &mut frames,
-            )
-            .context("cannot write the output")?;
-            frames_written = frames
-                .finish(&built.model, &state, summary.steps_completed)
-                .context("cannot write the frames")?
-                .len();
-            summary
-        }
+            .context("cannot write the frames")?,
+        ),
+        None => &mut write_row,
     };
+    let mut recorder = None;
+    let observer: &mut dyn run::Observer = match surface {
+        Some(surface) => recorder.insert(SnapshotRecorder::new(
+            &built.model,
+            &state,
+            surface,
+            obstacles,
+            (config.run.steps, config.run.dt),
+            rows_out,
+        )),
+        None => rows_out,
+    };
+    let summary = run::run(
+        &mut built.model,
+        integrator.as_mut(),
+        &mut state,
+        &config.run,
+        observer,
+    )
+    .context("cannot write the output")?;
+    let snapshots = recorder.map(|r| r.finish(&built.model, &summary.outcome));
+    if let Some(frames) = frames {
+        frames_written = frames
+            .finish(&built.model, &state, summary.steps_completed)
+            .context("cannot write the frames")?
+            .len();
+    }
+    if let Some(snapshots) = &snapshots {
+        let path = args.out.join(RUN_SNAPSHOTS);
+        snapshots.write(&path)?;
+        draw_run_pictures(&args.out, snapshots, Coloring::VolumeRatio)?;
+    }
     csv.flush()?;
     drop(csv);
     trajectory
@@ -791,6 +827,90 @@ fn slurm(args: &SlurmArgs) -> anyhow::Result<ExitCode> {
         ));
     } else {
         console::out(&format!("submit with: {}", dir.join("submit.sh").display()));
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The snapshot file `simulate --render` writes into its output folder.
+const RUN_SNAPSHOTS: &str = "run.snapshots";
+
+/// The surface `--render` draws: the scene's [display] mesh skinned onto the tets, else the
+/// boundary of the model's tets (or of the scene mesh's, for a spring body).
+fn picture_surface(loaded: &LoadedScene, model: &Model) -> anyhow::Result<Surface> {
+    let data = DataPaths::from_env();
+    let tets = if model.tets().is_empty() {
+        scene::scene_mesh(loaded, &data)?.tets
+    } else {
+        model.tets().to_vec()
+    };
+    if tets.is_empty() {
+        return Err(
+            BadInput("--render: the body has no tets whose surface could be drawn".into()).into(),
+        );
+    }
+    let rest = TetMesh {
+        positions: model.rest_positions().to_vec(),
+        tets,
+    };
+    Ok(match load_display(loaded, &data, &rest)? {
+        Some(display) => Surface::skinned(display.skinning, &display.mesh.triangles),
+        None => Surface::boundary(model, &rest.tets),
+    })
+}
+
+/// filmstrip.png and animation.gif of one run into `dir`.
+fn draw_run_pictures(dir: &Path, s: &Snapshots, coloring: Coloring) -> anyhow::Result<()> {
+    render::filmstrip(&dir.join("filmstrip.png"), s, coloring)?;
+    let one = [RunPictures {
+        label: String::new(),
+        snapshots: s,
+    }];
+    render::animation(&dir.join("animation.gif"), &one, coloring)?;
+    Ok(())
+}
+
+fn render_folder(args: &RenderArgs) -> anyhow::Result<ExitCode> {
+    let coloring = if args.color == "plain" {
+        Coloring::Plain
+    } else {
+        Coloring::VolumeRatio
+    };
+    let single = args.dir.join(RUN_SNAPSHOTS);
+    if single.is_file() {
+        let s = Snapshots::read(&single)?;
+        draw_run_pictures(&args.dir, &s, coloring)?;
+        for f in ["filmstrip.png", "animation.gif"] {
+            console::out(&args.dir.join(f).display().to_string());
+        }
+        return Ok(ExitCode::SUCCESS);
+    }
+    if !args.dir.join("runs.csv").is_file() {
+        return Err(BadInput(format!(
+            "{}: neither a `simulate --render` folder ({RUN_SNAPSHOTS}) nor a study folder (runs.csv)",
+            args.dir.display()
+        ))
+        .into());
+    }
+    let _lock = lock_folder(&args.dir, "render", false)?;
+    let pictures = study::pictures::draw_folder(&args.dir, coloring)
+        .with_context(|| format!("cannot draw the pictures of {}", args.dir.display()))?;
+    if pictures.is_empty() {
+        console::err(&format!(
+            "{}: no run has snapshots (series/<run-id>.snapshots); rerun the study to record them",
+            args.dir.display()
+        ));
+        return Ok(ExitCode::FAILURE);
+    }
+    for p in &pictures {
+        for ext in ["png", "gif"] {
+            console::out(
+                &args
+                    .dir
+                    .join(format!("{}.{ext}", p.stem))
+                    .display()
+                    .to_string(),
+            );
+        }
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -12,6 +12,11 @@ pub struct Capsule {
 }
 
 impl Capsule {
+    /// Axis end points and radius (m), in the shape's frame (for drawing).
+    pub fn axis_radius(&self) -> (Vector3<f64>, Vector3<f64>, f64) {
+        (self.a, self.b, self.radius)
+    }
+
     /// The capsule around the segment from `a` to `b` (`a == b` gives a sphere).
     ///
     /// # Panics

@@ -14,6 +14,11 @@ pub struct Cuboid {
 }
 
 impl Cuboid {
+    /// Centre, half extents (m) and rotation, in the shape's frame (for drawing).
+    pub fn placement(&self) -> (Vector3<f64>, Vector3<f64>, Rotation3<f64>) {
+        (self.center, self.half_extents, self.rotation)
+    }
+
     /// # Panics
     /// If a half-extent is not positive and finite.
     pub fn new(center: Vector3<f64>, half_extents: Vector3<f64>, rotation: Rotation3<f64>) -> Self {

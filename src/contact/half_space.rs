@@ -12,6 +12,11 @@ pub struct HalfSpace {
 }
 
 impl HalfSpace {
+    /// A point on the boundary plane (m), in the shape's frame (for drawing).
+    pub fn point(&self) -> Vector3<f64> {
+        self.point
+    }
+
     /// The half-space through `point` whose outward normal is `normal` (normalized here).
     ///
     /// # Panics

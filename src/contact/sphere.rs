@@ -11,6 +11,11 @@ pub struct Sphere {
 }
 
 impl Sphere {
+    /// Centre and radius (m), in the shape's frame (for drawing).
+    pub fn center_radius(&self) -> (Vector3<f64>, f64) {
+        (self.center, self.radius)
+    }
+
     /// # Panics
     /// If `radius` is not positive and finite.
     pub fn new(center: Vector3<f64>, radius: f64) -> Self {

@@ -21,6 +21,8 @@ pub const TET_EDGES: [[usize; 2]; 6] = [[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], 
 pub struct FaceClassification {
     /// Faces owned by exactly one tet, wound outward, in order of (tet, local face).
     pub boundary: Vec<[usize; 3]>,
+    /// The tet that owns each boundary face (parallel to `boundary`).
+    pub boundary_tets: Vec<usize>,
     /// Faces shared by exactly two tets.
     pub interior: usize,
     /// Interior faces whose two tets wind them the same way (the tets' orientations disagree).
@@ -147,6 +149,7 @@ fn classify<K: Key>(tets: &[[usize; 4]]) -> FaceClassification {
         }
     }
     boundary_ids.sort_unstable();
+    result.boundary_tets = boundary_ids.iter().map(|id| id.index() / 4).collect();
     result.boundary = boundary_ids.into_iter().map(face).collect();
     result
 }

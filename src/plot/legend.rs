@@ -11,8 +11,8 @@ use super::{PlotError, draw_err, text};
 /// What stands in front of a legend label.
 #[derive(Clone, Copy, Debug)]
 pub enum Glyph {
-    /// A line with a marker (a line-chart series).
-    Series(&'static RGBColor, Marker),
+    /// A line with a marker (a line-chart series), in its dash pattern.
+    Series(&'static RGBColor, Marker, style::Dash),
     /// A filled square (a bar or a stacked part).
     Swatch(&'static RGBColor),
     /// A short thick horizontal tick (a per-bar marker).
@@ -178,12 +178,14 @@ fn draw_glyph<DB: DrawingBackend>(
     let (x, y) = left;
     let mid = x + GLYPH_W / 2;
     match glyph {
-        Glyph::Series(color, marker) => {
-            area.draw(&PathElement::new(
-                vec![(x + 2, y), (x + GLYPH_W - 2, y)],
-                color.stroke_width(style::LINE_WIDTH),
-            ))
-            .map_err(draw_err)?;
+        Glyph::Series(color, marker, dash) => {
+            for piece in style::dashed(&[(x + 2, y), (x + GLYPH_W - 2, y)], dash) {
+                area.draw(&PathElement::new(
+                    piece,
+                    color.stroke_width(style::LINE_WIDTH),
+                ))
+                .map_err(draw_err)?;
+            }
             style::draw_marker(area, (mid, y), marker, color)?;
         }
         Glyph::Swatch(color) => {

@@ -38,15 +38,17 @@ pub fn draw<DB: DrawingBackend>(
         .iter()
         .enumerate()
         .map(|(i, s)| {
-            let (color, marker) = style::series_look(i);
+            let (color, marker, dash) = style::series_look(i);
             let empty = !s.points.iter().any(drawable);
             Entry {
                 label: if empty {
                     format!("{} (no data)", s.label)
+                } else if s.ended {
+                    format!("{} (ended early: X)", s.label)
                 } else {
                     s.label.clone()
                 },
-                glyph: Glyph::Series(color, marker),
+                glyph: Glyph::Series(color, marker, dash),
             }
         })
         .collect();
@@ -71,8 +73,9 @@ pub fn draw<DB: DrawingBackend>(
     let (_, top, right, _) = frame.rect();
     legend.draw(root, (right + layout.right as i32 + 6, top))?;
 
+    let count = chart.series.len().max(1);
     for (i, s) in chart.series.iter().enumerate() {
-        let (color, marker) = style::series_look(i);
+        let (color, marker, dash) = style::series_look(i);
         // Non-drawable points break the line: a gap shows where the data is missing.
         let mut runs: Vec<Vec<(i32, i32)>> = vec![Vec::new()];
         for p in &s.points {
@@ -82,19 +85,33 @@ pub fn draw<DB: DrawingBackend>(
             }
         }
         for run in runs.iter().filter(|r| r.len() > 1) {
-            root.draw(&PathElement::new(
-                run.clone(),
-                color.stroke_width(LINE_WIDTH),
-            ))
-            .map_err(draw_err)?;
+            for piece in style::dashed(run, dash) {
+                root.draw(&PathElement::new(piece, color.stroke_width(LINE_WIDTH)))
+                    .map_err(draw_err)?;
+            }
         }
         // Dense series (time histories) get a marker on every k-th point only, so the markers
         // identify the line without burying it.
         let n = runs.iter().map(Vec::len).sum::<usize>();
         let every = n.div_ceil(MAX_MARKERS).max(1);
+        // Each series starts its markers at its own phase, so lines that coincide still show
+        // every series' markers side by side.
+        let phase = i * every / count;
         for (k, &c) in runs.iter().flatten().enumerate() {
-            if k.is_multiple_of(every) || k + 1 == n {
+            if (k + every - phase % every).is_multiple_of(every) || k + 1 == n {
                 style::draw_marker(root, c, marker, color)?;
+            }
+        }
+        if s.ended
+            && let Some(&(x, y)) = runs.iter().flatten().last()
+        {
+            // A large X where a run that ended early stops.
+            for d in [(-9, -9, 9, 9), (-9, 9, 9, -9)] {
+                root.draw(&PathElement::new(
+                    vec![(x + d.0, y + d.1), (x + d.2, y + d.3)],
+                    color.stroke_width(3),
+                ))
+                .map_err(draw_err)?;
             }
         }
     }

@@ -26,7 +26,8 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use crate::io::write_atomic;
 
-pub use style::{HEIGHT, WIDTH};
+pub use style::{Dash, HEIGHT, Marker, WIDTH, register_fonts, series_look};
+pub use text::width as text_width;
 
 /// A line with markers.
 #[derive(Clone, Debug, Default)]
@@ -35,6 +36,9 @@ pub struct Series {
     pub label: String,
     /// `(x, y)` points, joined in the given order; a point that cannot be drawn breaks the line.
     pub points: Vec<(f64, f64)>,
+    /// The run behind the line ended early (a blow-up, a failure): its last point gets a large
+    /// end marker and the legend says so.
+    pub ended: bool,
 }
 
 /// A horizontal reference line across a chart (e.g. a theoretical limit).

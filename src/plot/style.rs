@@ -84,10 +84,61 @@ const MARKERS: [Marker; 8] = [
     Marker::Ring,
 ];
 
-/// Colour and marker of series `i`. Palette (7) and markers (8) cycle with coprime periods,
-/// so the first 56 series all differ.
-pub fn series_look(i: usize) -> (&'static RGBColor, Marker) {
-    (&PALETTE[i % PALETTE.len()], MARKERS[i % MARKERS.len()])
+/// Line dash patterns (on, off, on, off, ... in pixels; empty = solid).
+pub type Dash = &'static [i32];
+
+/// Solid for the first round of colours, then dashed, dotted and dash-dotted: series that
+/// share a colour never share a line style (up to 28 series).
+const DASHES: [Dash; 4] = [&[], &[10, 6], &[2, 5], &[12, 5, 2, 5]];
+
+/// Colour, marker and line style of series `i`. Palette (7) and markers (8) cycle with coprime
+/// periods, so the first 56 series all differ; the dash changes with each round of colours.
+pub fn series_look(i: usize) -> (&'static RGBColor, Marker, Dash) {
+    (
+        &PALETTE[i % PALETTE.len()],
+        MARKERS[i % MARKERS.len()],
+        DASHES[(i / PALETTE.len()) % DASHES.len()],
+    )
+}
+
+/// The pieces of the polyline `points` to stroke with `dash` (the whole line when solid).
+pub fn dashed(points: &[(i32, i32)], dash: Dash) -> Vec<Vec<(i32, i32)>> {
+    if dash.is_empty() || points.len() < 2 {
+        return vec![points.to_vec()];
+    }
+    let mut out: Vec<Vec<(i32, i32)>> = Vec::new();
+    let (mut k, mut left, mut on) = (0usize, f64::from(dash[0]), true);
+    let mut current = vec![points[0]];
+    for w in points.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        let (dx, dy) = (f64::from(b.0 - a.0), f64::from(b.1 - a.1));
+        let len = dx.hypot(dy);
+        let mut done = 0.0;
+        while len - done > left {
+            done += left;
+            let p = (
+                a.0 + (dx * done / len).round() as i32,
+                a.1 + (dy * done / len).round() as i32,
+            );
+            if on {
+                current.push(p);
+                out.push(std::mem::take(&mut current));
+            } else {
+                current = vec![p];
+            }
+            on = !on;
+            k = (k + 1) % dash.len();
+            left = f64::from(dash[k]);
+        }
+        left -= len - done;
+        if on {
+            current.push(b);
+        }
+    }
+    if on && current.len() > 1 {
+        out.push(current);
+    }
+    out
 }
 
 /// Marker radius in pixels.

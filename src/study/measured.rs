@@ -24,6 +24,8 @@ pub struct Measured {
     pub series: Vec<Sample>,
     /// The table of `series/<run-id>-trials.csv` (stability trials).
     pub trials: Option<super::table::Table>,
+    /// The body's surface at a few times (`series/<run-id>.snapshots`), for pictures.
+    pub snapshots: Option<crate::render::Snapshots>,
 }
 
 impl Measured {
@@ -174,6 +176,54 @@ pub fn cap_cells(spec: &RunSpec) -> Vec<(&'static str, String)> {
 /// The scene of a run, built with the given parallelism.
 pub fn build(spec: &RunSpec, parallelism: Parallelism) -> Result<Scene, scene::SceneError> {
     scene::build(&spec.loaded, &DataPaths::from_env(), parallelism)
+}
+
+/// Run `scene` from rest with `run`, keeping every sampled row and snapshots of `surface`
+/// (see [`crate::render`]).
+pub fn run_rows_pictured(
+    scene: &mut Scene,
+    run: &RunConfig,
+    surface: crate::render::Surface,
+) -> (RunSummary, Vec<Sample>, crate::render::Snapshots) {
+    let mut integrator = scene.integrator();
+    let mut state: State = scene.initial.clone();
+    let mut rows = Vec::new();
+    let mut keep = |s: &Sample| {
+        rows.push(s.clone());
+        Ok(())
+    };
+    let obstacles = scene.contact.as_ref().map(|c| c.obstacles().clone());
+    let mut recorder = crate::render::SnapshotRecorder::new(
+        &scene.model,
+        &state,
+        surface,
+        obstacles,
+        (run.steps, run.dt),
+        &mut keep,
+    );
+    let summary = run::run(
+        &mut scene.model,
+        integrator.as_mut(),
+        &mut state,
+        run,
+        &mut recorder,
+    )
+    .expect("keeping rows and snapshots in memory cannot fail");
+    let snapshots = recorder.finish(&scene.model, &summary.outcome);
+    (summary, rows, snapshots)
+}
+
+/// The surface a study run's pictures show: the boundary of the model's tets, or of the scene
+/// mesh's tets for a body without an elastic material (a jello cube's lattice); `None` when
+/// there are no tets to draw.
+pub fn picture_surface(scene: &Scene, spec: &RunSpec) -> Option<crate::render::Surface> {
+    let model = &scene.model;
+    if !model.tets().is_empty() {
+        return Some(crate::render::Surface::boundary(model, model.tets()));
+    }
+    let mesh = scene::scene_mesh(&spec.loaded, &DataPaths::from_env()).ok()?;
+    (!mesh.tets.is_empty() && mesh.positions.len() == model.rest_positions().len())
+        .then(|| crate::render::Surface::boundary(model, &mesh.tets))
 }
 
 /// Run `scene` from rest with `run`, keeping every sampled row.

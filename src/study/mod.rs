@@ -9,6 +9,7 @@
 pub mod config;
 mod context;
 mod error;
+pub mod findings;
 pub mod format;
 mod grid;
 mod identity;
@@ -19,6 +20,7 @@ mod machine;
 mod measured;
 mod merge;
 mod meta;
+pub mod pictures;
 pub mod plots;
 mod progress;
 mod report;

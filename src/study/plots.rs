@@ -58,6 +58,7 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
                 )?;
             }
         }
+        plots.extend(pictures(dir, runs, params)?);
         remove_stale(dir, &plots);
         return Ok(plots);
     }
@@ -80,11 +81,14 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
         // Time histories, if the kind draws them.
         if let Some(caption) = kind.energy_caption {
             for (suffix, group) in by_time_step(kind.by_time_step, runs, &rows) {
-                let series = load_series(dir, runs, params, &group);
-                let title = match suffix.strip_prefix('-') {
+                let (series, common) = load_series(dir, runs, params, &group);
+                let mut title = match suffix.strip_prefix('-') {
                     Some(dt) => format!("{scene}, {dt}"),
                     None => scene.clone(),
                 };
+                if !common.is_empty() && suffix.is_empty() {
+                    title.push_str(&format!(" ({common})"));
+                }
                 emit(
                     format!("energy-{slug}{suffix}"),
                     caption,
@@ -117,8 +121,15 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
             )),
         )?;
     }
+    plots.extend(pictures(dir, runs, params)?);
     remove_stale(dir, &plots);
     Ok(plots)
+}
+
+/// The study's pictures of the bodies (see [`super::pictures`]).
+fn pictures(dir: &Path, runs: &Table, params: &[String]) -> Result<Vec<Plot>, PlotError> {
+    super::pictures::draw(dir, runs, params, crate::render::Coloring::VolumeRatio)
+        .map_err(|e| PlotError::Draw(e.to_string()))
 }
 
 /// One scene's rows of `runs.csv`, for the charts a kind draws of it.
@@ -180,7 +191,7 @@ fn remove_stale(dir: &Path, drawn: &[Plot]) {
 }
 
 /// Scenes in order of first appearance.
-fn scenes(runs: &Table) -> Vec<String> {
+pub(super) fn scenes(runs: &Table) -> Vec<String> {
     let mut seen = Vec::new();
     for r in &runs.rows {
         if let Some(s) = runs.get(r, "scene")
@@ -192,7 +203,7 @@ fn scenes(runs: &Table) -> Vec<String> {
     seen
 }
 
-fn slug(s: &str) -> String {
+pub(super) fn slug(s: &str) -> String {
     s.chars()
         .map(|c| {
             if c.is_ascii_alphanumeric() || c == '-' {
@@ -205,7 +216,7 @@ fn slug(s: &str) -> String {
 }
 
 /// "method / solver" plus any other swept parameter except `skip`.
-fn label(runs: &Table, params: &[String], row: &[String], skip: &[&str]) -> String {
+pub(super) fn label(runs: &Table, params: &[String], row: &[String], skip: &[&str]) -> String {
     let mut label = runs.get(row, "method").unwrap_or("?").to_owned();
     if let Some(solver) = runs
         .get(row, "linear_solver")
@@ -229,7 +240,17 @@ pub(super) fn stable_dt_chart(
     params: &[String],
     rows: &[&Vec<String>],
 ) -> BarChart {
-    let theory = rows.iter().find_map(|r| runs.number(r, "dt_theory"));
+    // Each physics (a swept stiffness, say) has its own 2/omega_max: every bar carries its
+    // own as a tick, and one reference line is drawn only when they all agree.
+    let theories: Vec<f64> = rows
+        .iter()
+        .filter_map(|r| runs.number(r, "dt_theory"))
+        .collect();
+    let theory = theories
+        .first()
+        .copied()
+        .filter(|t| theories.iter().all(|u| (u / t - 1.0).abs() < 1e-9));
+    let per_bar = theory.is_none() && !theories.is_empty();
     BarChart {
         title: format!("Largest stable time step: {scene}"),
         y_label: "largest stable dt (s)".into(),
@@ -267,12 +288,16 @@ pub(super) fn stable_dt_chart(
                 Bar {
                     label,
                     value,
-                    marker: None,
+                    marker: if per_bar {
+                        runs.number(r, "dt_theory")
+                    } else {
+                        None
+                    },
                     note,
                 }
             })
             .collect(),
-        marker_label: None,
+        marker_label: per_bar.then(|| "2/omega_max of the bar's physics".to_owned()),
         reference: theory.map(|t| ReferenceLine {
             label: format!("2/omega_max = {} s", super::format::short(t)),
             value: t,
@@ -303,6 +328,7 @@ pub(super) fn cost_error_chart(
             Some(Series {
                 label,
                 points: vec![(error, cost)],
+                ended: false,
             })
         })
         .collect();
@@ -346,7 +372,7 @@ pub(super) fn work_precision_chart(
         }
     }
     LineChart {
-        title: format!("Work-precision: {scene}"),
+        title: format!("Work-precision, error against {x_label}: {scene}"),
         x_label: x_label.into(),
         y_label: "relative position error".into(),
         x_log: true,
@@ -356,7 +382,11 @@ pub(super) fn work_precision_chart(
             .map(|(label, mut points)| {
                 points.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
                 let points = points.into_iter().map(|(_, x, e)| (x, e)).collect();
-                Series { label, points }
+                Series {
+                    label,
+                    points,
+                    ended: false,
+                }
             })
             .collect(),
     }
@@ -366,15 +396,57 @@ pub(super) fn work_precision_chart(
 struct RunSeries {
     label: String,
     table: Table,
+    /// The run ended early (not `completed`; stability rows, whose outcome is their first
+    /// unstable trial's, never are).
+    ended: bool,
 }
 
+/// The series of `rows`, each labelled by what varies among them (method, and the linear
+/// solver, swept parameters and dt only where they differ), and a note of what they share
+/// (for the title), so legends do not repeat a constant.
 fn load_series(
     dir: &Path,
     runs: &Table,
     params: &[String],
     rows: &[&Vec<String>],
-) -> Vec<RunSeries> {
-    rows.iter()
+) -> (Vec<RunSeries>, String) {
+    let varies = |column: &str| {
+        let mut values = rows
+            .iter()
+            .filter_map(|r| runs.get(r, column))
+            .filter(|v| !v.is_empty() && *v != "-");
+        let first = values.next();
+        values.any(|v| Some(v) != first)
+    };
+    let shared = |column: &str| {
+        rows.iter()
+            .filter_map(|r| runs.get(r, column))
+            .find(|v| !v.is_empty() && *v != "-")
+            .map(str::to_owned)
+    };
+    let dt_column = if runs.column("dt").is_some() {
+        "dt"
+    } else {
+        "max_stable_dt"
+    };
+    let varying: Vec<String> = params
+        .iter()
+        .filter(|p| varies(p) && p.as_str() != "run.dt")
+        .cloned()
+        .collect();
+    let (solver_varies, dt_varies) = (varies("linear_solver"), varies(dt_column));
+    let mut common = Vec::new();
+    if !dt_varies
+        && dt_column == "dt"
+        && let Some(dt) = shared("dt").and_then(|d| d.parse::<f64>().ok())
+    {
+        common.push(format!("dt = {} s", super::format::short(dt)));
+    }
+    if !solver_varies && let Some(solver) = shared("linear_solver") {
+        common.push(solver);
+    }
+    let series = rows
+        .iter()
         .filter_map(|r| {
             let id = runs.get(r, "run_id")?;
             // Run ids are file names (see study::load); a hand-edited one that is not stays
@@ -384,18 +456,37 @@ fn load_series(
             }
             let path = dir.join("series").join(format!("{id}.csv"));
             let table = Table::read(&path).ok().flatten()?;
-            let mut label = label(runs, params, r, &[]);
-            if let Some(dt) = runs.get(r, "dt").or_else(|| runs.get(r, "max_stable_dt"))
-                && !dt.is_empty()
+            let mut label = runs.get(r, "method").unwrap_or("?").to_owned();
+            if solver_varies
+                && let Some(solver) = runs
+                    .get(r, "linear_solver")
+                    .filter(|s| *s != "-" && !s.is_empty())
             {
-                label.push_str(&format!(
-                    " dt={}",
-                    super::format::short(dt.parse().unwrap_or(0.0))
-                ));
+                label.push_str(&format!(" / {solver}"));
             }
-            Some(RunSeries { label, table })
+            for name in &varying {
+                if let Some(value) = runs.get(r, name).filter(|v| !v.is_empty()) {
+                    let short = name.rsplit('.').next().unwrap_or(name);
+                    label.push_str(&format!(" {short}={value}"));
+                }
+            }
+            if dt_varies
+                && let Some(dt) = runs.get(r, dt_column).and_then(|d| d.parse::<f64>().ok())
+            {
+                label.push_str(&format!(" dt={}", super::format::short(dt)));
+            }
+            let ended = runs.column("stability").is_none()
+                && runs
+                    .get(r, "outcome")
+                    .is_some_and(|o| o != crate::run::OutcomeKind::Completed.name());
+            Some(RunSeries {
+                label,
+                table,
+                ended,
+            })
         })
-        .collect()
+        .collect();
+    (series, common.join(", "))
 }
 
 fn energy_chart(scene: &str, series: &[RunSeries]) -> LineChart {
@@ -403,7 +494,7 @@ fn energy_chart(scene: &str, series: &[RunSeries]) -> LineChart {
         title: format!("Energy balance over time: {scene}"),
         x_label: "time t (s)".into(),
         y_label: "|E(t) - E(0) - work| / energy budget".into(),
-        x_log: false,
+        x_log: spans_decades(series),
         y_log: true,
         series: series
             .iter()
@@ -424,10 +515,29 @@ fn energy_chart(scene: &str, series: &[RunSeries]) -> LineChart {
                 Series {
                     label: s.label.clone(),
                     points,
+                    ended: s.ended,
                 }
             })
             .collect(),
     }
+}
+
+/// Whether the runs' end times span more than a decade (an explicit run that blew up early
+/// beside implicit ones that ran the horizon): then the time axis is logarithmic, or the short
+/// runs are a blob at t = 0.
+fn spans_decades(series: &[RunSeries]) -> bool {
+    let ends: Vec<f64> = series
+        .iter()
+        .filter_map(|s| {
+            let c = s.table.column("t")?;
+            s.table.rows.last()?.get(c)?.parse::<f64>().ok()
+        })
+        .filter(|t| *t > 0.0)
+        .collect();
+    let (lo, hi) = ends.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &t| {
+        (lo.min(t), hi.max(t))
+    });
+    hi > 10.0 * lo
 }
 
 fn iterations_chart(scene: &str, series: &[RunSeries]) -> Option<LineChart> {
@@ -457,13 +567,14 @@ fn iterations_chart(scene: &str, series: &[RunSeries]) -> Option<LineChart> {
             points.iter().any(|p| p.1 > 0.0).then(|| Series {
                 label: s.label.clone(),
                 points,
+                ended: s.ended,
             })
         })
         .collect();
     (!lines.is_empty()).then(|| LineChart {
         title: format!("Newton iterations per step: {scene}"),
         x_label: "time t (s)".into(),
-        y_label: "Newton iterations per step".into(),
+        y_label: "Newton iterations per step (mean over each sample interval)".into(),
         x_log: false,
         y_log: false,
         series: lines,
@@ -619,7 +730,11 @@ fn sweep_charts(study: &StudyMeta, runs: &Table, metric: &str) -> Vec<LineChart>
         .filter(|(_, points)| points.iter().any(|p| p.1 != 0.0))
         .map(|(label, mut points)| {
             points.sort_by(|a, b| a.0.total_cmp(&b.0));
-            Series { label, points }
+            Series {
+                label,
+                points,
+                ended: false,
+            }
         })
         .collect();
     if !theory.is_empty() {
@@ -627,6 +742,7 @@ fn sweep_charts(study: &StudyMeta, runs: &Table, metric: &str) -> Vec<LineChart>
         series.push(Series {
             label: "2/omega_max (explicit limit)".into(),
             points: theory,
+            ended: false,
         });
     }
     let wide = |values: &mut dyn Iterator<Item = f64>| {

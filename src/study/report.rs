@@ -69,6 +69,11 @@ fn render(
             super::kinds::spec(s.kind).quick_notice
         );
     }
+    let damped = damped_scenes(study);
+    super::findings::write(
+        &mut out,
+        &super::findings::compute(runs, &s.parameters, &damped),
+    );
     let m = &meta.machine;
     let _ = writeln!(
         out,
@@ -150,12 +155,7 @@ fn render(
             .collect();
         let _ = writeln!(out, "| {} |", cells.join(" | "));
     }
-    let _ = writeln!(
-        out,
-        "\nUnits: time steps and times in s; drifts relative to the initial internal energy plus \
-         the work of gravity; momentum drift in kg m/s (empty where the scene does not conserve \
-         momentum); errors relative to the reference's displacement.\n"
-    );
+    let _ = writeln!(out, "\n{}\n", units_note(runs, &columns));
 
     let _ = writeln!(out, "## Plots\n");
     for p in plots {
@@ -249,4 +249,58 @@ fn shards_paragraph(out: &mut String, meta: &Meta, total: usize) {
         );
     }
     let _ = writeln!(out);
+}
+
+/// The scenes of the study with damping, and what damping.
+fn damped_scenes(study: &Study) -> BTreeMap<String, String> {
+    let mut out = BTreeMap::new();
+    for r in &study.runs {
+        let d = &r.loaded.config.damping;
+        let mut how = Vec::new();
+        if let Some(ray) = &d.rayleigh {
+            how.push(format!(
+                "Rayleigh alpha = {} 1/s, beta = {} s",
+                ray.alpha, ray.beta
+            ));
+        }
+        if let Some(sr) = &d.strain_rate {
+            how.push(format!(
+                "strain-rate phi = {} Pa s, psi = {} Pa s",
+                sr.phi, sr.psi
+            ));
+        }
+        if !how.is_empty() {
+            out.entry(r.scene.clone()).or_insert_with(|| how.join(", "));
+        }
+    }
+    out
+}
+
+/// The units line under the runs table: only for the columns it shows, and saying why a
+/// momentum column is empty when it is.
+fn units_note(runs: &Table, columns: &[&str]) -> String {
+    let shown = |c: &str| columns.contains(&c);
+    let mut parts = vec!["time steps and times in s".to_owned()];
+    if shown("energy_drift_max") || shown("energy_drift_final") {
+        parts.push(
+            "energy drifts relative to the initial internal energy plus the work of gravity".into(),
+        );
+    }
+    if shown("momentum_drift") {
+        let all_empty = runs
+            .rows
+            .iter()
+            .all(|r| runs.get(r, "momentum_drift").is_none_or(str::is_empty));
+        parts.push(if all_empty {
+            "momentum drift in kg m/s, empty in every row here because no scene conserves \
+             momentum (fixed vertices, obstacles or drags act on the body)"
+                .into()
+        } else {
+            "momentum drift in kg m/s (empty where the scene does not conserve momentum)".into()
+        });
+    }
+    if shown("error") || shown("error_at_stable_dt") {
+        parts.push("errors relative to the reference's displacement".into());
+    }
+    format!("Units: {}.", parts.join("; "))
 }

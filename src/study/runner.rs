@@ -579,6 +579,12 @@ fn record(
         path: series.clone(),
         error,
     })?;
+    if let Some(snapshots) = &m.snapshots {
+        let path = super::pictures::snapshot_path(dir, &spec.id);
+        snapshots
+            .write(&path)
+            .map_err(|e| RunError::Run(e.to_string()))?;
+    }
     if let Some(trials) = &m.trials {
         let path = dir.join("series").join(format!("{}-trials.csv", spec.id));
         trials

@@ -6,7 +6,10 @@ use super::kind::{
     KindSpec, keep_axes, no_charts, no_findings, no_omega, no_quick_check, no_report, no_settings,
     number, run_steps,
 };
-use super::measured::{Measured, build, cap_cells, outcome_of, run_rows, summary_cells};
+use super::measured::{
+    Measured, build, cap_cells, outcome_of, picture_surface, run_rows, run_rows_pictured,
+    summary_cells,
+};
 use super::spec::RunSpec;
 use crate::parallel::Parallelism;
 use crate::run::Sample;
@@ -101,7 +104,16 @@ pub fn measure(spec: &RunSpec, parallelism: Parallelism) -> Result<Measured, Str
     super::measured::reset_peak_rss();
     let mut scene = build(spec, parallelism).map_err(|e| e.to_string())?;
     let run = scene.config.run;
-    let (summary, rows) = run_rows(&mut scene, &run);
+    let (summary, rows, snapshots) = match picture_surface(&scene, spec) {
+        Some(surface) => {
+            let (summary, rows, snapshots) = run_rows_pictured(&mut scene, &run, surface);
+            (summary, rows, Some(snapshots))
+        }
+        None => {
+            let (summary, rows) = run_rows(&mut scene, &run);
+            (summary, rows, None)
+        }
+    };
     let (outcome, message) = outcome_of(&summary.outcome);
     let mut m = Measured {
         outcome,
@@ -119,6 +131,7 @@ pub fn measure(spec: &RunSpec, parallelism: Parallelism) -> Result<Measured, Str
     m.set("momentum_drift", cell(p));
     m.set("angular_momentum_drift", cell(l));
     m.series = rows;
+    m.snapshots = snapshots;
     Ok(m)
 }
 

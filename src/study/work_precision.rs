@@ -28,7 +28,6 @@ use crate::plot::{Chart, PlotError};
 use crate::run::{self, Energies, Observer, RunSummary, Sample};
 use crate::scene::SceneConfig;
 use crate::scene::{RunConfig, Scene};
-use std::collections::BTreeMap;
 use std::fmt::Write;
 
 /// Columns of a work-precision study's `runs.csv` after the run's identity.
@@ -617,42 +616,9 @@ fn report_settings(out: &mut String, file: &StudyFile) {
 /// Observed order of each line of a work-precision study: the slope of log(error) against
 /// log(dt) between its two smallest scored time steps.
 fn orders(out: &mut String, runs: &Table) {
-    let mut lines: BTreeMap<(String, String), Vec<(f64, f64)>> = BTreeMap::new();
-    for r in &runs.rows {
-        // Adaptive methods choose their own steps: dt is only their output interval.
-        let method = runs.get(r, "method").unwrap_or_default();
-        if method.starts_with("adaptive-") || method == "dopri5" {
-            continue;
-        }
-        if let (Some(dt), Some(e)) = (runs.number(r, "dt"), runs.number(r, "error")) {
-            let key = (
-                runs.get(r, "scene").unwrap_or_default().to_owned(),
-                format!(
-                    "{} {}",
-                    runs.get(r, "method").unwrap_or_default(),
-                    runs.get(r, "linear_solver").unwrap_or_default()
-                ),
-            );
-            lines.entry(key).or_default().push((dt, e));
-        }
-    }
     let mut text = String::new();
-    for ((scene, method), mut points) in lines {
-        if points.len() < 2 {
-            continue;
-        }
-        points.sort_by(|a, b| a.0.total_cmp(&b.0));
-        // Points at one dt differ by another knob (iterations, a tolerance): no order in dt.
-        if points.windows(2).any(|w| w[0].0 == w[1].0) {
-            continue;
-        }
-        let ((d1, e1), (d2, e2)) = (points[0], points[1]);
-        let order = (e2 / e1).ln() / (d2 / d1).ln();
-        let _ = writeln!(
-            text,
-            "| {scene} | {} | {order:.2} |",
-            method.trim_end_matches(" -")
-        );
+    for (scene, method, order) in super::findings::observed_orders(runs) {
+        let _ = writeln!(text, "| {scene} | {method} | {order:.2} |");
     }
     if !text.is_empty() {
         let _ = writeln!(

@@ -1,0 +1,216 @@
+//! The findings at the top of report.md come from the numbers: a synthetic runs.csv gives the
+//! expected rankings, best methods and warnings.
+
+use std::collections::BTreeMap;
+
+use softbench::study::findings::{Better, compute};
+use softbench::study::table::Table;
+
+fn table(header: &[&str], rows: &[&[&str]]) -> Table {
+    let mut t = Table::new(header.iter().map(|s| s.to_string()).collect());
+    t.rows = rows
+        .iter()
+        .map(|r| r.iter().map(|s| s.to_string()).collect())
+        .collect();
+    t
+}
+
+#[test]
+fn a_trajectory_study_ranks_cost_and_drift_and_warns_about_failures_and_damping() {
+    let runs = table(
+        &[
+            "run_id",
+            "scene",
+            "method",
+            "linear_solver",
+            "outcome",
+            "final_time",
+            "wall_seconds",
+            "energy_drift_max",
+            "newton_unconverged_steps",
+            "newton_max_iterations",
+            "newton_required",
+        ],
+        &[
+            &[
+                "b-se",
+                "beam",
+                "symplectic-euler",
+                "-",
+                "unstable",
+                "0.05",
+                "0.01",
+                "1e9",
+                "0",
+                "",
+                "",
+            ],
+            &[
+                "b-be",
+                "beam",
+                "backward-euler",
+                "cholesky",
+                "completed",
+                "1",
+                "2.0",
+                "0.5",
+                "0",
+                "20",
+                "false",
+            ],
+            &[
+                "b-im",
+                "beam",
+                "implicit-midpoint",
+                "cholesky",
+                "completed",
+                "1",
+                "3.0",
+                "0.01",
+                "4",
+                "20",
+                "false",
+            ],
+        ],
+    );
+    let mut damped = BTreeMap::new();
+    damped.insert(
+        "beam".to_owned(),
+        "Rayleigh alpha = 0.1 1/s, beta = 0 s".to_owned(),
+    );
+    let f = compute(&runs, &[], &damped);
+    assert_eq!(f.rankings.len(), 2);
+    let cost = &f.rankings[0];
+    assert!(cost.metric.starts_with("cost per simulated second"));
+    assert_eq!(cost.better, Better::Smaller);
+    assert_eq!(
+        cost.ranked,
+        vec![
+            ("backward-euler / cholesky".to_owned(), 2.0),
+            ("implicit-midpoint / cholesky".to_owned(), 3.0)
+        ]
+    );
+    assert_eq!(
+        cost.left_out,
+        vec![("symplectic-euler".to_owned(), "unstable".to_owned())]
+    );
+    let drift = &f.rankings[1];
+    assert!(drift.metric.contains("damping"), "{}", drift.metric);
+    assert_eq!(drift.ranked[0].0, "implicit-midpoint / cholesky");
+    let w = f.warnings.join("\n");
+    assert!(w.contains("beam is damped (Rayleigh alpha = 0.1"), "{w}");
+    assert!(
+        w.contains("`b-se`: did not reach its horizon: unstable (stopped at t = 0.05 s)"),
+        "{w}"
+    );
+    assert!(w.contains("`b-im`: Newton stopped unconverged at its cap (20 iterations, required: false) in 4 steps"), "{w}");
+    assert!(!w.contains("`b-be`"), "{w}");
+    assert_eq!(f.warnings.len(), 3, "{w}");
+}
+
+#[test]
+fn a_work_precision_study_ranks_error_at_equal_cost_and_flags_an_order_above_theory() {
+    // backward Euler (order 1): error halves when dt halves -> order 1, no warning.
+    // rk4 (order 4): error falls 2^6.79 -> order 6.79 > 4.5, a warning.
+    // At cost 2 s (the overlap [1, 4] of both lines, geometric middle 2):
+    //   backward Euler: cost 1 -> 1e-2, cost 4 -> 2.5e-3: log-linear at 2 gives 5e-3;
+    //   rk4: cost 1 -> 1e-6, cost 4 -> 1e-8 gives 1e-7.
+    let order = 6.79f64;
+    let e2 = format!("{}", 1e-6 / 2f64.powf(order));
+    let runs = table(
+        &[
+            "run_id",
+            "scene",
+            "method",
+            "linear_solver",
+            "outcome",
+            "dt",
+            "error",
+            "wall_seconds",
+            "scored",
+        ],
+        &[
+            &[
+                "be1",
+                "ball",
+                "backward-euler",
+                "cholesky",
+                "completed",
+                "0.02",
+                "1e-2",
+                "1",
+                "yes",
+            ],
+            &[
+                "be2",
+                "ball",
+                "backward-euler",
+                "cholesky",
+                "completed",
+                "0.01",
+                "5e-3",
+                "2",
+                "yes",
+            ],
+            &[
+                "be3",
+                "ball",
+                "backward-euler",
+                "cholesky",
+                "completed",
+                "0.005",
+                "2.5e-3",
+                "4",
+                "yes",
+            ],
+            &[
+                "rk1",
+                "ball",
+                "rk4",
+                "-",
+                "completed",
+                "0.02",
+                "1e-6",
+                "1",
+                "yes",
+            ],
+            &[
+                "rk2",
+                "ball",
+                "rk4",
+                "-",
+                "completed",
+                "0.01",
+                &e2,
+                "4",
+                "no",
+            ],
+        ],
+    );
+    let params = vec!["run.dt".to_owned()];
+    let f = compute(&runs, &params, &BTreeMap::new());
+    let eq = f
+        .rankings
+        .iter()
+        .find(|r| r.metric.starts_with("error at equal cost"))
+        .expect("an equal-cost ranking");
+    assert!(eq.metric.contains("at 2 s"), "{}", eq.metric);
+    assert_eq!(eq.ranked[0].0, "rk4");
+    assert_eq!(eq.ranked[1].0, "backward-euler / cholesky");
+    assert!((eq.ranked[1].1 - 5e-3).abs() < 1e-12);
+    let rk_at_2 = (1e-6f64.ln() + 0.5 * (e2.parse::<f64>().unwrap().ln() - 1e-6f64.ln())).exp();
+    assert!((eq.ranked[0].1 / rk_at_2 - 1.0).abs() < 1e-9);
+    let w = f.warnings.join("\n");
+    assert!(
+        w.contains("ball, rk4: observed order 6.79 is more than 0.5 above its formal order 4"),
+        "{w}"
+    );
+    assert!(
+        !w.contains("backward-euler cholesky: observed order"),
+        "{w}"
+    );
+    assert!(
+        w.contains("`rk2`: its error is at the reference's noise floor"),
+        "{w}"
+    );
+}
