@@ -92,6 +92,33 @@ fn inline_scenes_and_per_method_options_run() {
     assert_eq!(tolerance, ["0.001", "1e-5", ""]);
 }
 
+/// Two entries of one method that differ only by a key one of them sets (with one value) are
+/// two runs with their own ids; an entry repeated is one run. (A key with one value in one
+/// entry was left out of the ids, so the second run was silently dropped.)
+#[test]
+fn entries_told_apart_by_a_single_valued_key_are_both_run() {
+    let tmp = TempDir::new("study-entries");
+    tmp.write("beam.toml", SCENE);
+    let study = "name = \"entries\"\nstudy = \"trajectory\"\nscenes = [\"beam.toml\"]\n\n\
+                 [[methods]]\nmethod = \"backward-euler\"\n\n\
+                 [[methods]]\nmethod = \"backward-euler\"\n\"integrator.newton.refactor_every\" = 5\n\n\
+                 [[methods]]\nmethod = \"backward-euler\"\n";
+    let path = tmp.write("study.toml", study);
+    let out = tmp.path().join("results");
+    run_study_ok(&path, &out, &[]);
+    let runs = softbench::study::table::Table::read(&out.join("entries/runs.csv"))
+        .unwrap()
+        .unwrap();
+    let ids: Vec<&str> = runs.rows.iter().map(|r| r[0].as_str()).collect();
+    assert_eq!(
+        ids,
+        [
+            "beam-backward-euler-cholesky",
+            "beam-backward-euler-cholesky-refactor_every=5",
+        ]
+    );
+}
+
 #[test]
 fn unknown_key() {
     let s = GOOD.replace(

@@ -70,6 +70,16 @@ pub fn load(path: &Path, quick: bool) -> Result<Study, StudyError> {
             set.extend(axis.values.iter().map(|v| v.to_string()));
         }
     }
+    // A key that some `[[methods]]` entries set and others do not tells their runs apart
+    // even with one value, so it goes into the run ids.
+    for (key, set) in distinct.iter_mut() {
+        if method_axes
+            .iter()
+            .any(|entry| !entry.iter().any(|a| &a.key == key))
+        {
+            set.insert(String::new());
+        }
+    }
     let in_id: Vec<&String> = parameters
         .iter()
         .filter(|k| distinct.get(*k).is_some_and(|s| s.len() > 1))
@@ -117,15 +127,28 @@ pub fn load(path: &Path, quick: bool) -> Result<Study, StudyError> {
                         ),
                     });
                 }
+                let (method, linear_solver, loaded) = run;
+                let hash = run_hash(&loaded.config, &file, kind, quick);
+                // The same run twice (an entry repeated) is run once; two different runs
+                // under one id would overwrite each other's series, so that is an error.
                 if !seen.insert(id.clone()) {
-                    continue;
+                    if runs.iter().any(|r| r.id == id && r.hash == hash) {
+                        continue;
+                    }
+                    return Err(StudyError::Invalid {
+                        path: path.to_owned(),
+                        line: source.line,
+                        key: "methods".into(),
+                        message: format!(
+                            "two different runs get the id `{id}`: give the settings that tell \
+                             them apart as grid or [[methods]] values"
+                        ),
+                    });
                 }
                 let parameters = parameters
                     .iter()
                     .map(|p| combo.iter().find(|(k, _)| k == p).map(|(_, v)| v.clone()))
                     .collect();
-                let (method, linear_solver, loaded) = run;
-                let hash = run_hash(&loaded.config, &file, kind, quick);
                 let physics = physics_hash(&loaded.config);
                 runs.push(RunSpec {
                     id,
