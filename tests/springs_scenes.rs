@@ -56,6 +56,40 @@ fn the_jello_scenes_run_a_few_steps_and_fall() {
     }
 }
 
+/// `simulate` reports a jello body's springs per kind, in summary.json and on its last line:
+/// for the shipped cube (n = 6 particles per side) 3 n² (n − 1) structural, 6 n (n − 1)² face
+/// plus 4 (n − 1)³ space diagonals, 3 n² (n − 2) bending; a FEM body has none.
+#[test]
+fn simulate_reports_the_spring_counts_per_kind() {
+    let dir = TempDir::new("springs-counts");
+    let out = dir.path().join("cube");
+    let result = simulate(&scene("jello_cube.toml"), &out, &["--set", "run.steps=1"]);
+    assert!(result.status.success());
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let n = 6;
+    let m = n - 1;
+    assert_eq!(
+        summary["springs"],
+        serde_json::json!({
+            "structural": 3 * n * n * m,
+            "shear": 6 * n * m * m + 4 * m * m * m,
+            "bending": 3 * n * n * (n - 2),
+        })
+    );
+    let stdout = String::from_utf8_lossy(&result.stdout);
+    assert!(
+        stdout.contains("springs: structural 540, shear 1400, bending 432"),
+        "{stdout}"
+    );
+    let beam = dir.path().join("beam");
+    let result = simulate(&scene("cantilever.toml"), &beam, &["--set", "run.steps=1"]);
+    assert!(result.status.success());
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(beam.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["springs"], serde_json::json!({}));
+}
+
 fn build(name: &str) -> scene::Scene {
     let loaded = scene::load(&scene(name), &[]).unwrap();
     scene::build(

@@ -486,6 +486,11 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
         "scene": built.name,
         "scene_file": loaded.path,
         "linear_solver": linear_solver,
+        "springs": built
+            .spring_counts
+            .iter()
+            .map(|(k, n)| (k.to_string(), serde_json::json!(n)))
+            .collect::<serde_json::Map<_, _>>(),
         "summary": summary,
         "config": config,
     });
@@ -511,8 +516,18 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
             } else {
                 String::new()
             };
+            let springs_note = if built.spring_counts.is_empty() {
+                String::new()
+            } else {
+                let counts: Vec<String> = built
+                    .spring_counts
+                    .iter()
+                    .map(|(k, n)| format!("{k} {n}"))
+                    .collect();
+                format!("; springs: {}", counts.join(", "))
+            };
             console::out(&format!(
-                "{}: completed {} steps of {} with dt = {:e} s in {:.3} s{unconverged}; wrote {}{frames_note}",
+                "{}: completed {} steps of {} with dt = {:e} s in {:.3} s{unconverged}; wrote {}{frames_note}{springs_note}",
                 built.name,
                 summary.steps_completed,
                 summary.method,

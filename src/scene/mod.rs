@@ -338,6 +338,9 @@ pub struct Scene {
     pub initial: State,
     /// Obstacles and their response; `None` without obstacles.
     pub contact: Option<Contact>,
+    /// Springs of a mass-spring body per kind (`structural`, `shear`, ...), kinds with none
+    /// left out; empty for a FEM body.
+    pub spring_counts: Vec<(&'static str, usize)>,
 }
 
 impl Scene {
@@ -567,9 +570,16 @@ pub fn build(
     let density = c.material.as_ref().map(|m| m.density);
     // Particles of a mass-spring body have lumped masses.
     let mass_kind = c.material.as_ref().map_or(MassKind::Lumped, |m| m.mass);
-    let (point_masses, springs) = match springs::spring_body(c, &mesh) {
-        Some((body, mass)) => (Some(body.point_masses(mass)), body.springs),
-        None => (None, Vec::new()),
+    let (point_masses, springs, spring_counts) = match springs::spring_body(c, &mesh) {
+        Some((body, mass)) => {
+            let counts = crate::springs::SpringKind::ALL
+                .iter()
+                .map(|&k| (k.name(), body.count(k)))
+                .filter(|(_, n)| *n > 0)
+                .collect();
+            (Some(body.point_masses(mass)), body.springs, counts)
+        }
+        None => (None, Vec::new(), Vec::new()),
     };
     let fixed = FixedSelection {
         indices: c.fixed.indices.clone(),
@@ -641,5 +651,6 @@ pub fn build(
         model,
         initial,
         contact,
+        spring_counts,
     })
 }
