@@ -195,12 +195,14 @@ fn pd_converges_to_backward_euler_with_a_drag_and_refactors_only_when_it_is_rele
     let mut state = start.clone();
     let mut integ = pd(2000);
     let mut factorizations = Vec::new();
+    let mut analyses = Vec::new();
     for _ in 0..4 {
         let be = backward_euler(&mut model, &reference, 0.01);
         // Both from the same start, so the comparison is of one step each.
         let mut from = reference.clone();
         let report = integ.step(&mut model, &mut from, 0.01).unwrap();
         factorizations.push(report.factorizations);
+        analyses.push(report.symbolic_analyses);
         let error = distance(&from.q, &be.q) / distance(&be.q, &reference.q);
         assert!(error < 1e-6, "t = {}: {error:.3e}", reference.t);
         reference = be;
@@ -209,6 +211,30 @@ fn pd_converges_to_backward_euler_with_a_drag_and_refactors_only_when_it_is_rele
     assert_ne!(state.q, start.q);
     // Factored at the first step and again when the drag lets go (end of step 3: t = 0.03).
     assert_eq!(factorizations, vec![1, 0, 1, 0]);
+    // One symbolic analysis: the pattern never changes.
+    assert_eq!(analyses, vec![1, 0, 0, 0]);
+}
+
+/// Backward Euler analyses its pattern once and reuses it at every later step.
+#[test]
+fn backward_euler_counts_one_symbolic_analysis_for_a_run() {
+    let mut model = body("corotated", MassKind::Lumped, [3, 1, 1], true);
+    let mut settings = IntegratorSettings {
+        method: Method::from_name("backward-euler").unwrap(),
+        ..Default::default()
+    };
+    settings.newton.tolerance = 1e-10;
+    let mut integ = settings.build();
+    let mut state = kicked(&model);
+    let analyses: Vec<u32> = (0..3)
+        .map(|_| {
+            integ
+                .step(&mut model, &mut state, 0.01)
+                .unwrap()
+                .symbolic_analyses
+        })
+        .collect();
+    assert_eq!(analyses, vec![1, 0, 0]);
 }
 
 #[test]

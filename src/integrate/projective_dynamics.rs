@@ -273,6 +273,7 @@ impl Integrator for ProjectiveDynamics {
         let n = model.num_dofs();
         if self.factored != Some((dt, n)) {
             self.set_up(model, dt, wa + wv)?;
+            report.symbolic_analyses += 1;
         }
         let dofs = model.dofs();
         let free = dofs.free_vertices();

@@ -42,6 +42,9 @@ pub struct StepReport {
     pub factorizations: u32,
     /// Largest relative residual `‖b − A x‖/‖b‖` of any linear solve.
     pub max_relative_residual: f64,
+    /// Symbolic analyses of a sparsity pattern (orderings, elimination trees): once per
+    /// pattern when the analysis is reused, as it should be.
+    pub symbolic_analyses: u32,
     /// Entries of the largest sparse factor (nnz(L), or the IC(0) factor for CG) built.
     pub factor_nnz: usize,
     /// Predicted flops of that factor's numeric factorization (Σ c_j² over its column counts).
@@ -87,6 +90,7 @@ impl StepReport {
         self.factorizations += other.factorizations;
         self.max_relative_residual = self.max_relative_residual.max(other.max_relative_residual);
         self.factor_nnz = self.factor_nnz.max(other.factor_nnz);
+        self.symbolic_analyses += other.symbolic_analyses;
         self.factor_flops = self.factor_flops.max(other.factor_flops);
         if !other.linear_solver.is_empty() {
             self.linear_solver = other.linear_solver;

@@ -95,6 +95,7 @@ impl ImplicitSystem {
         if self.matrix.is_none() {
             let m = model.new_hessian();
             self.solver.analyze(m.pattern())?;
+            report.symbolic_analyses += 1;
             self.matrix = Some(m);
         }
         let h = self.matrix.as_mut().expect("created above");

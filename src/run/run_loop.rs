@@ -90,6 +90,8 @@ pub struct Sample {
     /// Local-solver iterations since the previous row (VBD sweeps, projective-dynamics
     /// local/global iterations, XPBD constraint sweeps).
     pub local_iterations: u64,
+    /// Symbolic analyses since the previous row.
+    pub symbolic_analyses: u64,
 }
 
 /// What watches a run: every sampled row, and (optionally) the state after every step —
@@ -221,6 +223,7 @@ fn sample(
         energy_excess: balance.excess(energies.total()),
         energy_budget: balance.budget(),
         local_iterations: work.local_iterations.into(),
+        symbolic_analyses: work.symbolic_analyses.into(),
     }
 }
 

@@ -117,6 +117,7 @@ pub fn summary_cells(s: &RunSummary) -> Vec<(&'static str, String)> {
         ("linear_solver_used", t.linear_solver.to_owned()),
         ("ordering", t.ordering.to_owned()),
         ("factor_nnz", t.factor_nnz.to_string()),
+        ("symbolic_analyses", t.symbolic_analyses.to_string()),
         ("factor_flops", f(t.factor_flops)),
         ("factor_threads", t.factor_threads.to_string()),
         (

@@ -72,6 +72,7 @@ pub const COLUMNS: &[&str] = &[
     "force_evaluations",
     "hessian_evaluations",
     "factorizations",
+    "symbolic_analyses",
     "linear_iterations",
     "assemble_seconds",
     "factor_seconds",

@@ -48,6 +48,7 @@ pub const COLUMNS: &[&str] = &[
     "linear_solver_used",
     "ordering",
     "factor_nnz",
+    "symbolic_analyses",
     "factor_flops",
     "factor_threads",
     "linear_iterations_per_solve",

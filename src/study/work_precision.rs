@@ -41,6 +41,7 @@ pub const COLUMNS: &[&str] = &[
     "force_evaluations",
     "hessian_evaluations",
     "factorizations",
+    "symbolic_analyses",
     "linear_iterations",
     "newton_iterations",
     "local_iterations_per_step",
