@@ -1,15 +1,18 @@
-//! Comparing two studies' results: every column but wall-clock timings.
+//! Comparing two studies' results: every column but the machine's measurements (wall-clock
+//! times and the process's peak memory).
 
 use softbench::study::table::Table;
 use std::path::Path;
 
-/// Wall-clock measurements: the only columns allowed to differ between two runs of a study.
-pub fn is_timing(column: &str) -> bool {
-    column.contains("seconds")
+/// Measurements of the machine, not of the method: the only columns allowed to differ between
+/// two runs of a study (wall-clock times; the peak resident memory, which depends on what the
+/// process ran before).
+pub fn is_machine_measurement(column: &str) -> bool {
+    column.contains("seconds") || column == "peak_rss_mib"
 }
 
 /// The CSV tables `a` and `b` hold the same rows in the same order, equal in every column but
-/// timings.
+/// the machine's measurements.
 pub fn assert_same_results(a: &Path, b: &Path) {
     let read = |p: &Path| {
         Table::read(p)
@@ -28,7 +31,7 @@ pub fn assert_same_results(a: &Path, b: &Path) {
     let mut compared = 0;
     for (ra, rb) in ta.rows.iter().zip(&tb.rows) {
         for (i, column) in ta.header.iter().enumerate() {
-            if !is_timing(column) {
+            if !is_machine_measurement(column) {
                 assert_eq!(
                     ra[i],
                     rb[i],
