@@ -121,6 +121,10 @@ fn scene_charts(s: &SceneRows, emit: &mut Emit) -> Result<(), PlotError> {
             .number(r, "local_iterations_per_step")
             .is_some_and(|n| n > 0.0)
     });
+    // One step for every run: error against dt would be a vertical line of points.
+    let mut dts = s.rows.iter().filter_map(|r| s.runs.number(r, "dt"));
+    let first = dts.next();
+    let one_dt = dts.all(|dt| Some(dt) == first);
     for (x, x_label, what) in [
         ("wall_seconds", "wall time (s)", "time"),
         (
@@ -139,14 +143,7 @@ fn scene_charts(s: &SceneRows, emit: &mut Emit) -> Result<(), PlotError> {
         if what == "iterations" && !iterative {
             continue;
         }
-        // One step for every run: error against dt is a vertical line of points.
-        let mut dts: Vec<f64> = s
-            .rows
-            .iter()
-            .filter_map(|r| s.runs.number(r, "dt"))
-            .collect();
-        dts.dedup();
-        if what == "dt" && dts.windows(2).all(|w| w[0] == w[1]) {
+        if what == "dt" && one_dt {
             continue;
         }
         emit(
