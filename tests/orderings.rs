@@ -195,3 +195,27 @@ fn the_flops_rule_keeps_small_factorizations_sequential() {
     assert!(s.stats().factor_flops < softbench::solve::PARALLEL_MIN_FLOPS);
     assert!(!s.stats().parallel_factor);
 }
+
+#[test]
+fn metis_orderings_computed_at_once_on_several_threads_equal_the_ordering_alone() {
+    // GKlib's random generator is process-wide; unserialized concurrent calls interleave it.
+    let patterns: Vec<_> = [[6, 3, 3], [8, 4, 3], [5, 5, 4], [7, 3, 5]]
+        .into_iter()
+        .map(|cells| fem_box(cells).matrix.pattern().clone())
+        .collect();
+    let alone: Vec<Vec<usize>> = patterns
+        .iter()
+        .map(|p| softbench::solve::ordering::nested_dissection(p).unwrap())
+        .collect();
+    for _ in 0..20 {
+        std::thread::scope(|scope| {
+            let handles: Vec<_> = patterns
+                .iter()
+                .map(|p| scope.spawn(|| softbench::solve::ordering::nested_dissection(p).unwrap()))
+                .collect();
+            for (handle, expected) in handles.into_iter().zip(&alone) {
+                assert_eq!(&handle.join().unwrap(), expected);
+            }
+        });
+    }
+}

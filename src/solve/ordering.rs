@@ -86,6 +86,12 @@ fn node_graph(pattern: &SparsityPattern, block: usize) -> Result<(Vec<i32>, Vec<
     Ok((xadj, adjncy))
 }
 
+/// Serializes every call into METIS. GKlib keeps its random generator in process-wide statics
+/// (`mt`, `mti` in random.c) that each call reseeds with the default seed, so two orderings
+/// computed at once on different threads interleave one stream and come out different from
+/// either alone: results would then depend on what else the process was ordering.
+static METIS_LOCK: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 /// `METIS_NodeND` with default options; returns `perm` (`perm[new] = old`).
 fn metis_node_nd(
     nodes: usize,
@@ -103,6 +109,9 @@ fn metis_node_nd(
     // SAFETY: the arrays are valid for the lengths METIS reads: xadj has nvtxs + 1 entries,
     // adjncy has xadj[nvtxs] entries (all in 0..nvtxs), perm and iperm have nvtxs; null vwgt
     // and options ask for unit weights and default options. METIS does not keep the pointers.
+    let _serial = METIS_LOCK
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner());
     let status = unsafe {
         metis_sys::METIS_NodeND(
             &mut nvtxs,
