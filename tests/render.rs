@@ -364,3 +364,55 @@ fn a_study_draws_one_panel_per_scene_with_a_row_per_run_and_embeds_it() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(results.join("pictures-soft_beam.png").is_file());
 }
+
+#[test]
+fn a_stability_study_pictures_each_methods_chosen_trial_and_marks_one_unstable_everywhere() {
+    let dir = TempDir::new("render-stability");
+    let study = dir.path().join("stability.toml");
+    // Explicit Euler on the stiff beam is unstable at every judged step (>= 1 s / 200); backward
+    // Euler is stable to the ceiling.
+    std::fs::write(
+        &study,
+        format!(
+            "name = \"pictured\"\nstudy = \"stability\"\nscenes = [{:?}]\n\
+             [grid]\n\"integrator.method\" = [\"explicit-euler\", \"backward-euler\"]\n\
+             [set]\n\"material.youngs_modulus\" = 1e7\n\
+             [stability]\ndt_min = 5e-3\ndt_max = 0.02\nhorizon = 1.0\nmax_steps = 200\n\
+             relative_precision = 0.1\n",
+            scene("soft_beam.toml")
+        ),
+    )
+    .unwrap();
+    common::run_study_ok(&study, dir.path(), &[]);
+    let results = dir.path().join("pictured");
+    let runs = std::fs::read_to_string(results.join("runs.csv")).unwrap();
+    let id = |method: &str| {
+        runs.lines()
+            .map(|l| l.split(',').next().unwrap())
+            .find(|id| id.contains(method))
+            .unwrap()
+            .to_owned()
+    };
+    let snapshots = |method: &str| {
+        Snapshots::read(&results.join(format!("series/{}.snapshots", id(method)))).unwrap()
+    };
+    assert!(runs.contains("unstable-at-every-dt"), "{runs}");
+    assert!(runs.contains("stable-to-ceiling"), "{runs}");
+    // The stable run's pictures cover the horizon; the unstable one's end at its last valid
+    // state, marked with the cause.
+    let stable = snapshots("backward-euler");
+    assert!(stable.failure.is_empty());
+    assert!((stable.frames.last().unwrap().t - 1.0).abs() < 1e-9);
+    let unstable = snapshots("explicit-euler");
+    assert!(
+        unstable.failure.starts_with("unstable"),
+        "{}",
+        unstable.failure
+    );
+    let last = unstable.frames.last().unwrap();
+    assert!(last.last_valid && last.t < 1.0);
+    let img = image::open(results.join("pictures-soft_beam.png")).unwrap();
+    assert_eq!(img.height(), 2 * (CELL.1 + 34));
+    let report = std::fs::read_to_string(results.join("report.md")).unwrap();
+    assert!(report.contains("![The body over time: soft_beam](pictures-soft_beam.png)"));
+}

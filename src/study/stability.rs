@@ -21,7 +21,7 @@ use super::context::Context;
 use super::error::StudyError;
 use super::format::{cell, short};
 use super::kind::{KindSpec, References, keep_axes, no_findings, number};
-use super::measured::{Measured, build, cap_cells, outcome_of, summary_cells};
+use super::measured::{Measured, build, cap_cells, outcome_of, picture_surface, summary_cells};
 use super::plots::{self, Emit, SceneRows};
 use super::settings::MIN_RELATIVE_PRECISION;
 use super::spec::RunSpec;
@@ -385,6 +385,9 @@ struct Trial {
     rows: Vec<Sample>,
     /// Positions at the reference's sample times (dense output), as far as the trial got.
     positions: Vec<Vec<f64>>,
+    /// The surface at the recorder's times over the trial's steps (its last valid state if it
+    /// failed), for the study's pictures; `None` for a body without tets.
+    snapshots: Option<crate::render::Snapshots>,
 }
 
 impl Trial {
@@ -479,6 +482,7 @@ pub fn measure(
     let sample_times = shared
         .reference
         .map_or_else(Vec::new, |r| r.times().to_vec());
+    let surface = picture_surface(&scene, spec);
     let run_trial = |dt: f64| -> Trial {
         let needed = (settings.horizon / dt * (1.0 - 1e-12)).ceil().max(1.0);
         let steps = (needed as usize).min(settings.max_steps);
@@ -491,14 +495,42 @@ pub fn measure(
         let mut integrator = scene.integrator();
         let mut state = scene.initial.clone();
         let mut output = DenseOutput::new(sample_times.clone());
-        let mut summary = run::run(
-            &mut scene.model,
-            integrator.as_mut(),
-            &mut state,
-            &run,
-            &mut output,
-        )
-        .expect("keeping rows in memory cannot fail");
+        // Every trial records its pictures (a copy of the surface per step), so the chosen
+        // trial's need no second run.
+        let (mut summary, snapshots) = match &surface {
+            Some(surface) => {
+                let obstacles = scene.contact.as_ref().map(|c| c.obstacles().clone());
+                let mut recorder = crate::render::SnapshotRecorder::new(
+                    &scene.model,
+                    &state,
+                    surface.clone(),
+                    obstacles,
+                    (steps, dt),
+                    &mut output,
+                );
+                let summary = run::run(
+                    &mut scene.model,
+                    integrator.as_mut(),
+                    &mut state,
+                    &run,
+                    &mut recorder,
+                )
+                .expect("keeping rows and snapshots in memory cannot fail");
+                let snapshots = recorder.finish(&scene.model, &summary.outcome);
+                (summary, Some(snapshots))
+            }
+            None => {
+                let summary = run::run(
+                    &mut scene.model,
+                    integrator.as_mut(),
+                    &mut state,
+                    &run,
+                    &mut output,
+                )
+                .expect("keeping rows in memory cannot fail");
+                (summary, None)
+            }
+        };
         if summary.outcome.is_completed() && (needed as usize) > steps {
             summary.outcome = Outcome::ended(
                 OutcomeKind::HorizonNotReached,
@@ -517,6 +549,7 @@ pub fn measure(
             summary,
             rows: output.rows,
             positions: output.positions,
+            snapshots,
         }
     };
     let mut search = Search {
@@ -594,8 +627,11 @@ pub fn measure(
             }
         }
         m.series = best.rows.clone();
+        m.snapshots = best.snapshots.clone();
     } else if let Some(t) = first_unstable {
+        // Nothing stable: the smallest failing step shows how the method breaks.
         m.series = t.rows.clone();
+        m.snapshots = t.snapshots.clone();
     }
     m.cells.extend(cap_cells(spec));
     m.set("stability", verdict.to_owned());
