@@ -143,6 +143,31 @@ impl SymmetricMatrix {
         d
     }
 
+    /// Writes the matrix in Matrix Market coordinate format (`real symmetric`, the lower
+    /// triangle, 1-based, values with 17 significant digits so they read back exactly), for
+    /// other programs (CHOLMOD, SciPy) to factor the very matrix softbench solves.
+    pub fn write_matrix_market(&self, w: &mut dyn std::io::Write) -> std::io::Result<()> {
+        let p = &self.pattern;
+        let lower: usize = (0..self.dim())
+            .map(|c| {
+                let rows = &p.row_idx[p.col_ptr[c]..p.col_ptr[c + 1]];
+                rows.len() - rows.partition_point(|&r| r < c)
+            })
+            .sum();
+        writeln!(w, "%%MatrixMarket matrix coordinate real symmetric")?;
+        writeln!(w, "% written by softbench {}", env!("CARGO_PKG_VERSION"))?;
+        writeln!(w, "{} {} {}", self.dim(), self.dim(), lower)?;
+        for c in 0..self.dim() {
+            for k in p.col_ptr[c]..p.col_ptr[c + 1] {
+                let r = p.row_idx[k];
+                if r >= c {
+                    writeln!(w, "{} {} {:.16e}", r + 1, c + 1, self.values[k])?;
+                }
+            }
+        }
+        Ok(())
+    }
+
     /// A zero-copy faer view (both triangles).
     pub fn as_faer(&self) -> SparseColMatRef<'_, usize, f64> {
         SparseColMatRef::new(self.pattern.as_faer(), &self.values)

@@ -8,7 +8,8 @@ mod fem_system;
 use fem_system::{FemSystem, fem_ball, fem_box, fem_box_sized};
 use softbench::parallel::Parallelism;
 use softbench::solve::{
-    AutoPrediction, AutoSolver, CgSettings, CgSolver, LinearSolver, Preconditioner, SolverSettings,
+    AmgSettings, AmgStats, AutoPrediction, AutoSolver, CgSettings, CgSolver, LinearSolver,
+    Preconditioner, SolverSettings,
 };
 
 /// CG iterations to 1e-8 on `system` with a smooth right-hand side; `coordinates`: give AMG
@@ -25,12 +26,43 @@ fn cg_solve(
     coordinates: bool,
     parallelism: Parallelism,
 ) -> (Vec<f64>, usize, f64) {
+    let (x, it, residual, _) = cg_solve_with(
+        system,
+        CgSettings {
+            preconditioner,
+            parallelism,
+            ..CgSettings::default()
+        },
+        coordinates,
+    );
+    (x, it, residual)
+}
+
+/// AMG-preconditioned CG at strength threshold `theta`: iterations to 1e-8 and the
+/// hierarchy's statistics.
+fn amg_at(system: &FemSystem, theta: f64) -> (usize, AmgStats) {
+    let settings = CgSettings {
+        preconditioner: Preconditioner::Amg,
+        amg: AmgSettings {
+            strength_threshold: theta,
+            ..AmgSettings::default()
+        },
+        ..CgSettings::default()
+    };
+    let (_, it, residual, stats) = cg_solve_with(system, settings, true);
+    assert!(residual <= 1e-8, "residual {residual:e}");
+    (it, stats)
+}
+
+fn cg_solve_with(
+    system: &FemSystem,
+    settings: CgSettings,
+    coordinates: bool,
+) -> (Vec<f64>, usize, f64, AmgStats) {
     let a = &system.matrix;
     let mut s = CgSolver::new(CgSettings {
-        preconditioner,
         max_iterations: 5000,
-        parallelism,
-        ..CgSettings::default()
+        ..settings
     });
     s.analyze(a.pattern()).unwrap();
     if coordinates {
@@ -49,7 +81,12 @@ fn cg_solve(
         })
         .collect();
     let report = s.solve(&mut x).unwrap();
-    (x, report.iterations, report.relative_residual)
+    (
+        x,
+        report.iterations,
+        report.relative_residual,
+        s.stats().amg,
+    )
 }
 
 #[test]
@@ -88,6 +125,115 @@ fn amg_iterations_stay_nearly_flat_as_the_box_grows() {
 }
 
 #[test]
+fn filtered_amg_stays_cheap_and_flat_on_a_refinement_ladder() {
+    // The same 48 cm body at 2,592, 20,736 and 69,984 tets (cells 4, 2 and 1.33 cm).
+    let ladder = [
+        ([12, 6, 6], 0.04),
+        ([24, 12, 12], 0.02),
+        ([36, 18, 18], 0.04 / 3.0),
+    ];
+    let theta = AmgSettings::DEFAULT_THETA;
+    let mut first_iterations = 0;
+    for (k, (cells, h)) in ladder.into_iter().enumerate() {
+        let system = fem_box_sized(cells, h);
+        let (it, stats) = amg_at(&system, theta);
+        let (it0, stats0) = amg_at(&system, 0.0);
+        eprintln!(
+            "{cells:?}: θ = {theta}: {it} iterations, operator complexity {:.2}, grid {:.2}, \
+             {} levels; θ = 0: {it0} iterations, operator complexity {:.2}",
+            stats.operator_complexity,
+            stats.grid_complexity,
+            stats.levels,
+            stats0.operator_complexity
+        );
+        assert!(
+            stats.operator_complexity < 1.6,
+            "operator complexity {:.2} at {cells:?}",
+            stats.operator_complexity
+        );
+        assert!(stats.grid_complexity < 1.3);
+        // Filtering pays in iterations (measured with `--example amg_ladder`: 30 vs 36 at
+        // 20k tets, 31 vs 41 at 70k); the operator complexity stays about 1.4 either way.
+        if k > 0 {
+            assert!(it < it0, "θ = {theta}: {it} iterations, θ = 0: {it0}");
+        }
+        if k == 0 {
+            first_iterations = it;
+        } else {
+            // Nearly flat: 27× the tets costs less than 1.5× the iterations.
+            assert!(
+                (it as f64) < 1.5 * first_iterations as f64,
+                "{first_iterations} -> {it} iterations"
+            );
+        }
+        assert!(it <= 100, "{it} iterations at {cells:?}");
+    }
+}
+
+#[test]
+fn a_reused_hierarchy_follows_new_values_and_still_converges() {
+    let system = fem_box_sized([20, 10, 10], 0.02);
+    let a = &system.matrix;
+    let settings = |rebuild_every| CgSettings {
+        preconditioner: Preconditioner::Amg,
+        amg: AmgSettings {
+            rebuild_every,
+            ..AmgSettings::default()
+        },
+        ..CgSettings::default()
+    };
+    let mut reused = CgSolver::new(settings(3));
+    reused.analyze(a.pattern()).unwrap();
+    reused.set_coordinates(&system.positions);
+    // Matrices that differ in more than scale: (1 + k) A plus k times its diagonal.
+    let diagonal: Vec<usize> = (0..a.dim())
+        .map(|i| a.pattern().find(i, i).unwrap())
+        .collect();
+    for k in 0..4 {
+        let mut m = a.clone();
+        m.values_mut().iter_mut().for_each(|v| *v *= 1.0 + k as f64);
+        for &d in &diagonal {
+            m.values_mut()[d] += k as f64 * a.values()[d];
+        }
+        let rhs: Vec<f64> = (0..a.dim()).map(|i| (i % 7) as f64 - 3.0).collect();
+        reused.factor(&m).unwrap();
+        let mut x = rhs.clone();
+        let r = reused.solve(&mut x).unwrap();
+        assert!(r.relative_residual <= 1e-8);
+        // A hierarchy built for this very matrix.
+        let mut fresh = CgSolver::new(settings(1));
+        fresh.analyze(a.pattern()).unwrap();
+        fresh.set_coordinates(&system.positions);
+        fresh.factor(&m).unwrap();
+        let mut y = rhs.clone();
+        let f = fresh.solve(&mut y).unwrap();
+        eprintln!(
+            "k = {k}: reused {} iterations, fresh {}",
+            r.iterations, f.iterations
+        );
+        assert!(
+            r.iterations as f64 <= 1.3 * f.iterations as f64 + 2.0,
+            "reused {} vs fresh {}",
+            r.iterations,
+            f.iterations
+        );
+    }
+    let amg = reused.stats().amg;
+    assert_eq!((amg.builds, amg.reuses), (2, 2), "{amg:?}");
+}
+
+#[test]
+fn amg_settings_out_of_range_are_refused_with_the_key() {
+    let bad = AmgSettings {
+        strength_threshold: 1.5,
+        ..AmgSettings::default()
+    };
+    let e = bad.validate().unwrap_err();
+    assert!(e.contains("solver.cg.amg.strength_threshold"), "{e}");
+    assert!(AmgSettings::default().validate().is_ok());
+}
+
+#[test]
 fn rigid_body_modes_beat_translations_alone() {
     let system = fem_ball(6);
     let with = iterations(&system, Preconditioner::Amg, true);
@@ -118,6 +264,19 @@ fn auto_prediction_prefers_cholesky_for_small_fill_and_cg_for_large() {
     assert!(AutoPrediction::new(1_000_000, 1e9, 1_000_000).direct());
     // 1e8 entries and 1e12 flops (a 200k-tet box): iterative.
     assert!(!AutoPrediction::new(100_000_000, 1e12, 10_000_000).direct());
+}
+
+#[test]
+fn auto_chooses_cg_with_amg_on_a_large_box_from_the_analysis_alone() {
+    // 96k tets: predicted Cholesky 4.4e10 flops against CG's O(nnz(A)) work (measured with
+    // `--example auto_calibrate`: 2.5 s vs 0.78 s per Newton iteration).
+    let system = fem_box([40, 20, 20]);
+    let mut s = AutoSolver::new(SolverSettings::default());
+    s.analyze(system.matrix.pattern()).unwrap();
+    let p = s.prediction().unwrap();
+    assert!(!p.direct(), "{p:?}");
+    assert_eq!(s.stats().chosen, "cg");
+    assert_eq!(s.stats().ordering, "amg");
 }
 
 #[test]

@@ -287,6 +287,7 @@ impl IntegratorSettings {
         self.vbd.validate()?;
         self.projective_dynamics.validate()?;
         self.xpbd.validate()?;
+        self.solver.cg.amg.validate()?;
         if self.static_solve.max_load_steps == 0 {
             return Err("static.max_load_steps must be >= 1".into());
         }

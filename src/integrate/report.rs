@@ -55,6 +55,14 @@ pub struct StepReport {
     pub ordering: &'static str,
     /// Threads of the numeric factorization (1 when kept sequential by the flops rule).
     pub factor_threads: u32,
+    /// AMG (CG's preconditioner): Σ nnz(A_l) / nnz(A_0) and Σ n_l / n_0 of the largest
+    /// hierarchy in use (0 without AMG).
+    pub amg_operator_complexity: f64,
+    pub amg_grid_complexity: f64,
+    /// AMG setups that built the hierarchy, and setups that kept its structure and
+    /// recomputed only its values.
+    pub amg_builds: u32,
+    pub amg_reuses: u32,
     /// Times an indefinite system matrix was replaced by its projected (PSD) form.
     pub indefinite_fallbacks: u32,
     /// Times a failed step was retried as two steps of half the size.
@@ -92,6 +100,12 @@ impl StepReport {
         self.factor_nnz = self.factor_nnz.max(other.factor_nnz);
         self.symbolic_analyses += other.symbolic_analyses;
         self.factor_flops = self.factor_flops.max(other.factor_flops);
+        self.amg_operator_complexity = self
+            .amg_operator_complexity
+            .max(other.amg_operator_complexity);
+        self.amg_grid_complexity = self.amg_grid_complexity.max(other.amg_grid_complexity);
+        self.amg_builds += other.amg_builds;
+        self.amg_reuses += other.amg_reuses;
         if !other.linear_solver.is_empty() {
             self.linear_solver = other.linear_solver;
             self.ordering = other.ordering;

@@ -50,6 +50,10 @@ fn is_indefinite(e: &SolveError) -> bool {
 fn record_solver(stats: &crate::solve::SolverStats, report: &mut StepReport) {
     report.factor_nnz = report.factor_nnz.max(stats.factor_nnz);
     report.factor_flops = report.factor_flops.max(stats.factor_flops);
+    report.amg_operator_complexity = report
+        .amg_operator_complexity
+        .max(stats.amg.operator_complexity);
+    report.amg_grid_complexity = report.amg_grid_complexity.max(stats.amg.grid_complexity);
     report.linear_solver = stats.chosen;
     report.ordering = stats.ordering;
     report.factor_threads = if stats.parallel_factor {
@@ -144,8 +148,12 @@ impl ImplicitSystem {
     fn factor_current(&mut self, x: &[f64], report: &mut StepReport) -> Result<(), SolveError> {
         let start = Instant::now();
         self.solver.set_coordinates(x);
+        let amg_before = self.solver.stats().amg;
         let result = self.solver.factor(self.matrix.as_ref().expect("assembled"));
         report.times.factor += start.elapsed().as_secs_f64();
+        let amg = self.solver.stats().amg;
+        report.amg_builds += amg.builds.saturating_sub(amg_before.builds) as u32;
+        report.amg_reuses += amg.reuses.saturating_sub(amg_before.reuses) as u32;
         let factored = result?;
         report.factorizations += 1;
         record_solver(self.solver.stats(), report);

@@ -92,6 +92,12 @@ pub struct Sample {
     pub local_iterations: u64,
     /// Symbolic analyses since the previous row.
     pub symbolic_analyses: u64,
+    /// AMG hierarchy (CG's preconditioner) since the previous row: the largest operator and
+    /// grid complexities, full builds and value-only reuses (0 without AMG).
+    pub amg_operator_complexity: f64,
+    pub amg_grid_complexity: f64,
+    pub amg_builds: u64,
+    pub amg_reuses: u64,
 }
 
 /// What watches a run: every sampled row, and (optionally) the state after every step —
@@ -224,6 +230,10 @@ fn sample(
         energy_budget: balance.budget(),
         local_iterations: work.local_iterations.into(),
         symbolic_analyses: work.symbolic_analyses.into(),
+        amg_operator_complexity: work.amg_operator_complexity,
+        amg_grid_complexity: work.amg_grid_complexity,
+        amg_builds: work.amg_builds.into(),
+        amg_reuses: work.amg_reuses.into(),
     }
 }
 

@@ -3,36 +3,46 @@
 //!
 //! The direct solver's cost grows like n² on 3D meshes (its factorization flops), CG with
 //! AMG's like n (a fixed number of V-cycles of O(nnz(A)) work), so large meshes go to CG.
-//! The rule compares predicted seconds:
+//! The rule compares predicted seconds per Newton iteration:
 //! - Cholesky: `factor_flops / DIRECT_FLOPS_PER_SECOND` (dense supernodal kernels) plus two
-//!   triangular solves;
-//! - CG: `(AMG_SETUP_MATVECS + CG_ITERATIONS · MATVECS_PER_ITERATION)` mat-vecs of
-//!   `2 nnz(A)` flops at `SPARSE_FLOPS_PER_SECOND`.
+//!   triangular solves (`4 nnz(L)` flops);
+//! - CG with AMG: mat-vecs of `2 nnz(A)` flops at `SPARSE_FLOPS_PER_SECOND`: the setup
+//!   amortized over the hierarchy's reuse (one build of `AMG_BUILD_MATVECS` per
+//!   `rebuild_every` setups, value-only refreshes of `AMG_REFRESH_MATVECS` in between) plus
+//!   `CG_ITERATIONS` iterations of `MATVECS_PER_ITERATION`.
 //!
-//! The constants are measured on this project's machine (see DESIGN.md, "linear_solver =
-//! auto"); the rates cancel to a ratio, so a faster machine moves both alike. The symbolic
-//! analysis is done once (and handed to Cholesky when it wins); the choice is reported per
-//! run (`SolverStats::chosen`, the `linear_solver_used` column).
+//! The constants were measured with `cargo run --release --example auto_calibrate` (boxes
+//! and balls of 1.5k–96k tets, one thread, medians of 3, the machine loaded: load average
+//! ~4 on 2 cores, late 2026): faer factorized at 1.05–1.78e10 flop/s from 12k tets up
+//! (7.6e9 at 1.5k), a mat-vec ran at 2.2–3.0e9 flop/s, an AMG build cost 350–520 mat-vecs and a
+//! refresh 57–183, an iteration 10–14, and CG took 20–24 iterations on a smooth load (21–33 per
+//! Newton solve in `experiments/solver_scaling.toml`). The rates enter only as their ratio.
+//! With them the rule picked the measured faster solver on all six meshes of that run
+//! (Cholesky up to the 12k box and 10k ball, CG+AMG from 48k tets). The symbolic analysis is
+//! done once (and handed to Cholesky when it wins); the choice is reported per run
+//! (`SolverStats::chosen`, the `linear_solver_used` column).
 
 use std::sync::Arc;
 
 use super::faer_common::SymbolicAnalysis;
 use super::{
-    CgSettings, CgSolver, CholeskySolver, FactorReport, LinearSolver, Preconditioner, SolveError,
-    SolveReport, SolverSettings, SolverStats,
+    AmgSettings, CgSettings, CgSolver, CholeskySolver, FactorReport, LinearSolver, Preconditioner,
+    SolveError, SolveReport, SolverSettings, SolverStats,
 };
 use crate::sparse::{SparsityPattern, SymmetricMatrix};
 
 /// Flops per second of faer's supernodal factorization (one thread, 3D FEM systems).
-pub const DIRECT_FLOPS_PER_SECOND: f64 = 8.0e9;
-/// Flops per second of a sparse mat-vec or a Gauss–Seidel sweep.
-pub const SPARSE_FLOPS_PER_SECOND: f64 = 1.0e9;
-/// Mat-vec equivalents of one AMG setup (Galerkin products, smoothing the prolongator).
-pub const AMG_SETUP_MATVECS: f64 = 30.0;
+pub const DIRECT_FLOPS_PER_SECOND: f64 = 1.5e10;
+/// Flops per second of a sparse mat-vec (`2 nnz(A)` flops).
+pub const SPARSE_FLOPS_PER_SECOND: f64 = 2.6e9;
+/// Mat-vec equivalents of a full AMG build (strength, aggregation, prolongators, Galerkin).
+pub const AMG_BUILD_MATVECS: f64 = 450.0;
+/// Mat-vec equivalents of a value-only AMG refresh (Galerkin values, coarse factor).
+pub const AMG_REFRESH_MATVECS: f64 = 140.0;
 /// Mat-vec equivalents per AMG-preconditioned CG iteration (V-cycle plus CG's own).
-pub const MATVECS_PER_ITERATION: f64 = 5.0;
-/// CG iterations expected per solve at the default tolerance with AMG.
-pub const CG_ITERATIONS: f64 = 40.0;
+pub const MATVECS_PER_ITERATION: f64 = 12.0;
+/// CG iterations expected per Newton solve at the default tolerance with AMG.
+pub const CG_ITERATIONS: f64 = 30.0;
 
 /// What the rule predicts for one pattern (seconds per Newton iteration).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -42,11 +52,34 @@ pub struct AutoPrediction {
 }
 
 impl AutoPrediction {
-    /// The prediction from the factor's cost and `nnz(A)` (both triangles).
+    /// The prediction from the factor's cost and `nnz(A)` (both triangles), with AMG's
+    /// default hierarchy reuse.
     pub fn new(factor_nnz: usize, factor_flops: f64, matrix_nnz: usize) -> Self {
+        Self::with_rebuild_every(
+            factor_nnz,
+            factor_flops,
+            matrix_nnz,
+            AmgSettings::DEFAULT_REBUILD_EVERY,
+        )
+    }
+
+    /// As [`AutoPrediction::new`] with AMG rebuilding its hierarchy every `rebuild_every`
+    /// setups (0: once per pattern, counted as every 100).
+    pub fn with_rebuild_every(
+        factor_nnz: usize,
+        factor_flops: f64,
+        matrix_nnz: usize,
+        rebuild_every: usize,
+    ) -> Self {
         let direct = (factor_flops + 4.0 * factor_nnz as f64) / DIRECT_FLOPS_PER_SECOND;
         let matvec = 2.0 * matrix_nnz as f64 / SPARSE_FLOPS_PER_SECOND;
-        let iterative = matvec * (AMG_SETUP_MATVECS + CG_ITERATIONS * MATVECS_PER_ITERATION);
+        let k = if rebuild_every == 0 {
+            100.0
+        } else {
+            rebuild_every as f64
+        };
+        let setup = (AMG_BUILD_MATVECS + (k - 1.0) * AMG_REFRESH_MATVECS) / k;
+        let iterative = matvec * (setup + CG_ITERATIONS * MATVECS_PER_ITERATION);
         Self {
             direct_seconds: direct,
             iterative_seconds: iterative,
@@ -108,7 +141,12 @@ impl LinearSolver for AutoSolver {
             return self.inner("analyze")?.analyze(pattern);
         }
         let analysis = SymbolicAnalysis::new(pattern, &self.settings.direct)?;
-        let prediction = AutoPrediction::new(analysis.cost.nnz, analysis.cost.flops, pattern.nnz());
+        let prediction = AutoPrediction::with_rebuild_every(
+            analysis.cost.nnz,
+            analysis.cost.flops,
+            pattern.nnz(),
+            self.settings.cg.amg.rebuild_every,
+        );
         let solver: Box<dyn LinearSolver> = if prediction.direct() {
             let mut s = CholeskySolver::new(self.settings.direct);
             s.analyze_with(pattern, Some(analysis))?;

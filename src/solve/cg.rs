@@ -19,6 +19,7 @@ use std::time::{Duration, Instant};
 
 use serde::{Deserialize, Serialize};
 
+use super::amg::AmgSettings;
 use super::precond::PrecondState;
 pub use super::precond::Preconditioner;
 use super::{
@@ -41,6 +42,9 @@ pub struct CgSettings {
     pub preconditioner: Preconditioner,
     /// Start from the previous solution instead of zero. Default: false.
     pub warm_start: bool,
+    /// The AMG preconditioner's settings (strength threshold, hierarchy reuse); read only
+    /// with `preconditioner = "amg"`.
+    pub amg: AmgSettings,
     /// Threads for the mat-vec (results are bitwise identical either way). Default:
     /// sequential. A run setting, not part of a config file.
     #[serde(skip)]
@@ -54,6 +58,7 @@ impl Default for CgSettings {
             max_iterations: 2000,
             preconditioner: Preconditioner::BlockJacobi3,
             warm_start: false,
+            amg: AmgSettings::default(),
             parallelism: Parallelism::Sequential,
         }
     }
@@ -233,7 +238,8 @@ impl LinearSolver for CgSolver {
             self.stats.analyses_reused += 1;
         } else {
             let n = pattern.dim();
-            self.precond = PrecondState::analyze(self.settings.preconditioner, pattern);
+            self.precond =
+                PrecondState::analyze(self.settings.preconditioner, self.settings.amg, pattern);
             let v = || vec![0.0; n];
             self.w = Work {
                 b: v(),
@@ -264,6 +270,9 @@ impl LinearSolver for CgSolver {
         };
         report.time = start.elapsed();
         self.stats.factor_time += report.time;
+        if let Some(amg) = self.precond.amg_stats() {
+            self.stats.amg = amg;
+        }
         match result {
             Ok(()) => {
                 self.analyzed.factored = true;

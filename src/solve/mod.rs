@@ -34,6 +34,7 @@ use std::time::Duration;
 
 use crate::sparse::{SparsityPattern, SymmetricMatrix};
 
+pub use amg::{AmgSettings, AmgStats};
 pub use auto::{AutoPrediction, AutoSolver};
 pub use cg::{CgSettings, CgSolver, Preconditioner};
 pub use common::symmetric_mul_vec;
@@ -218,4 +219,7 @@ pub struct SolverStats {
     pub parallel_factor: bool,
     /// What `auto` chose (the solver that did the work), or this solver's own name.
     pub chosen: &'static str,
+    /// CG with AMG: the current hierarchy's shape and its builds and reuses (default
+    /// otherwise).
+    pub amg: AmgStats,
 }

@@ -8,7 +8,7 @@
 use nalgebra::Matrix3;
 use serde::{Deserialize, Serialize};
 
-use super::amg::Amg;
+use super::amg::{Amg, AmgSettings, AmgStats};
 use super::{FactorReport, SolveError};
 use crate::sparse::{SparsityPattern, SymmetricMatrix};
 
@@ -76,7 +76,8 @@ pub(crate) enum PrecondState {
 
 impl PrecondState {
     /// Allocates the storage of `kind` for `pattern`.
-    pub fn analyze(kind: Preconditioner, pattern: &SparsityPattern) -> Self {
+    /// `amg` configures the AMG preconditioner (ignored by the others).
+    pub fn analyze(kind: Preconditioner, amg: AmgSettings, pattern: &SparsityPattern) -> Self {
         let n = pattern.dim();
         let diag_pos = || {
             (0..n)
@@ -110,7 +111,7 @@ impl PrecondState {
                 }
             }
             Preconditioner::IncompleteCholesky => Self::Ic0(Ic0::analyze(pattern)),
-            Preconditioner::Amg => Self::Amg(Box::default()),
+            Preconditioner::Amg => Self::Amg(Box::new(Amg::new(amg))),
         }
     }
 
@@ -119,6 +120,14 @@ impl PrecondState {
         match self {
             Self::Ic0(ic) => ic.row_idx.len(),
             _ => 0,
+        }
+    }
+
+    /// AMG's hierarchy shape and build/reuse counts (`None` for the other preconditioners).
+    pub fn amg_stats(&self) -> Option<AmgStats> {
+        match self {
+            Self::Amg(amg) => Some(amg.stats),
+            _ => None,
         }
     }
 

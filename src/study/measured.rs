@@ -79,6 +79,8 @@ pub fn summary_cells(s: &RunSummary) -> Vec<(&'static str, String)> {
     let t = &s.totals;
     let steps = s.steps_completed.max(1) as f64;
     let f = |x: f64| cell(Some(x));
+    // Empty without an AMG hierarchy.
+    let amg = |x: f64| cell((t.amg_builds > 0).then_some(x));
     vec![
         ("steps", s.steps_completed.to_string()),
         ("final_time", f(s.final_time)),
@@ -120,6 +122,10 @@ pub fn summary_cells(s: &RunSummary) -> Vec<(&'static str, String)> {
         ("symbolic_analyses", t.symbolic_analyses.to_string()),
         ("factor_flops", f(t.factor_flops)),
         ("factor_threads", t.factor_threads.to_string()),
+        ("amg_operator_complexity", amg(t.amg_operator_complexity)),
+        ("amg_grid_complexity", amg(t.amg_grid_complexity)),
+        ("amg_builds", t.amg_builds.to_string()),
+        ("amg_reuses", t.amg_reuses.to_string()),
         (
             "linear_iterations_per_solve",
             f(t.linear_iterations as f64 / f64::from(t.linear_solves.max(1))),
@@ -164,13 +170,26 @@ pub fn cap_cells(spec: &RunSpec) -> Vec<(&'static str, String)> {
             ("newton_max_iterations", String::new()),
             ("newton_required", String::new()),
             ("newton_refactor_every", String::new()),
+            ("amg_strength_threshold", String::new()),
+            ("amg_rebuild_every", String::new()),
         ];
     }
     let newton = &integrator.newton;
+    // AMG's settings where AMG can run: CG with it, or `auto` (which may choose it).
+    let amg = &integrator.solver.cg.amg;
+    let uses_amg = integrator.linear_solver.name() == "auto"
+        || (integrator.linear_solver.name() == "cg"
+            && integrator.solver.cg.preconditioner == crate::solve::Preconditioner::Amg);
+    let amg_cell = |s: String| if uses_amg { s } else { String::new() };
     vec![
         ("newton_max_iterations", newton.max_iterations.to_string()),
         ("newton_required", newton.require_convergence.to_string()),
         ("newton_refactor_every", newton.refactor_every.to_string()),
+        (
+            "amg_strength_threshold",
+            amg_cell(amg.strength_threshold.to_string()),
+        ),
+        ("amg_rebuild_every", amg_cell(amg.rebuild_every.to_string())),
     ]
 }
 

@@ -51,6 +51,12 @@ pub const COLUMNS: &[&str] = &[
     "symbolic_analyses",
     "factor_flops",
     "factor_threads",
+    "amg_operator_complexity",
+    "amg_grid_complexity",
+    "amg_builds",
+    "amg_reuses",
+    "amg_strength_threshold",
+    "amg_rebuild_every",
     "linear_iterations_per_solve",
     "peak_rss_mib",
 ];
