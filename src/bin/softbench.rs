@@ -526,8 +526,14 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
                     .collect();
                 format!("; springs: {}", counts.join(", "))
             };
+            let internal_note = summary.internal_dt.map_or_else(String::new, |d| {
+                format!(
+                    "; internal steps {} (dt min {:e}, median {:e}, max {:e} s)",
+                    summary.totals.substeps, d.min, d.median, d.max
+                )
+            });
             console::out(&format!(
-                "{}: completed {} steps of {} with dt = {:e} s in {:.3} s{unconverged}; wrote {}{frames_note}{springs_note}",
+                "{}: completed {} steps of {} with dt = {:e} s in {:.3} s{unconverged}{internal_note}; wrote {}{frames_note}{springs_note}",
                 built.name,
                 summary.steps_completed,
                 summary.method,

@@ -10,4 +10,4 @@ mod run_loop;
 pub use balance::{EnergyBalance, EnergyScale};
 pub use metrics::{Energies, Metrics};
 pub use outcome::{Outcome, OutcomeKind};
-pub use run_loop::{Observer, RunSummary, Sample, run};
+pub use run_loop::{Observer, RunSummary, Sample, StepSizes, run};

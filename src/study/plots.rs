@@ -643,12 +643,16 @@ fn phase_chart(
     rows: &[&Vec<String>],
 ) -> StackedBarChart {
     let parts = [
+        "force_seconds",
+        "mass_solve_seconds",
         "assemble_seconds",
         "factor_seconds",
         "solve_seconds",
         "qp_seconds",
     ];
     let names = [
+        "forces",
+        "mass solves",
         "assembly",
         "factorization",
         "linear solves",
