@@ -443,14 +443,18 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
         )),
         None => rows_out,
     };
+    let horizon = state.t + config.run.dt * config.run.steps as f64;
+    let mut progress = run::RunProgress::new(observer, config.run.steps, horizon, true);
     let summary = run::run(
         &mut built.model,
         integrator.as_mut(),
         &mut state,
         &config.run,
-        observer,
+        &mut progress,
     )
     .context("cannot write the output")?;
+    progress.finish();
+    drop(progress);
     let snapshots = recorder.map(|r| r.finish(&built.model, &summary.outcome));
     if let Some(frames) = frames {
         frames_written = frames

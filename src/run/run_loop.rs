@@ -98,7 +98,7 @@ pub struct Sample {
     pub mass_solves: u64,
     pub mass_solve_seconds: f64,
     /// The adaptive controller's accepted internal steps since the previous row (s): smallest,
-    /// median and largest; empty for fixed-step methods.
+    /// median and largest; empty for fixed-step methods and rows without steps.
     pub internal_dt_min: Option<f64>,
     pub internal_dt_median: Option<f64>,
     pub internal_dt_max: Option<f64>,
