@@ -29,9 +29,19 @@ impl<'a> RunProgress<'a> {
             let bar = ProgressBar::new(steps as u64);
             bar.set_style(
                 ProgressStyle::with_template(
-                    "{bar:30.cyan/blue} {pos}/{len} steps, {msg}, {elapsed} elapsed, eta {eta}",
+                    "{bar:30.cyan/blue} {pos}/{len} steps, {msg}, {elapsed} elapsed, eta {step_eta}",
                 )
-                .expect("valid template"),
+                .expect("valid template")
+                // No estimate before the first step (indicatif would say "0s").
+                .with_key(
+                    "step_eta",
+                    |state: &indicatif::ProgressState, w: &mut dyn std::fmt::Write| {
+                        let _ = match state.pos() {
+                            0 => w.write_str("?"),
+                            _ => write!(w, "{:#}", indicatif::HumanDuration(state.eta())),
+                        };
+                    },
+                ),
             );
             bar.enable_steady_tick(Duration::from_millis(250));
             bar
