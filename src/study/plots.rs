@@ -682,7 +682,8 @@ fn phase_chart(
     }
     StackedBarChart {
         title: format!("Time per step by phase: {scene}"),
-        y_label: "wall time per step (s)".into(),
+        y_label: "wall time per step (s); no bar: phase not used".into(),
+        y_log: true,
         categories,
         parts: names
             .iter()
