@@ -429,3 +429,16 @@ fn an_interrupted_study_resumes_where_it_stopped() {
     }
     assert_complete(&dir, &IDENTITY);
 }
+
+#[test]
+fn run_accepts_render_and_draws_the_pictures() {
+    let tmp = TempDir::new("study-render");
+    run_study_ok(
+        &study("quickstart.toml"),
+        tmp.path(),
+        &["--quick", "--render", "--only", "soft_beam-rk4*"],
+    );
+    let dir = tmp.path().join("quickstart");
+    assert!(dir.join("pictures-soft_beam.png").is_file());
+    assert!(dir.join("pictures-soft_beam.gif").is_file());
+}

@@ -95,6 +95,10 @@ struct RunArgs {
     /// cost; the same for every K. The last shard to finish merges (see `merge`).
     #[arg(long, value_name = "K/N")]
     shard: Option<study::Shard>,
+    /// Draw the pictures of the bodies (panel PNG and GIF per scene, in report.md). A study
+    /// always draws them; the flag is accepted so `run --render` works as `simulate --render`.
+    #[arg(long)]
+    render: bool,
 }
 
 #[derive(Args)]
@@ -672,6 +676,7 @@ fn run_study(args: &RunArgs) -> anyhow::Result<ExitCode> {
     }
     // Everything that can be wrong with the study is found before anything is written.
     let study = study::load(&args.study, args.quick)?;
+    let _always_rendered = args.render;
     let options = study::RunOptions {
         dir: args.out.join(&study.file.name),
         only: args.only.clone(),
