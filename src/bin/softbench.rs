@@ -148,8 +148,9 @@ struct PlotArgs {
 struct RenderArgs {
     /// A `simulate --render` output folder (with run.snapshots) or a study's results folder.
     dir: PathBuf,
-    /// Body colour: `j` (det F of the tet under each face) or `plain`.
-    #[arg(long, default_value = "j", value_parser = ["j", "plain"])]
+    /// Body colour: `j` (det F of the tet under each face), `energy` (its elastic energy
+    /// density, white at 0, dark red at the run's largest) or `plain`.
+    #[arg(long, default_value = "j", value_parser = ["j", "energy", "plain"])]
     color: String,
 }
 
@@ -900,10 +901,10 @@ fn draw_run_pictures(dir: &Path, s: &Snapshots, coloring: Coloring) -> anyhow::R
 }
 
 fn render_folder(args: &RenderArgs) -> anyhow::Result<ExitCode> {
-    let coloring = if args.color == "plain" {
-        Coloring::Plain
-    } else {
-        Coloring::VolumeRatio
+    let coloring = match args.color.as_str() {
+        "plain" => Coloring::Plain,
+        "energy" => Coloring::EnergyDensity,
+        _ => Coloring::VolumeRatio,
     };
     let single = args.dir.join(RUN_SNAPSHOTS);
     if single.is_file() {
