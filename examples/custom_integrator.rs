@@ -30,11 +30,17 @@ struct SspRk3 {
 
 impl SspRk3 {
     /// `stage = stage + dt f(stage)` at time `t`.
-    fn euler(&mut self, model: &mut Model, t: f64, dt: f64) -> Result<(), StepError> {
+    fn euler(
+        &mut self,
+        model: &mut Model,
+        t: f64,
+        dt: f64,
+        report: &mut StepReport,
+    ) -> Result<(), StepError> {
         self.a.resize(self.stage.q.len(), 0.0);
         model.set_time(t);
         self.dynamics
-            .acceleration(model, &self.stage.q, &self.stage.v, &mut self.a)?;
+            .acceleration(model, &self.stage.q, &self.stage.v, &mut self.a, report)?;
         for ((q, v), a) in self.stage.q.iter_mut().zip(&mut self.stage.v).zip(&self.a) {
             *q += dt * *v;
             *v += dt * a;
@@ -75,10 +81,10 @@ impl Integrator for SspRk3 {
     ) -> Result<(), StepError> {
         // The state is changed only once every stage has succeeded.
         self.stage.clone_from(state);
-        self.euler(model, state.t, dt)?;
-        self.euler(model, state.t + dt, dt)?;
+        self.euler(model, state.t, dt, report)?;
+        self.euler(model, state.t + dt, dt, report)?;
         self.blend(0.75, state);
-        self.euler(model, state.t + 0.5 * dt, dt)?;
+        self.euler(model, state.t + 0.5 * dt, dt, report)?;
         self.blend(1.0 / 3.0, state);
         state.q.clone_from(&self.stage.q);
         state.v.clone_from(&self.stage.v);

@@ -132,6 +132,7 @@ fn main() -> anyhow::Result<()> {
             ("line search".into(), vec![0.0, 0.0, 0.0, 0.0, 60.0]),
             ("other".into(), vec![12.0, 11.0, 13.0, 10.0, 15.0]),
         ],
+        y_log: true,
     };
 
     for (name, chart) in [

@@ -646,7 +646,17 @@ fn ball_drop(sets: &[&str]) -> (Option<i32>, String, BallDrop) {
         .map(str::to_owned)
         .collect();
     let rows = lines
-        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .map(|l| {
+            l.split(',')
+                .map(|x| {
+                    if x.is_empty() {
+                        f64::NAN
+                    } else {
+                        x.parse().unwrap()
+                    }
+                })
+                .collect()
+        })
         .collect();
     (
         result.status.code(),

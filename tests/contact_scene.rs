@@ -304,7 +304,17 @@ fn simulate_ball_drop_reports_contacts_with_every_response() {
             ["contacts", "max_penetration", "qp_solves", "qp_seconds"]
         );
         let rows: Vec<Vec<f64>> = lines
-            .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+            .map(|l| {
+                l.split(',')
+                    .map(|x| {
+                        if x.is_empty() {
+                            f64::NAN
+                        } else {
+                            x.parse().unwrap()
+                        }
+                    })
+                    .collect()
+            })
             .collect();
         let column = |name: &str| header.iter().position(|h| *h == name).unwrap();
         let (contacts, depth, qps) = (

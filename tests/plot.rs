@@ -72,6 +72,7 @@ fn stacked_chart() -> StackedBarChart {
             ("factorization".into(), vec![3.0, 0.0]),
             ("solve".into(), vec![0.5, 4.0]),
         ],
+        y_log: false,
     }
 }
 
@@ -340,4 +341,126 @@ fn ten_series_have_ten_distinguishable_styles() {
             }
         }
     }
+}
+
+/// Every text `chart` draws lies inside the image.
+fn assert_text_inside(chart: &Chart) -> Vec<softbench::plot::TextBox> {
+    let boxes = softbench::plot::text_boxes(chart).unwrap();
+    assert!(!boxes.is_empty());
+    for b in &boxes {
+        let [l, t, r, bottom] = b.rect;
+        assert!(
+            l >= 0 && t >= 0 && r <= WIDTH as i32 && bottom <= HEIGHT as i32,
+            "{:?} is drawn at {:?}, outside the {WIDTH}x{HEIGHT} image ({})",
+            b.text,
+            b.rect,
+            chart.title()
+        );
+    }
+    boxes
+}
+
+/// The phase chart of a stability study: nine long method labels, one with a word longer
+/// than the usual rotated line.
+fn phase_chart() -> StackedBarChart {
+    let categories: Vec<String> = [
+        "rk4 model=neo-hookean dt=4.054e-6",
+        "linearly-implicit-euler / cholesky model=neo-hookean dt=0.004511",
+        "backward-euler / cholesky model=neo-hookean dt=0.03",
+        "bdf2 / cholesky model=neo-hookean dt=0.03",
+        "rk4 model=stable-neo-hookean dt=4.893e-6",
+        "linearly-implicit-euler / cholesky model=stable-neo-hookean dt=0.03",
+        "backward-euler / cholesky model=stable-neo-hookean reached_dt_max_of_the_ladder=0.03",
+        "implicit-midpoint / cholesky model=stable-neo-hookean dt=8.442e-6",
+        "bdf2 / cholesky model=stable-neo-hookean dt=0.03",
+    ]
+    .map(str::to_owned)
+    .to_vec();
+    let n = categories.len();
+    StackedBarChart {
+        title: "Time per step by phase: armadillo_yank".into(),
+        y_label: "wall time per step (s)".into(),
+        categories,
+        parts: vec![
+            ("forces".into(), vec![2e-4; n]),
+            (
+                "assembly".into(),
+                (0..n).map(|i| (i % 2) as f64 * 1e-2).collect(),
+            ),
+            ("factorization".into(), vec![5e-3; n]),
+            ("other".into(), vec![1e-5; n]),
+        ],
+        y_log: true,
+    }
+}
+
+#[test]
+fn no_tick_or_category_label_is_drawn_outside_the_image() {
+    let phases = phase_chart();
+    for y_log in [true, false] {
+        let chart = Chart::Stacked(StackedBarChart {
+            y_log,
+            ..phases.clone()
+        });
+        let boxes = assert_text_inside(&chart);
+        // No word is cut between characters: each one is drawn whole on some line.
+        for label in &phases.categories {
+            for word in label.split([' ', '/', '-']).filter(|w| !w.is_empty()) {
+                assert!(
+                    boxes.iter().any(|b| b.text.contains(word)),
+                    "{word:?} of {label:?} is not drawn whole: {:?}",
+                    boxes.iter().map(|b| &b.text).collect::<Vec<_>>()
+                );
+            }
+        }
+    }
+    let bars = BarChart {
+        title: "Largest stable dt".into(),
+        y_label: "dt (s)".into(),
+        y_log: true,
+        bars: phases
+            .categories
+            .iter()
+            .map(|c| Bar {
+                label: c.clone(),
+                value: Some(1e-3),
+                ..Default::default()
+            })
+            .collect(),
+        ..Default::default()
+    };
+    assert_text_inside(&Chart::Bar(bars));
+    assert_text_inside(&Chart::Line(line_chart()));
+}
+
+#[test]
+fn a_legend_of_twenty_series_stays_inside_the_image() {
+    let series = (0..20)
+        .map(|i| Series {
+            label: format!("method-{i} / cholesky model=stable-neo-hookean"),
+            points: (1..50)
+                .map(|k| (k as f64 * 1e-3, (k * (i + 1)) as f64))
+                .collect(),
+            ended: i % 5 == 0,
+        })
+        .collect();
+    let chart = Chart::Line(LineChart {
+        title: "Energy over time".into(),
+        x_label: "time (s)".into(),
+        y_label: "total energy (J)".into(),
+        x_log: true,
+        y_log: false,
+        series,
+    });
+    let boxes = assert_text_inside(&chart);
+    for i in 0..20 {
+        let label = format!("method-{i} / cholesky");
+        assert!(
+            boxes.iter().any(|b| b.text.contains(&label)),
+            "series {i} is in the legend"
+        );
+    }
+    let dir = TempDir::new("plot-legend");
+    draw(&chart, &dir.path().join("legend20")).unwrap();
+    let _ = std::fs::copy(dir.path().join("legend20.png"), "/tmp/wt14/legend20.png");
 }

@@ -51,6 +51,7 @@ fn box_snapshots(frames: usize) -> Snapshots {
                     .map(|p| [p[0] + 0.1 * k as f32, p[1], p[2]])
                     .collect(),
                 j: vec![1.0; 12],
+                energy_density: vec![0.0; 12],
                 obstacles: Vec::new(),
                 last_valid: false,
             })
@@ -415,4 +416,81 @@ fn a_stability_study_pictures_each_methods_chosen_trial_and_marks_one_unstable_e
     assert_eq!(img.height(), 2 * (CELL.1 + 34));
     let report = std::fs::read_to_string(results.join("report.md")).unwrap();
     assert!(report.contains("![The body over time: soft_beam](pictures-soft_beam.png)"));
+
+/// Snapshots of a course Neo-Hookean box at rest (step 0) and with one corner pulled out by
+/// 10% of the box (step 1), recorded by the study's recorder.
+fn energy_snapshots() -> Snapshots {
+    use softbench::integrate::State;
+    use softbench::material::{MaterialModel, NeoHookean};
+    use softbench::model::{Model, ModelSpec};
+    use softbench::run::Observer;
+    let mesh = softbench::mesh::generate::box_mesh([2, 1, 1], [0.2, 0.1, 0.1]);
+    let material = MaterialModel::NeoHookean(NeoHookean::from_c_d(1e4, 2e4));
+    let model = Model::new(ModelSpec::elastic(mesh, material, 1000.0)).unwrap();
+    let rest = State::at_rest(&model);
+    let mut pulled = rest.clone();
+    pulled.q[0] -= 0.02;
+    let surface = softbench::render::Surface::boundary(&model, model.tets());
+    let mut rows = |_: &softbench::run::Sample| Ok(());
+    let mut recorder =
+        softbench::render::SnapshotRecorder::new(&model, &rest, surface, None, (1, 1.0), &mut rows);
+    recorder.after_step(0, &model, &rest).unwrap();
+    recorder.after_step(1, &model, &pulled).unwrap();
+    recorder.finish(&model, &softbench::run::Outcome::completed())
+}
+
+#[test]
+fn energy_colouring_is_one_colour_at_rest_and_higher_where_stretched() {
+    use softbench::render::film::max_energy_density;
+    use softbench::render::raster::energy_color;
+    let s = energy_snapshots();
+    assert_eq!(s.frames.len(), 2);
+    let (rest, pulled) = (&s.frames[0], &s.frames[1]);
+    assert_eq!(rest.energy_density.len(), s.triangles.len());
+    // At rest every tet stores no energy: every face gets the one colour of zero.
+    assert!(
+        rest.energy_density.iter().all(|&e| e == 0.0),
+        "{:?}",
+        rest.energy_density
+    );
+    let max = max_energy_density(&s);
+    assert!(max > 0.0);
+    let zero = energy_color(0.0, max);
+    assert!(
+        rest.energy_density
+            .iter()
+            .all(|&e| energy_color(e, max) == zero)
+    );
+    // Pulling one corner stores energy in the tets around it only; they are redder.
+    let stretched: Vec<f32> = pulled
+        .energy_density
+        .iter()
+        .copied()
+        .filter(|&e| e > 0.0)
+        .collect();
+    assert!(!stretched.is_empty() && stretched.len() < s.triangles.len());
+    let hot = energy_color(max, max);
+    assert_ne!(hot, zero);
+    assert!(i32::from(hot[0]) - i32::from(hot[2]) > i32::from(zero[0]) - i32::from(zero[2]));
+    // And the densities survive the file.
+    let dir = TempDir::new("render-energy");
+    let path = dir.path().join("e.snapshots");
+    s.write(&path).unwrap();
+    assert_eq!(Snapshots::read(&path).unwrap(), s);
+    // Drawn, the energy colouring is not the det F one.
+    let camera = Camera::framing(&Bounds::of(&pulled.positions).unwrap(), s.up, 160, 120);
+    let draw = |frame: &SnapshotFrame, c: Coloring| {
+        let mut canvas = Canvas::new(160, 120);
+        softbench::render::film::draw_frame(&mut canvas, &camera, &s, frame, c);
+        canvas
+    };
+    let pixels = |c: &Canvas| -> Vec<[u8; 3]> {
+        (0..120)
+            .flat_map(|y| (0..160).map(move |x| (x, y)))
+            .map(|(x, y)| c.pixel(x, y))
+            .collect()
+    };
+    let energy = pixels(&draw(pulled, Coloring::EnergyDensity));
+    let j = pixels(&draw(pulled, Coloring::VolumeRatio));
+    assert_ne!(energy, j);
 }

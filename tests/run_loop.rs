@@ -78,3 +78,54 @@ fn an_unstable_explicit_run_is_stopped_with_its_cause() {
     );
     assert!(outcome.step.unwrap() < 500 && summary.steps_completed < 500);
 }
+
+/// Counts what an observer is given.
+#[derive(Default)]
+struct Counting {
+    samples: usize,
+    steps: Vec<usize>,
+}
+
+impl softbench::run::Observer for Counting {
+    fn sample(&mut self, _: &Sample) -> std::io::Result<()> {
+        self.samples += 1;
+        Ok(())
+    }
+    fn after_step(
+        &mut self,
+        step: usize,
+        _: &softbench::model::Model,
+        _: &State,
+    ) -> std::io::Result<()> {
+        self.steps.push(step);
+        Ok(())
+    }
+}
+
+#[test]
+fn the_progress_bar_follows_every_step_and_passes_everything_on() {
+    let mut model = block(true, false);
+    let mut state = kicked(&model);
+    let mut integ = IntegratorSettings {
+        method: Method::from_name("symplectic-euler").unwrap(),
+        ..Default::default()
+    }
+    .build();
+    let mut counting = Counting::default();
+    let cfg = RunConfig {
+        sample_every: 4,
+        ..config(1e-4, 10)
+    };
+    let bar = indicatif::ProgressBar::hidden();
+    let mut progress = softbench::run::RunProgress::with_bar(&mut counting, bar, 1e-3);
+    let summary = run(&mut model, integ.as_mut(), &mut state, &cfg, &mut progress).unwrap();
+    assert_eq!(progress.position(), 10);
+    drop(progress);
+    assert_eq!(summary.steps_completed, 10);
+    assert_eq!(counting.samples, 4, "rows at steps 0, 4, 8 and 10");
+    assert_eq!(counting.steps, (0..=10).collect::<Vec<_>>());
+    assert_eq!(
+        softbench::run::RunProgress::time_text(5e-4, 1e-3),
+        "t = 0.0005 of 0.001 s"
+    );
+}

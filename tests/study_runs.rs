@@ -137,9 +137,24 @@ fn quickstart_quick_writes_every_output() {
         }
     }
     assert!(removed >= 4);
+    // ... and rewrites the report's findings (here: of a report that lost them).
+    let report = std::fs::read_to_string(dir.join("report.md")).unwrap();
+    let start = report
+        .find("## Findings\n")
+        .expect("the report has findings");
+    let end = start + report[start..].find("\nStudy file `").unwrap() + 1;
+    let findings = &report[start..end];
+    assert!(findings.contains("| scene | metric |"), "{findings}");
+    let cut = format!("{}{}", &report[..start], &report[end..]);
+    std::fs::write(dir.join("report.md"), &cut).unwrap();
     let o = softbench(&["plot", dir.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert_complete(&dir, &IDENTITY);
+    assert_eq!(
+        std::fs::read_to_string(dir.join("report.md")).unwrap(),
+        report,
+        "the findings are back, the rest unchanged"
+    );
 }
 
 #[test]
@@ -413,4 +428,17 @@ fn an_interrupted_study_resumes_where_it_stopped() {
         assert!(total.rows.contains(row), "row of {} changed", row[0]);
     }
     assert_complete(&dir, &IDENTITY);
+}
+
+#[test]
+fn run_accepts_render_and_draws_the_pictures() {
+    let tmp = TempDir::new("study-render");
+    run_study_ok(
+        &study("quickstart.toml"),
+        tmp.path(),
+        &["--quick", "--render", "--only", "soft_beam-rk4*"],
+    );
+    let dir = tmp.path().join("quickstart");
+    assert!(dir.join("pictures-soft_beam.png").is_file());
+    assert!(dir.join("pictures-soft_beam.gif").is_file());
 }

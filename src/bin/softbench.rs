@@ -95,6 +95,10 @@ struct RunArgs {
     /// cost; the same for every K. The last shard to finish merges (see `merge`).
     #[arg(long, value_name = "K/N")]
     shard: Option<study::Shard>,
+    /// Draw the pictures of the bodies (panel PNG and GIF per scene, in report.md). A study
+    /// always draws them; the flag is accepted so `run --render` works as `simulate --render`.
+    #[arg(long)]
+    render: bool,
 }
 
 #[derive(Args)]
@@ -144,8 +148,9 @@ struct PlotArgs {
 struct RenderArgs {
     /// A `simulate --render` output folder (with run.snapshots) or a study's results folder.
     dir: PathBuf,
-    /// Body colour: `j` (det F of the tet under each face) or `plain`.
-    #[arg(long, default_value = "j", value_parser = ["j", "plain"])]
+    /// Body colour: `j` (det F of the tet under each face), `energy` (its elastic energy
+    /// density, white at 0, dark red at the run's largest) or `plain`.
+    #[arg(long, default_value = "j", value_parser = ["j", "energy", "plain"])]
     color: String,
 }
 
@@ -443,14 +448,18 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
         )),
         None => rows_out,
     };
+    let horizon = state.t + config.run.dt * config.run.steps as f64;
+    let mut progress = run::RunProgress::new(observer, config.run.steps, horizon, true);
     let summary = run::run(
         &mut built.model,
         integrator.as_mut(),
         &mut state,
         &config.run,
-        observer,
+        &mut progress,
     )
     .context("cannot write the output")?;
+    progress.finish();
+    drop(progress);
     let snapshots = recorder.map(|r| r.finish(&built.model, &summary.outcome));
     if let Some(frames) = frames {
         frames_written = frames
@@ -526,8 +535,14 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
                     .collect();
                 format!("; springs: {}", counts.join(", "))
             };
+            let internal_note = summary.internal_dt.map_or_else(String::new, |d| {
+                format!(
+                    "; internal steps {} (dt min {:e}, median {:e}, max {:e} s)",
+                    summary.totals.substeps, d.min, d.median, d.max
+                )
+            });
             console::out(&format!(
-                "{}: completed {} steps of {} with dt = {:e} s in {:.3} s{unconverged}; wrote {}{frames_note}{springs_note}",
+                "{}: completed {} steps of {} with dt = {:e} s in {:.3} s{unconverged}{internal_note}; wrote {}{frames_note}{springs_note}",
                 built.name,
                 summary.steps_completed,
                 summary.method,
@@ -662,6 +677,7 @@ fn run_study(args: &RunArgs) -> anyhow::Result<ExitCode> {
     }
     // Everything that can be wrong with the study is found before anything is written.
     let study = study::load(&args.study, args.quick)?;
+    let _always_rendered = args.render;
     let options = study::RunOptions {
         dir: args.out.join(&study.file.name),
         only: args.only.clone(),
@@ -885,10 +901,10 @@ fn draw_run_pictures(dir: &Path, s: &Snapshots, coloring: Coloring) -> anyhow::R
 }
 
 fn render_folder(args: &RenderArgs) -> anyhow::Result<ExitCode> {
-    let coloring = if args.color == "plain" {
-        Coloring::Plain
-    } else {
-        Coloring::VolumeRatio
+    let coloring = match args.color.as_str() {
+        "plain" => Coloring::Plain,
+        "energy" => Coloring::EnergyDensity,
+        _ => Coloring::VolumeRatio,
     };
     let single = args.dir.join(RUN_SNAPSHOTS);
     if single.is_file() {

@@ -243,6 +243,10 @@ impl Integrator for WithContactResponse {
         self.inner.check_model(model)
     }
 
+    fn internal_steps(&self) -> &[f64] {
+        self.inner.internal_steps()
+    }
+
     fn advance(
         &mut self,
         model: &mut Model,

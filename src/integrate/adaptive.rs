@@ -73,6 +73,8 @@ pub struct Adaptive {
     half: State,
     current: State,
     error: Vec<f64>,
+    /// The accepted internal steps of the last call (see [`Integrator::internal_steps`]).
+    accepted: Vec<f64>,
 }
 
 impl Adaptive {
@@ -109,6 +111,7 @@ impl Adaptive {
             half: State::default(),
             current: State::default(),
             error: Vec::new(),
+            accepted: Vec::new(),
         }
     }
 
@@ -160,7 +163,7 @@ impl Adaptive {
                     v: &mut self.half.v,
                     error: Some(&mut self.error),
                 };
-                rk.stages(model, state, h, out)?;
+                rk.stages(model, state, h, out, report)?;
             }
         }
         let s = &self.settings;
@@ -196,6 +199,10 @@ impl Integrator for Adaptive {
         self.h = None;
     }
 
+    fn internal_steps(&self) -> &[f64] {
+        &self.accepted
+    }
+
     fn advance(
         &mut self,
         model: &mut Model,
@@ -211,6 +218,7 @@ impl Integrator for Adaptive {
         current.clone_from(state);
         let mut remaining = dt;
         let mut attempts = 0u64;
+        self.accepted.clear();
         while remaining > 0.0 {
             attempts += 1;
             if attempts > s.max_substeps {
@@ -243,6 +251,7 @@ impl Integrator for Adaptive {
                 current.t += h;
                 remaining = if last { 0.0 } else { remaining - h };
                 report.substeps += 1;
+                self.accepted.push(h);
                 // Keep the proposal of a full step: a truncated last step says nothing new.
                 if !last || h >= proposed {
                     proposed = (h * factor).min(max_dt);

@@ -100,6 +100,12 @@ pub trait Integrator: Send {
     /// changed from outside.
     fn reset(&mut self) {}
 
+    /// The accepted internal step sizes of the last successful `advance`, in order (s):
+    /// adaptive methods' controller steps. Empty for fixed-step methods (default).
+    fn internal_steps(&self) -> &[f64] {
+        &[]
+    }
+
     /// One step of `dt`: [`Integrator::advance`] plus the shared bookkeeping — evaluation
     /// counts, wall time, the check that the new state is finite, and the clock.
     fn step(
@@ -110,6 +116,7 @@ pub trait Integrator: Send {
     ) -> Result<StepReport, StepError> {
         let start = Instant::now();
         let before = model.counters();
+        let force_seconds = model.force_seconds();
         let mut report = StepReport {
             dt,
             ..StepReport::default()
@@ -119,6 +126,7 @@ pub trait Integrator: Send {
         report.evaluations.potential = after.potential - before.potential;
         report.evaluations.gradient = after.gradient - before.gradient;
         report.evaluations.hessian = after.hessian - before.hessian;
+        report.times.forces = model.force_seconds() - force_seconds;
         report.times.total = start.elapsed().as_secs_f64();
         report::check_finite(state)?;
         state.t += dt;

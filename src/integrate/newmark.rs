@@ -240,7 +240,7 @@ impl Scheme for Newmark {
             self.a.resize(n, 0.0);
             model.set_time(state.t);
             self.dynamics
-                .acceleration(model, &state.q, &state.v, &mut self.a)?;
+                .acceleration(model, &state.q, &state.v, &mut self.a, &mut p.work)?;
             self.a_time = Some(state.t);
         }
         self.x_newmark.resize(n, 0.0);

@@ -15,6 +15,11 @@ pub struct PhaseTimes {
     pub solve: f64,
     /// Quadratic programs (the constrained contact response).
     pub qp: f64,
+    /// Force and energy evaluations (gradient, potential, damping force) outside assembly:
+    /// the main cost of explicit methods, and the line searches of implicit ones.
+    pub forces: f64,
+    /// Mass-matrix solves `M^{-1} f` of explicit methods with consistent mass.
+    pub mass_solve: f64,
     /// The whole step.
     pub total: f64,
 }
@@ -34,8 +39,11 @@ pub struct StepReport {
     pub newton_unconverged: u32,
     /// Line-search step reductions.
     pub line_search_backtracks: u32,
-    /// Linear solves.
+    /// Linear solves of a step's system (mass-matrix solves are counted apart).
     pub linear_solves: u32,
+    /// Solves with the consistent mass matrix, `a = M^{-1} f`, of explicit methods (and of
+    /// the start acceleration of Newmark schemes); 0 with lumped mass (a division).
+    pub mass_solves: u32,
     /// Linear-solver iterations (1 per direct solve, CG iterations otherwise).
     pub linear_iterations: u64,
     /// Numeric factorizations (or preconditioner setups).
@@ -94,6 +102,7 @@ impl StepReport {
         self.newton_unconverged += other.newton_unconverged;
         self.line_search_backtracks += other.line_search_backtracks;
         self.linear_solves += other.linear_solves;
+        self.mass_solves += other.mass_solves;
         self.linear_iterations += other.linear_iterations;
         self.factorizations += other.factorizations;
         self.max_relative_residual = self.max_relative_residual.max(other.max_relative_residual);
@@ -117,6 +126,8 @@ impl StepReport {
         self.times.factor += other.times.factor;
         self.times.solve += other.times.solve;
         self.times.qp += other.times.qp;
+        self.times.forces += other.times.forces;
+        self.times.mass_solve += other.times.mass_solve;
         self.contacts = self.contacts.max(other.contacts);
         self.max_penetration = self.max_penetration.max(other.max_penetration);
         self.qp_solves += other.qp_solves;

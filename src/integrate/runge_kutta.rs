@@ -73,13 +73,14 @@ impl ExplicitRungeKutta {
     }
 
     /// Compute all stages from `(q, v)` and write the new state (and the embedded error, if
-    /// asked and the tableau has one) into `out`.
+    /// asked and the tableau has one) into `out`, recording mass solves in `report`.
     pub(crate) fn stages(
         &mut self,
         model: &mut Model,
         start: &State,
         dt: f64,
         out: StageOutput<'_>,
+        report: &mut StepReport,
     ) -> Result<(), StepError> {
         let (q, v) = (&start.q, &start.v);
         let StageOutput {
@@ -102,8 +103,13 @@ impl ExplicitRungeKutta {
                 }
             }
             self.kq[s].copy_from_slice(&self.v_stage);
-            self.dynamics
-                .acceleration(model, &self.q_stage, &self.v_stage, &mut self.kv[s])?;
+            self.dynamics.acceleration(
+                model,
+                &self.q_stage,
+                &self.v_stage,
+                &mut self.kv[s],
+                report,
+            )?;
         }
         q_out.copy_from_slice(q);
         v_out.copy_from_slice(v);
@@ -164,7 +170,7 @@ impl Integrator for ExplicitRungeKutta {
             v: &mut v_next,
             error: None,
         };
-        let result = self.stages(model, state, dt, out);
+        let result = self.stages(model, state, dt, out, report);
         if result.is_ok() {
             std::mem::swap(&mut state.q, &mut q_next);
             std::mem::swap(&mut state.v, &mut v_next);

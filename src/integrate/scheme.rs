@@ -43,6 +43,9 @@ pub struct StepProblem {
     /// The size of the forces, when the scheme knows it better than the gradient at the
     /// guess (see [`Problem::force_scale`]); 0 for none.
     pub force_scale: f64,
+    /// Work the scheme did while preparing (a start-up acceleration's mass solve), added to
+    /// the step's report.
+    pub work: StepReport,
 }
 
 impl StepProblem {
@@ -60,6 +63,7 @@ impl StepProblem {
         self.damping_weight = 0.0;
         self.quasi_static = false;
         self.force_scale = 0.0;
+        self.work = StepReport::default();
     }
 }
 
@@ -184,7 +188,9 @@ impl<S: Scheme> NewtonIntegrator<S> {
     ) -> Result<(), StepError> {
         let p = &mut self.problem;
         p.reset(state.q.len());
-        self.scheme.prepare(model, state, dt, p)?;
+        let prepared = self.scheme.prepare(model, state, dt, p);
+        report.absorb(&p.work);
+        prepared?;
         // Damping D evaluated at the scheme's point, or at the start-of-step positions if
         // that point inverts an element.
         if p.damping_weight > 0.0 {

@@ -42,7 +42,7 @@ impl Integrator for SymplecticEuler {
         self.a.resize(state.q.len(), 0.0);
         model.set_time(state.t);
         self.dynamics
-            .acceleration(model, &state.q, &state.v, &mut self.a)?;
+            .acceleration(model, &state.q, &state.v, &mut self.a, report)?;
         for ((q, v), a) in state.q.iter_mut().zip(state.v.iter_mut()).zip(&self.a) {
             *v += dt * a;
             *q += dt * *v;

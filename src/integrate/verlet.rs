@@ -75,7 +75,7 @@ impl Integrator for VelocityVerlet {
             self.a.resize(n, 0.0);
             model.set_time(state.t);
             self.dynamics
-                .acceleration(model, &state.q, &state.v, &mut self.a)?;
+                .acceleration(model, &state.q, &state.v, &mut self.a, report)?;
         }
         self.a_for = None;
         self.start.clone_from(state);
@@ -86,7 +86,7 @@ impl Integrator for VelocityVerlet {
         model.set_time(state.t + dt);
         let result = self
             .dynamics
-            .acceleration(model, &state.q, &state.v, &mut self.a)
+            .acceleration(model, &state.q, &state.v, &mut self.a, report)
             .and_then(|()| {
                 if !model.has_damping() {
                     return Ok(());
@@ -95,7 +95,7 @@ impl Integrator for VelocityVerlet {
                 self.v_pred
                     .extend(state.v.iter().zip(&self.a).map(|(v, a)| v + 0.5 * dt * a));
                 self.dynamics
-                    .acceleration(model, &state.q, &self.v_pred, &mut self.a)
+                    .acceleration(model, &state.q, &self.v_pred, &mut self.a, report)
             });
         if let Err(e) = result {
             state.clone_from(&self.start);

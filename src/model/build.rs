@@ -97,6 +97,7 @@ impl Model {
             gravity,
             parallelism,
             counters: EvalCounters::default(),
+            force_seconds: 0.0,
             buffers: Buffers::default(),
         })
     }

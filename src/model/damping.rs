@@ -90,6 +90,15 @@ impl Model {
     /// Strain-rate and spring dashpots are evaluated element by element; Rayleigh's
     /// `beta K(q) v` assembles the projected stiffness matrix (as costly as a Hessian).
     pub fn damping_force(&mut self, q: &[f64], v: &[f64], f: &mut [f64]) -> Result<(), ModelError> {
+        self.timed_force(|m| m.damping_force_untimed(q, v, f))
+    }
+
+    fn damping_force_untimed(
+        &mut self,
+        q: &[f64],
+        v: &[f64],
+        f: &mut [f64],
+    ) -> Result<(), ModelError> {
         self.load_state(q)?;
         self.load_velocities(v);
         let par = self.parallelism;

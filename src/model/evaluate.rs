@@ -52,6 +52,10 @@ impl Model {
 
     /// The potential at `q`, split by source.
     pub fn potential_parts(&mut self, q: &[f64]) -> Result<PotentialParts, ModelError> {
+        self.timed_force(|m| m.potential_parts_untimed(q))
+    }
+
+    fn potential_parts_untimed(&mut self, q: &[f64]) -> Result<PotentialParts, ModelError> {
         self.load_state(q)?;
         self.counters.potential += 1;
         let x = &self.positions;
@@ -94,6 +98,10 @@ impl Model {
 
     /// The gradient of the potential at `q`, written to `g` (length [`Self::num_dofs`]).
     pub fn gradient(&mut self, q: &[f64], g: &mut [f64]) -> Result<(), ModelError> {
+        self.timed_force(|m| m.gradient_untimed(q, g))
+    }
+
+    fn gradient_untimed(&mut self, q: &[f64], g: &mut [f64]) -> Result<(), ModelError> {
         self.load_state(q)?;
         assert_eq!(
             g.len(),

@@ -140,6 +140,11 @@ impl MassInverse {
         })
     }
 
+    /// Whether applying the inverse is a linear solve (consistent mass), not a division.
+    pub fn is_solve(&self) -> bool {
+        matches!(self, Self::Consistent(_))
+    }
+
     /// `x = M^{-1} x` in place. Fails on a wrong length or a non-finite entry of `x`
     /// (consistent mass; the lumped division passes them through).
     pub fn apply(&mut self, x: &mut [f64]) -> Result<(), SolveError> {

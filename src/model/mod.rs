@@ -171,6 +171,9 @@ pub struct Model {
     gravity: Option<Vector3<f64>>,
     parallelism: Parallelism,
     counters: EvalCounters,
+    /// Wall time of potential, gradient and damping-force evaluations (s), for the "forces"
+    /// phase of a step; Hessians are timed by their caller's assembly phase.
+    force_seconds: f64,
     buffers: Buffers,
 }
 
@@ -292,8 +295,24 @@ impl Model {
         self.counters
     }
 
-    /// Reset the evaluation counters.
+    /// Reset the evaluation counters (and the force-evaluation time).
     pub fn reset_counters(&mut self) {
         self.counters = EvalCounters::default();
+        self.force_seconds = 0.0;
+    }
+
+    /// Wall time spent in potential, gradient and damping-force evaluations since
+    /// construction or the last reset (s). Hessian and damping-matrix evaluations are not
+    /// included: their callers time them as assembly.
+    pub fn force_seconds(&self) -> f64 {
+        self.force_seconds
+    }
+
+    /// Run `f` and add its wall time to [`Self::force_seconds`].
+    pub(super) fn timed_force<T>(&mut self, f: impl FnOnce(&mut Self) -> T) -> T {
+        let start = std::time::Instant::now();
+        let out = f(self);
+        self.force_seconds += start.elapsed().as_secs_f64();
+        out
     }
 }

@@ -13,6 +13,8 @@ use super::{PlotError, draw_err, text};
 const GAP: i32 = 10;
 /// Most lines of a horizontal label.
 const MAX_LINES: usize = 3;
+/// Longest rotated label line, in percent of the image height.
+const MAX_ROTATED: u32 = 45;
 
 /// The frame of a chart with one slot per category: the y axis, `names.len()` slots, and the
 /// category labels laid out (not yet drawn) under them.
@@ -72,6 +74,13 @@ impl Labels {
             });
         }
         let per_slot = ((slot_w * 9 / 10) / line_h).max(1) as usize;
+        // Rotated lines are as long as the longest word, up to `MAX_ROTATED` of the image
+        // height, so a word is cut between characters only when even that cannot hold it.
+        let mut max_len = max_len;
+        for &l in labels {
+            max_len = max_len.max(text::longest_word(l, &style)?);
+        }
+        let max_len = max_len.min(style::HEIGHT * MAX_ROTATED / 100);
         let mut lines = Vec::new();
         let mut longest = 0;
         for &l in labels {

@@ -37,49 +37,97 @@ const PAD: i32 = 10;
 /// Widest label line in a column before it wraps.
 const MAX_LABEL_W: u32 = 230;
 
-/// A legend laid out as a column: each entry's label wrapped to lines.
+/// Most side-by-side columns a tall legend is split into.
+const MAX_COLUMNS: usize = 4;
+/// Widest a split legend may get, in percent of the image width.
+const MAX_SPLIT_WIDTH: u32 = 45;
+
+/// A legend laid out as a framed block of columns (one column unless the entries would run
+/// past `max_height`: then as few side-by-side columns, with narrower labels, as fit; if even
+/// `MAX_COLUMNS` do not, each label keeps one line ending in "…"). Entries read down the first
+/// column, then the next.
 pub struct Column {
-    rows: Vec<(Glyph, Vec<String>)>,
+    columns: Vec<Vec<(Glyph, Vec<String>)>>,
     line_h: i32,
-    /// Total width in pixels, frame included.
+    column_w: u32,
+    /// Total width and height in pixels.
     pub width: u32,
-    /// Total height in pixels, frame included.
     pub height: u32,
 }
 
 impl Column {
-    /// Lay out `entries` as a column.
-    pub fn new(entries: &[Entry]) -> Result<Self, PlotError> {
+    /// Lay out `entries` to fit `max_height` pixels if they can (see the type).
+    pub fn fitted(entries: &[Entry], max_height: u32) -> Result<Self, PlotError> {
         let style = style::text(style::size::LEGEND, &INK);
         let line_h = text::line_height(&style)? as i32;
+        let fixed = (2 * PAD + GLYPH_W + GAP) as u32;
+        let mut last = None;
+        for k in 1..=MAX_COLUMNS.min(entries.len().max(1)) {
+            let label_w = if k == 1 {
+                MAX_LABEL_W
+            } else {
+                (style::WIDTH * MAX_SPLIT_WIDTH / 100 / k as u32)
+                    .saturating_sub(fixed)
+                    .clamp(60, MAX_LABEL_W)
+            };
+            let layout = Self::layout(entries, k, label_w, None, line_h, &style)?;
+            if layout.height <= max_height {
+                return Ok(layout);
+            }
+            last = Some(label_w);
+        }
+        let label_w = last.unwrap_or(MAX_LABEL_W);
+        Self::layout(entries, MAX_COLUMNS, label_w, Some(1), line_h, &style)
+    }
+
+    fn layout(
+        entries: &[Entry],
+        k: usize,
+        label_w: u32,
+        max_lines: Option<usize>,
+        line_h: i32,
+        style: &TextStyle,
+    ) -> Result<Self, PlotError> {
         let mut rows = Vec::new();
-        let mut label_w = 0;
+        let mut widest = 0;
         for e in entries {
-            let lines = text::wrap(&e.label, MAX_LABEL_W, &style)?;
+            let mut lines = text::wrap(&e.label, label_w, style)?;
+            if let Some(n) = max_lines {
+                lines = text::clamp_lines(lines, n, label_w, style)?;
+            }
             for l in &lines {
-                label_w = label_w.max(text::width(l, &style)?);
+                widest = widest.max(text::width(l, style)?);
             }
             rows.push((e.glyph, lines));
         }
-        let n_lines: usize = rows.iter().map(|(_, l)| l.len()).sum();
-        let gaps = rows.len().saturating_sub(1) as i32 * (line_h / 3);
-        let width = (2 * PAD + GLYPH_W + GAP) as u32 + label_w;
-        let height = (2 * PAD + n_lines as i32 * line_h + gaps) as u32;
+        let per_column = rows.len().div_ceil(k.max(1)).max(1);
+        let mut columns: Vec<Vec<(Glyph, Vec<String>)>> = Vec::new();
+        for chunk in rows.chunks(per_column) {
+            columns.push(chunk.to_vec());
+        }
+        let column_height = |c: &Vec<(Glyph, Vec<String>)>| {
+            let n_lines: usize = c.iter().map(|(_, l)| l.len()).sum();
+            let gaps = c.len().saturating_sub(1) as i32 * (line_h / 3);
+            (2 * PAD + n_lines as i32 * line_h + gaps) as u32
+        };
+        let height = columns.iter().map(column_height).max().unwrap_or(0);
+        let column_w = (2 * PAD + GLYPH_W + GAP) as u32 + widest;
         Ok(Self {
-            rows,
+            width: column_w * columns.len().max(1) as u32,
+            columns,
             line_h,
-            width,
+            column_w,
             height,
         })
     }
 
-    /// Draw the column with its top-left corner at pixel `at` of `area`.
+    /// Draw the legend with its top-left corner at `at` (absolute pixels of `area`).
     pub fn draw<DB: DrawingBackend>(
         &self,
         area: &DrawingArea<DB, Shift>,
         at: (i32, i32),
     ) -> Result<(), PlotError> {
-        if self.rows.is_empty() {
+        if self.columns.is_empty() {
             return Ok(());
         }
         let (x0, y0) = at;
@@ -92,15 +140,18 @@ impl Column {
         area.draw(&Rectangle::new(frame, FRAME.stroke_width(1)))
             .map_err(draw_err)?;
         let style = style::text(style::size::LEGEND, &INK).pos(Pos::new(HPos::Left, VPos::Center));
-        let mut y = y0 + PAD + self.line_h / 2;
-        for (glyph, lines) in &self.rows {
-            draw_glyph(area, *glyph, (x0 + PAD, y))?;
-            for line in lines {
-                area.draw_text(line, &style, (x0 + PAD + GLYPH_W + GAP, y))
-                    .map_err(draw_err)?;
-                y += self.line_h;
+        for (c, rows) in self.columns.iter().enumerate() {
+            let x = x0 + c as i32 * self.column_w as i32;
+            let mut y = y0 + PAD + self.line_h / 2;
+            for (glyph, lines) in rows {
+                draw_glyph(area, *glyph, (x + PAD, y))?;
+                for line in lines {
+                    area.draw_text(line, &style, (x + PAD + GLYPH_W + GAP, y))
+                        .map_err(draw_err)?;
+                    y += self.line_h;
+                }
+                y += self.line_h / 3;
             }
-            y += self.line_h / 3;
         }
         Ok(())
     }

@@ -52,7 +52,8 @@ pub fn draw<DB: DrawingBackend>(
             }
         })
         .collect();
-    let legend = Column::new(&entries)?;
+    // Room under the legend's top (the frame's top) to the image's bottom edge.
+    let legend = Column::fitted(&entries, body.dim_in_pixel().1.saturating_sub(12))?;
     let (w, _) = body.dim_in_pixel();
     let legend_w = if entries.is_empty() {
         0

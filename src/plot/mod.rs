@@ -11,6 +11,7 @@
 mod axis;
 mod bar;
 mod category;
+mod extents;
 mod frame;
 mod legend;
 mod line;
@@ -26,6 +27,7 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use crate::io::write_atomic;
 
+pub use extents::TextBox;
 pub use style::{Dash, HEIGHT, Marker, WIDTH, register_fonts, series_look};
 pub use text::width as text_width;
 
@@ -90,7 +92,7 @@ pub struct BarChart {
     pub reference: Option<ReferenceLine>,
 }
 
-/// Stacked bars: one bar per category, one segment per part.
+/// Stacked bars: one bar per category, one segment per part (side by side on a log axis).
 #[derive(Clone, Debug, Default)]
 pub struct StackedBarChart {
     pub title: String,
@@ -100,6 +102,10 @@ pub struct StackedBarChart {
     /// `parts[k].1[i]` = height of part `k` in category `i`; parts stack bottom-up in order.
     /// Missing, non-finite or negative heights count as 0.
     pub parts: Vec<(String, Vec<f64>)>,
+    /// A log y axis. Stacking has no meaning there (a segment's length would depend on what
+    /// lies under it), so the parts of a category stand side by side instead, each from the
+    /// bottom of the axis; a part of height 0 draws no bar.
+    pub y_log: bool,
 }
 
 /// Any chart [`draw`] can render.
@@ -170,6 +176,20 @@ pub fn draw(chart: &Chart, stem: &Path) -> Result<[PathBuf; 2], PlotError> {
     }
     write_file(&svg_path, svg.as_bytes())?;
     Ok([png_path, svg_path])
+}
+
+/// The box of every text `chart` draws (title, ticks, axis and category labels, legend,
+/// notes), in pixels of the `WIDTH`×`HEIGHT` image, placed as the PNG places them: for
+/// checking that nothing is drawn outside the image.
+pub fn text_boxes(chart: &Chart) -> Result<Vec<TextBox>, PlotError> {
+    style::register_fonts()?;
+    let boxes = std::rc::Rc::new(std::cell::RefCell::new(Vec::new()));
+    {
+        let root = extents::TextRecorder::new((WIDTH, HEIGHT), boxes.clone()).into_drawing_area();
+        render(chart, &root)?;
+        root.present().map_err(draw_err)?;
+    }
+    Ok(boxes.take())
 }
 
 /// Encode an RGB buffer of `WIDTH`×`HEIGHT` as PNG.

@@ -1,5 +1,6 @@
 //! Stacked bar charts: one bar per category, one coloured segment per part, the legend in a
-//! column to the right listed top to bottom in stacking order.
+//! column to the right listed top to bottom in stacking order. On a log axis the parts of a
+//! category stand side by side (grouped bars), since stacked lengths mean nothing there.
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -36,7 +37,12 @@ pub fn draw<DB: DrawingBackend>(
     let totals: Vec<f64> = (0..n)
         .map(|i| (0..chart.parts.len()).map(|k| height(chart, k, i)).sum())
         .collect();
-    let y = Axis::fit(Scale::Linear, totals.iter().copied(), true);
+    let y = if chart.y_log {
+        let parts = (0..n).flat_map(|i| (0..chart.parts.len()).map(move |k| (k, i)));
+        Axis::fit(Scale::Log, parts.map(|(k, i)| height(chart, k, i)), true)
+    } else {
+        Axis::fit(Scale::Linear, totals.iter().copied(), true)
+    };
 
     // Listed top to bottom as stacked, so the legend reads like the bars.
     let entries: Vec<Entry> = chart
@@ -49,7 +55,8 @@ pub fn draw<DB: DrawingBackend>(
             glyph: Glyph::Swatch(&PALETTE[k % PALETTE.len()]),
         })
         .collect();
-    let legend = Column::new(&entries)?;
+    // Room under the legend's top (the frame's top) to the image's bottom edge.
+    let legend = Column::fitted(&entries, body.dim_in_pixel().1.saturating_sub(12))?;
     let (w, _) = body.dim_in_pixel();
     let (frame_area, _) = body.split_horizontally(w.saturating_sub(legend.width + 16));
 
@@ -59,6 +66,9 @@ pub fn draw<DB: DrawingBackend>(
     legend.draw(root, (right + layout.right as i32 + 6, top))?;
     labels.draw(root, &frame)?;
 
+    if chart.y_log {
+        return draw_grouped(root, &frame, chart);
+    }
     for i in 0..n {
         let at = i as f64;
         let mut level = 0.0;
@@ -76,6 +86,32 @@ pub fn draw<DB: DrawingBackend>(
             root.draw(&Rectangle::new([a, b], WHITE.stroke_width(1)))
                 .map_err(draw_err)?;
             level += h;
+        }
+    }
+    Ok(())
+}
+
+/// The parts of each category side by side on a log axis, each from the bottom of the frame;
+/// parts of height 0 (or missing) leave their place empty.
+fn draw_grouped<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    frame: &super::frame::Frame<DB>,
+    chart: &StackedBarChart,
+) -> Result<(), PlotError> {
+    let parts = chart.parts.len();
+    let width = BAR / parts as f64;
+    let base = frame.y.range.start;
+    for i in 0..chart.categories.len() {
+        for k in 0..parts {
+            let Some(top) = frame.y.to_display(height(chart, k, i)) else {
+                continue;
+            };
+            let left = i as f64 - BAR / 2.0 + k as f64 * width;
+            let a = frame.px(left, top);
+            let b = frame.px(left + width, base);
+            let color = &PALETTE[k % PALETTE.len()];
+            root.draw(&Rectangle::new([a, b], color.filled()))
+                .map_err(draw_err)?;
         }
     }
     Ok(())

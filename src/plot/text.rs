@@ -27,13 +27,14 @@ pub fn line_height(style: &TextStyle) -> Result<u32, PlotError> {
     Ok(h + h / 4 + 1)
 }
 
-/// Split `text` into pieces that each end at a break opportunity: after a space, `/`, `-` or
-/// `_`. Concatenated, the pieces give back `text`.
+/// Split `text` into pieces that each end at a break opportunity: after a space, `/` or `-`.
+/// Not after `_`: it joins the parts of one name (`dt_max`), which a break would cut in two.
+/// Concatenated, the pieces give back `text`.
 fn pieces(text: &str) -> Vec<&str> {
     let mut out = Vec::new();
     let mut start = 0;
     for (i, ch) in text.char_indices() {
-        if matches!(ch, ' ' | '/' | '-' | '_') {
+        if matches!(ch, ' ' | '/' | '-') {
             let end = i + ch.len_utf8();
             out.push(&text[start..end]);
             start = end;
@@ -43,6 +44,15 @@ fn pieces(text: &str) -> Vec<&str> {
         out.push(&text[start..]);
     }
     out
+}
+
+/// Width in pixels of the widest word of `text` (the pieces between break opportunities).
+pub fn longest_word(text: &str, style: &TextStyle) -> Result<u32, PlotError> {
+    let mut widest = 0;
+    for piece in pieces(text) {
+        widest = widest.max(width(piece.trim(), style)?);
+    }
+    Ok(widest)
 }
 
 /// Whether every word of `text` (the pieces between break opportunities) fits `max_width`,

@@ -35,6 +35,9 @@ pub enum Coloring {
     Plain,
     /// By det F of the tet under each triangle (blue compressed, red stretched).
     VolumeRatio,
+    /// By the elastic energy density of the tet under each triangle: white at 0, dark red at
+    /// the run's largest density over its frames.
+    EnergyDensity,
 }
 
 /// A labelled run to draw.
@@ -87,9 +90,22 @@ pub fn draw_frame(
     for tri in &frame.obstacles {
         canvas.triangle(camera, tri.map(|v| p(&v)), OBSTACLE);
     }
-    let colored = coloring == Coloring::VolumeRatio && frame.j.len() == s.triangles.len();
+    let n = s.triangles.len();
+    let by_j = coloring == Coloring::VolumeRatio && frame.j.len() == n;
+    let by_energy = coloring == Coloring::EnergyDensity && frame.energy_density.len() == n;
+    let max_energy = if by_energy {
+        max_energy_density(s)
+    } else {
+        0.0
+    };
     for (i, t) in s.triangles.iter().enumerate() {
-        let color = if colored { j_color(frame.j[i]) } else { BODY };
+        let color = if by_j {
+            j_color(frame.j[i])
+        } else if by_energy {
+            super::raster::energy_color(frame.energy_density[i], max_energy)
+        } else {
+            BODY
+        };
         canvas.triangle(camera, t.map(|v| p(&frame.positions[v as usize])), color);
     }
     if frame.last_valid {
@@ -411,4 +427,14 @@ pub fn write_gif(
         path: path.to_owned(),
         error,
     })
+}
+
+/// The largest finite energy density of any frame of `s` (J/m³; 0 without any).
+pub fn max_energy_density(s: &Snapshots) -> f32 {
+    s.frames
+        .iter()
+        .flat_map(|f| f.energy_density.iter())
+        .copied()
+        .filter(|e| e.is_finite())
+        .fold(0.0, f32::max)
 }

@@ -307,6 +307,33 @@ impl Canvas {
 /// Colour of a volume ratio `j` = det F: blue when compressed, white at rest volume, red
 /// when stretched, saturating at J = 0.7 and 1.3; inverted elements (J <= 0) are black.
 pub fn j_color(j: f32) -> Rgb {
+    j_color_of(j)
+}
+
+/// The colour of elastic energy density `psi` on a scale that ends at `max` (J/m³): white at
+/// 0 through orange to dark red at `max`; black where it is undefined (NaN: an inverted tet
+/// of a material without a value there). Every face is white when `max` is 0 (a body at rest).
+pub fn energy_color(psi: f32, max: f32) -> Rgb {
+    if !psi.is_finite() {
+        return [20, 20, 20];
+    }
+    let s = if max > 0.0 {
+        (psi / max).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let mix = |a: Rgb, b: Rgb, t: f32| -> Rgb {
+        [0, 1, 2].map(|k| (f32::from(a[k]) + (f32::from(b[k]) - f32::from(a[k])) * t).round() as u8)
+    };
+    let (white, orange, red) = ([235, 235, 235], [240, 150, 40], [150, 20, 20]);
+    if s < 0.5 {
+        mix(white, orange, 2.0 * s)
+    } else {
+        mix(orange, red, 2.0 * s - 1.0)
+    }
+}
+
+fn j_color_of(j: f32) -> Rgb {
     if !j.is_finite() || j <= 0.0 {
         return [20, 20, 20];
     }

@@ -100,6 +100,8 @@ pub struct SnapshotRecorder<'a> {
     /// Scratch for det F and element energies (model tets), allocated once.
     det_f: Vec<f64>,
     energy: Vec<f64>,
+    /// Rest volume of each model tet (m³), for energy densities.
+    rest_volume: Vec<f64>,
     snapshots: Snapshots,
 }
 
@@ -140,6 +142,11 @@ impl<'a> SnapshotRecorder<'a> {
             last_t: 0.0,
             det_f: vec![0.0; if with_j { m } else { 0 }],
             energy: vec![0.0; if with_j { m } else { 0 }],
+            rest_volume: if with_j {
+                rest_volumes(model)
+            } else {
+                Vec::new()
+            },
             snapshots: Snapshots {
                 up: [up.x as f32, up.y as f32, up.z as f32],
                 end_time: state.t + steps as f64 * dt,
@@ -188,6 +195,7 @@ impl<'a> SnapshotRecorder<'a> {
 
     fn push_frame(&mut self, model: &Model, state: Option<&State>, last_valid: bool) {
         let mut j = Vec::new();
+        let mut energy_density = Vec::new();
         if let (
             Some(state),
             Surface::Boundary {
@@ -200,6 +208,10 @@ impl<'a> SnapshotRecorder<'a> {
                 .is_ok()
         {
             j = owners.iter().map(|&e| self.det_f[e] as f32).collect();
+            energy_density = owners
+                .iter()
+                .map(|&e| (self.energy[e] / self.rest_volume[e]) as f32)
+                .collect();
         }
         let obstacles = match &self.obstacles {
             Some(o) => {
@@ -216,6 +228,7 @@ impl<'a> SnapshotRecorder<'a> {
             step: self.last_step as u64,
             positions: self.last.clone(),
             j,
+            energy_density,
             obstacles,
             last_valid,
         });
@@ -266,4 +279,17 @@ impl Observer for SnapshotRecorder<'_> {
         }
         Ok(())
     }
+}
+
+/// The rest volume of every tet of `model` (m³).
+fn rest_volumes(model: &Model) -> Vec<f64> {
+    let x = model.rest_positions();
+    model
+        .tets()
+        .iter()
+        .map(|t| {
+            let [a, b, c, d] = t.map(|v| x[v]);
+            ((b - a).cross(&(c - a)).dot(&(d - a)) / 6.0).abs()
+        })
+        .collect()
 }

@@ -11,9 +11,11 @@
 //! f64 end time                                the requested horizon's end (s)
 //! u32 x3 per triangle                         surface triangles, wound outward
 //! per frame:
-//!   f64 t, u64 step, u8 flags                 flags bit 0: J present; bit 1: last valid state
+//!   f64 t, u64 step, u8 flags                 flags bit 0: J present; bit 1: last valid state;
+//!                                             bit 2: energy density present
 //!   f32 x3 per vertex                         surface positions (m)
 //!   f32 per triangle (if J present)           det F of the tet that owns the triangle
+//!   f32 per triangle (if flags bit 2)         its elastic energy density (J/m³)
 //!   u32 obstacle triangles O, f32 x9 each     the obstacles at time t, tessellated
 //! u32 length, UTF-8 bytes                     why the run ended early ("" if it completed)
 //! ```
@@ -34,6 +36,7 @@ use crate::io::write_atomic;
 const MAGIC: &[u8; 8] = b"SBSNAP01";
 const HAS_J: u8 = 1;
 const LAST_VALID: u8 = 2;
+const HAS_ENERGY: u8 = 4;
 
 /// A point in f32 (m): enough precision for drawing.
 pub type P3 = [f32; 3];
@@ -50,6 +53,9 @@ pub struct SnapshotFrame {
     /// det F of the tet owning each surface triangle (empty when not known: a skinned display
     /// mesh, a spring body, or the last valid state of a failed run).
     pub j: Vec<f32>,
+    /// Elastic energy density ψ (J/m³: the tet's energy over its rest volume) of the tet
+    /// owning each triangle; empty when not known, as `j`.
+    pub energy_density: Vec<f32>,
     /// The obstacles at `t`, as triangles (m).
     pub obstacles: Vec<[P3; 3]>,
     /// This frame is the last valid state of a run that ended early.
@@ -105,18 +111,25 @@ impl Snapshots {
             }
         }
         for f in &self.frames {
-            if f.positions.len() != nv || !(f.j.is_empty() || f.j.len() == self.triangles.len()) {
+            let sized = |v: &Vec<f32>| v.is_empty() || v.len() == self.triangles.len();
+            if f.positions.len() != nv || !sized(&f.j) || !sized(&f.energy_density) {
                 return Err(io::Error::other("snapshot frames of different sizes"));
             }
             w.write_all(&f.t.to_le_bytes())?;
             w.write_all(&f.step.to_le_bytes())?;
-            let flags =
-                if f.j.is_empty() { 0 } else { HAS_J } | if f.last_valid { LAST_VALID } else { 0 };
+            let flags = if f.j.is_empty() { 0 } else { HAS_J }
+                | if f.last_valid { LAST_VALID } else { 0 }
+                | if f.energy_density.is_empty() {
+                    0
+                } else {
+                    HAS_ENERGY
+                };
             w.write_all(&[flags])?;
             for p in &f.positions {
                 write_f32s(w, p)?;
             }
             write_f32s(w, &f.j)?;
+            write_f32s(w, &f.energy_density)?;
             let o = u32::try_from(f.obstacles.len()).map_err(io::Error::other)?;
             w.write_all(&o.to_le_bytes())?;
             for tri in &f.obstacles {
@@ -189,6 +202,11 @@ impl Snapshots {
             } else {
                 Vec::new()
             };
+            let energy_density = if flags & HAS_ENERGY != 0 {
+                (0..nt).map(|_| r.f32()).collect::<io::Result<_>>()?
+            } else {
+                Vec::new()
+            };
             let no = r.u32()? as usize;
             r.charge(no * 36)?;
             let mut obstacles = Vec::with_capacity(no);
@@ -200,6 +218,7 @@ impl Snapshots {
                 step,
                 positions,
                 j,
+                energy_density,
                 obstacles,
                 last_valid: flags & LAST_VALID != 0,
             });

@@ -5,9 +5,11 @@
 pub mod balance;
 mod metrics;
 mod outcome;
+mod progress;
 mod run_loop;
 
 pub use balance::{EnergyBalance, EnergyScale};
 pub use metrics::{Energies, Metrics};
 pub use outcome::{Outcome, OutcomeKind};
-pub use run_loop::{Observer, RunSummary, Sample, run};
+pub use progress::RunProgress;
+pub use run_loop::{Observer, RunSummary, Sample, StepSizes, run};

@@ -98,6 +98,46 @@ pub struct Sample {
     pub amg_grid_complexity: f64,
     pub amg_builds: u64,
     pub amg_reuses: u64,
+    /// Wall time of force and energy evaluations outside assembly since the previous row (s).
+    pub force_seconds: f64,
+    /// Consistent-mass solves `M^{-1} f` since the previous row, and their wall time (s).
+    pub mass_solves: u64,
+    pub mass_solve_seconds: f64,
+    /// The adaptive controller's accepted internal steps since the previous row (s): smallest,
+    /// median and largest; empty for fixed-step methods and rows without steps.
+    pub internal_dt_min: Option<f64>,
+    pub internal_dt_median: Option<f64>,
+    pub internal_dt_max: Option<f64>,
+}
+
+/// Smallest, median and largest of a set of step sizes (s).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct StepSizes {
+    pub min: f64,
+    pub median: f64,
+    pub max: f64,
+}
+
+impl StepSizes {
+    /// The range of `steps` (sorted in place), or `None` when empty. The median of an even
+    /// count is the mean of the two middle values.
+    pub fn of(steps: &mut [f64]) -> Option<Self> {
+        if steps.is_empty() {
+            return None;
+        }
+        steps.sort_by(f64::total_cmp);
+        let n = steps.len();
+        let median = if n % 2 == 1 {
+            steps[n / 2]
+        } else {
+            0.5 * (steps[n / 2 - 1] + steps[n / 2])
+        };
+        Some(Self {
+            min: steps[0],
+            median,
+            max: steps[n - 1],
+        })
+    }
 }
 
 /// What watches a run: every sampled row, and (optionally) the state after every step —
@@ -148,6 +188,9 @@ pub struct RunSummary {
     pub dissipated: f64,
     /// Steps whose Newton solve stopped unconverged at the iteration cap.
     pub newton_unconverged_steps: u64,
+    /// The adaptive controller's accepted internal steps over the whole run (`None` for
+    /// fixed-step methods).
+    pub internal_dt: Option<StepSizes>,
     /// Median and 95th percentile of the wall time per step (s).
     pub step_seconds_median: f64,
     pub step_seconds_p95: f64,
@@ -170,6 +213,7 @@ struct RowWork<'a> {
     unconverged_steps: u64,
     dt: f64,
     elapsed: f64,
+    internal_dt: Option<StepSizes>,
 }
 
 fn sample(
@@ -234,6 +278,12 @@ fn sample(
         amg_grid_complexity: work.amg_grid_complexity,
         amg_builds: work.amg_builds.into(),
         amg_reuses: work.amg_reuses.into(),
+        force_seconds: work.times.forces,
+        mass_solves: work.mass_solves.into(),
+        mass_solve_seconds: work.times.mass_solve,
+        internal_dt_min: w.internal_dt.map(|s| s.min),
+        internal_dt_median: w.internal_dt.map(|s| s.median),
+        internal_dt_max: w.internal_dt.map(|s| s.max),
     }
 }
 
@@ -277,6 +327,7 @@ pub fn run(
         driven_work: 0.0,
         dissipated: 0.0,
         newton_unconverged_steps: 0,
+        internal_dt: None,
         step_seconds_median: 0.0,
         step_seconds_p95: 0.0,
         totals: StepReport::default(),
@@ -305,6 +356,9 @@ pub fn run(
     let mut steps_since_row = 0u64;
     let mut unconverged_since_row = 0u64;
     let mut step_seconds = Vec::with_capacity(config.steps.min(1 << 20));
+    // Adaptive methods' accepted internal steps: since the last row, and over the run.
+    let mut row_dts: Vec<f64> = Vec::new();
+    let mut run_dts: Vec<f64> = Vec::new();
     let momenta = metrics.momenta(model, state);
     let no_work = RowWork {
         report: &StepReport::default(),
@@ -312,6 +366,7 @@ pub fn run(
         unconverged_steps: 0,
         dt,
         elapsed: 0.0,
+        internal_dt: None,
     };
     observer.sample(&sample(0, state, &initial, momenta, no_work, &balance))?;
     observer.after_step(0, model, state)?;
@@ -336,6 +391,8 @@ pub fn run(
         match integrator.step(model, state, dt) {
             Ok(report) => {
                 step_seconds.push(report.times.total);
+                row_dts.extend_from_slice(integrator.internal_steps());
+                run_dts.extend_from_slice(integrator.internal_steps());
                 add_work(&mut since_row, &report);
                 add_work(&mut summary.totals, &report);
                 steps_since_row += 1;
@@ -369,9 +426,11 @@ pub fn run(
                 unconverged_steps: unconverged_since_row,
                 dt,
                 elapsed: start.elapsed().as_secs_f64(),
+                internal_dt: StepSizes::of(&mut row_dts),
             };
             observer.sample(&sample(step, state, &energies, momenta, work, &balance))?;
             since_row = StepReport::default();
+            row_dts.clear();
             steps_since_row = 0;
             unconverged_since_row = 0;
             let drift = (energies.total() - initial.total()).abs() / drift_scale(&energies);
@@ -415,6 +474,7 @@ pub fn run(
     summary.energy_excess_peak = balance.peak_ratio();
     summary.driven_work = balance.driven_work();
     summary.dissipated = balance.dissipated();
+    summary.internal_dt = StepSizes::of(&mut run_dts);
     step_seconds.sort_by(f64::total_cmp);
     summary.step_seconds_median = percentile(&step_seconds, 0.5);
     summary.step_seconds_p95 = percentile(&step_seconds, 0.95);

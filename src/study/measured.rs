@@ -110,6 +110,12 @@ pub fn summary_cells(s: &RunSummary) -> Vec<(&'static str, String)> {
         ("factor_seconds", f(t.times.factor)),
         ("solve_seconds", f(t.times.solve)),
         ("qp_seconds", f(t.times.qp)),
+        ("force_seconds", f(t.times.forces)),
+        ("mass_solves", t.mass_solves.to_string()),
+        ("mass_solve_seconds", f(t.times.mass_solve)),
+        ("internal_dt_min", cell(s.internal_dt.map(|d| d.min))),
+        ("internal_dt_median", cell(s.internal_dt.map(|d| d.median))),
+        ("internal_dt_max", cell(s.internal_dt.map(|d| d.max))),
         (
             "newton_unconverged_steps",
             s.newton_unconverged_steps.to_string(),

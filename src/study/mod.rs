@@ -66,8 +66,25 @@ pub fn redraw(dir: &std::path::Path) -> Result<Vec<plots::Plot>, RedrawError> {
         error: std::io::Error::from(std::io::ErrorKind::NotFound),
     })?;
     check_runs_table(&runs, &meta.study, &runs_path)?;
-    Ok(plots::draw_all(dir, &meta.study, &runs)?)
+    let plots = plots::draw_all(dir, &meta.study, &runs)?;
+    report::refresh_findings(dir, &meta, &runs).map_err(|error| ResultsError::Io {
+        path: dir.join("report.md"),
+        error,
+    })?;
+    Ok(plots)
 }
+
+/// Count columns newer than some studies' tables: a table without them was written by an
+/// earlier softbench, not cut short, and its plots are drawn without them.
+const NEWER_COLUMNS: [&str; 7] = [
+    "symbolic_analyses",
+    "force_seconds",
+    "mass_solves",
+    "mass_solve_seconds",
+    "internal_dt_min",
+    "internal_dt_median",
+    "internal_dt_max",
+];
 
 /// Before any plot is replaced or removed: `runs.csv` must have the columns its study kind
 /// writes and at least one row (a cut or emptied file would otherwise leave no plots).
@@ -92,6 +109,7 @@ fn check_runs_table(
     if let Some(missing) = required
         .iter()
         .chain(kind_columns)
+        .filter(|c| !NEWER_COLUMNS.contains(c))
         .find(|c| runs.column(c).is_none())
     {
         return Err(malformed(format!(

@@ -59,6 +59,10 @@ pub fn draw(
                         "; coloured by det F of the tet under each face (blue compressed to \
                          0.7, white at rest volume, red stretched to 1.3, black inverted)"
                     }
+                    Coloring::EnergyDensity => {
+                        "; coloured by the elastic energy density of the tet under each face \
+                         (white at 0, dark red at each run's largest density)"
+                    }
                     Coloring::Plain => "",
                 }
             ),

@@ -643,12 +643,16 @@ fn phase_chart(
     rows: &[&Vec<String>],
 ) -> StackedBarChart {
     let parts = [
+        "force_seconds",
+        "mass_solve_seconds",
         "assemble_seconds",
         "factor_seconds",
         "solve_seconds",
         "qp_seconds",
     ];
     let names = [
+        "forces",
+        "mass solves",
         "assembly",
         "factorization",
         "linear solves",
@@ -678,7 +682,8 @@ fn phase_chart(
     }
     StackedBarChart {
         title: format!("Time per step by phase: {scene}"),
-        y_label: "wall time per step (s)".into(),
+        y_label: "wall time per step (s); no bar: phase not used".into(),
+        y_log: true,
         categories,
         parts: names
             .iter()

@@ -253,9 +253,20 @@ fn shards_paragraph(out: &mut String, meta: &Meta, total: usize) {
 
 /// The scenes of the study with damping, and what damping.
 fn damped_scenes(study: &Study) -> BTreeMap<String, String> {
+    damped_scenes_of(
+        study
+            .runs
+            .iter()
+            .map(|r| (r.scene.as_str(), &r.loaded.config.damping)),
+    )
+}
+
+/// The damped scenes among `(scene, damping)` pairs, with how each is damped.
+pub(super) fn damped_scenes_of<'a>(
+    runs: impl IntoIterator<Item = (&'a str, &'a crate::scene::DampingConfig)>,
+) -> BTreeMap<String, String> {
     let mut out = BTreeMap::new();
-    for r in &study.runs {
-        let d = &r.loaded.config.damping;
+    for (scene, d) in runs {
         let mut how = Vec::new();
         if let Some(ray) = &d.rayleigh {
             how.push(format!(
@@ -270,7 +281,8 @@ fn damped_scenes(study: &Study) -> BTreeMap<String, String> {
             ));
         }
         if !how.is_empty() {
-            out.entry(r.scene.clone()).or_insert_with(|| how.join(", "));
+            out.entry(scene.to_owned())
+                .or_insert_with(|| how.join(", "));
         }
     }
     out
@@ -303,4 +315,82 @@ fn units_note(runs: &Table, columns: &[&str]) -> String {
         parts.push("errors relative to the reference's displacement".into());
     }
     format!("Units: {}.", parts.join("; "))
+}
+
+/// Rewrite the findings section of `dir/report.md` from `runs` (after `softbench plot`
+/// redrew the plots): the section is replaced, or inserted before the study paragraph of a
+/// report written before reports had findings. The damped scenes come from the scene
+/// configurations `meta.json` records. Returns whether a report was there to update.
+pub fn refresh_findings(dir: &Path, meta: &Meta, runs: &Table) -> std::io::Result<bool> {
+    let path = dir.join("report.md");
+    let text = match std::fs::read_to_string(&path) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(false),
+        Err(e) => return Err(e),
+    };
+    let damping: Vec<(String, crate::scene::DampingConfig)> = runs
+        .rows
+        .iter()
+        .filter_map(|r| {
+            let id = runs.get(r, "run_id")?;
+            let scene = runs.get(r, "scene")?;
+            let d = meta
+                .config
+                .get("runs")?
+                .get(id)?
+                .get("scene")?
+                .get("damping")?;
+            Some((scene.to_owned(), serde_json::from_value(d.clone()).ok()?))
+        })
+        .collect();
+    let damped = damped_scenes_of(damping.iter().map(|(s, d)| (s.as_str(), d)));
+    let mut findings = String::new();
+    super::findings::write(
+        &mut findings,
+        &super::findings::compute(runs, &meta.study.parameters, &damped),
+    );
+    let updated = replace_findings(&text, &findings);
+    write_atomic(&path, |w| w.write_all(updated.as_bytes()))?;
+    Ok(true)
+}
+
+/// `report` with its findings section (from `## Findings` to the next paragraph that is not
+/// part of it) replaced by `findings`, or `findings` inserted before the `Study file` paragraph.
+fn replace_findings(report: &str, findings: &str) -> String {
+    const STUDY_PARAGRAPH: &str = "Study file `";
+    let end_of_section = |from: usize| {
+        report[from..]
+            .find(&format!("\n{STUDY_PARAGRAPH}"))
+            .map(|i| from + i + 1)
+            .or_else(|| report[from..].find("\n## ").map(|i| from + i + 1))
+            .unwrap_or(report.len())
+    };
+    if let Some(start) = report.find("## Findings\n") {
+        let end = end_of_section(start + 1);
+        return format!("{}{findings}{}", &report[..start], &report[end..]);
+    }
+    match report.find(&format!("\n{STUDY_PARAGRAPH}")) {
+        Some(i) => format!("{}{findings}{}", &report[..i + 1], &report[i + 1..]),
+        None => format!("{report}\n{findings}"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::replace_findings;
+
+    #[test]
+    fn findings_replace_the_old_section_or_go_before_the_study_paragraph() {
+        let new = "## Findings\n\nnew\n\n";
+        let with = "# s\n\n## Findings\n\nold\n\nWarnings:\n\n- w\n\nStudy file `a`.\n";
+        assert_eq!(
+            replace_findings(with, new),
+            "# s\n\n## Findings\n\nnew\n\nStudy file `a`.\n"
+        );
+        let without = "# s\n\nStudy file `a`.\n\n## Runs\n";
+        assert_eq!(
+            replace_findings(without, new),
+            "# s\n\n## Findings\n\nnew\n\nStudy file `a`.\n\n## Runs\n"
+        );
+    }
 }

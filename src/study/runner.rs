@@ -261,6 +261,7 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
         options.jobs,
         &progress,
     )?;
+    progress.begin_runs();
     let table_path = lock_dir.join("runs.csv");
     // The rows this invocation's table holds: the whole study's, or the shard's.
     let table_of = |rows: &HashMap<String, Vec<String>>| match options.shard {

@@ -78,6 +78,12 @@ pub const COLUMNS: &[&str] = &[
     "factor_seconds",
     "solve_seconds",
     "qp_seconds",
+    "force_seconds",
+    "mass_solves",
+    "mass_solve_seconds",
+    "internal_dt_min",
+    "internal_dt_median",
+    "internal_dt_max",
 ];
 
 /// What the rest of the study code asks of a stability study.
