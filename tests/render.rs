@@ -416,6 +416,7 @@ fn a_stability_study_pictures_each_methods_chosen_trial_and_marks_one_unstable_e
     assert_eq!(img.height(), 2 * (CELL.1 + 34));
     let report = std::fs::read_to_string(results.join("report.md")).unwrap();
     assert!(report.contains("![The body over time: soft_beam](pictures-soft_beam.png)"));
+}
 
 /// Snapshots of a course Neo-Hookean box at rest (step 0) and with one corner pulled out by
 /// 10% of the box (step 1), recorded by the study's recorder.
