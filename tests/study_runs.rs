@@ -147,8 +147,18 @@ fn quickstart_quick_writes_every_output() {
     assert!(findings.contains("| scene | metric |"), "{findings}");
     let cut = format!("{}{}", &report[..start], &report[end..]);
     std::fs::write(dir.join("report.md"), &cut).unwrap();
+    // A figure of the user's survives the redraw; a stale plot of softbench's own (a scene no
+    // longer in the study) does not.
+    std::fs::write(dir.join("scaling_box_step_time.png"), b"theirs").unwrap();
+    std::fs::write(dir.join("energy-gone_scene.png"), b"stale").unwrap();
     let o = softbench(&["plot", dir.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        std::fs::read(dir.join("scaling_box_step_time.png")).unwrap(),
+        b"theirs"
+    );
+    assert!(!dir.join("energy-gone_scene.png").exists());
+    std::fs::remove_file(dir.join("scaling_box_step_time.png")).unwrap();
     assert_complete(&dir, &IDENTITY);
     assert_eq!(
         std::fs::read_to_string(dir.join("report.md")).unwrap(),

@@ -174,6 +174,20 @@ fn accuracy_rank(runs: &Table, row: &[String]) -> f64 {
         .sum()
 }
 
+/// The stem prefixes of every file the plots and pictures of a study write. Only such files
+/// are ever removed as stale: a figure a user (or an example such as `scaling_plot`) put in
+/// the folder is theirs.
+const OWN_PREFIXES: [&str; 8] = [
+    "cost-error-",
+    "energy-",
+    "iterations-",
+    "phases-",
+    "pictures-",
+    "stable-dt-",
+    "sweep-",
+    "work-precision-",
+];
+
 /// Remove plots of an earlier invocation that this one did not draw (a scene or time step
 /// no longer in the study), so the folder holds exactly what report.md shows.
 fn remove_stale(dir: &Path, drawn: &[Plot]) {
@@ -182,9 +196,14 @@ fn remove_stale(dir: &Path, drawn: &[Plot]) {
     };
     for entry in entries.flatten() {
         let path = entry.path();
-        let is_plot = path.extension().is_some_and(|e| e == "png" || e == "svg");
-        let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned());
-        if is_plot && stem.is_some_and(|s| !drawn.iter().any(|p| p.stem == s)) {
+        let is_plot = path
+            .extension()
+            .is_some_and(|e| e == "png" || e == "svg" || e == "gif");
+        let Some(stem) = path.file_stem().map(|s| s.to_string_lossy().into_owned()) else {
+            continue;
+        };
+        let ours = OWN_PREFIXES.iter().any(|p| stem.starts_with(p));
+        if is_plot && ours && !drawn.iter().any(|p| p.stem == stem) {
             let _ = std::fs::remove_file(&path);
         }
     }
@@ -682,7 +701,7 @@ fn phase_chart(
     }
     StackedBarChart {
         title: format!("Time per step by phase: {scene}"),
-        y_label: "wall time per step (s); no bar: phase not used".into(),
+        y_label: "mean wall time per step (s); no bar: phase not used".into(),
         y_log: true,
         categories,
         parts: names
