@@ -7,7 +7,7 @@ use super::table::Table;
 use crate::data::DataPaths;
 use crate::integrate::State;
 use crate::parallel::Parallelism;
-use crate::run::{self, Outcome, OutcomeKind, RunSummary, Sample};
+use crate::run::{self, Observer, Outcome, OutcomeKind, RunSummary, Sample};
 use crate::scene::{self, RunConfig, Scene};
 
 /// The result of one run.
@@ -204,19 +204,27 @@ pub fn build(spec: &RunSpec, parallelism: Parallelism) -> Result<Scene, scene::S
     scene::build(&spec.loaded, &DataPaths::from_env(), parallelism)
 }
 
-/// Run `scene` from rest with `run`, keeping every sampled row and snapshots of `surface`
-/// (see [`crate::render`]).
-pub fn run_rows_pictured(
+/// Run `scene` from rest with `run`, passing every row to `inner`; with a `surface`, also
+/// record its snapshots (see [`crate::render`]). Returns the final state too (how far a run
+/// that ended early got).
+pub fn run_observed(
     scene: &mut Scene,
     run: &RunConfig,
-    surface: crate::render::Surface,
-) -> (RunSummary, Vec<Sample>, crate::render::Snapshots) {
+    surface: Option<crate::render::Surface>,
+    inner: &mut dyn Observer,
+) -> (RunSummary, State, Option<crate::render::Snapshots>) {
     let mut integrator = scene.integrator();
     let mut state: State = scene.initial.clone();
-    let mut rows = Vec::new();
-    let mut keep = |s: &Sample| {
-        rows.push(s.clone());
-        Ok(())
+    let Some(surface) = surface else {
+        let summary = run::run(
+            &mut scene.model,
+            integrator.as_mut(),
+            &mut state,
+            run,
+            inner,
+        )
+        .expect("keeping rows in memory cannot fail");
+        return (summary, state, None);
     };
     let obstacles = scene.contact.as_ref().map(|c| c.obstacles().clone());
     let mut recorder = crate::render::SnapshotRecorder::new(
@@ -225,7 +233,7 @@ pub fn run_rows_pictured(
         surface,
         obstacles,
         (run.steps, run.dt),
-        &mut keep,
+        inner,
     );
     let summary = run::run(
         &mut scene.model,
@@ -236,7 +244,7 @@ pub fn run_rows_pictured(
     )
     .expect("keeping rows and snapshots in memory cannot fail");
     let snapshots = recorder.finish(&scene.model, &summary.outcome);
-    (summary, rows, snapshots)
+    (summary, state, Some(snapshots))
 }
 
 /// The surface a study run's pictures show: the boundary of the model's tets, or of the scene
@@ -252,22 +260,17 @@ pub fn picture_surface(scene: &Scene, spec: &RunSpec) -> Option<crate::render::S
         .then(|| crate::render::Surface::boundary(model, &mesh.tets))
 }
 
-/// Run `scene` from rest with `run`, keeping every sampled row.
-pub fn run_rows(scene: &mut Scene, run: &RunConfig) -> (RunSummary, Vec<Sample>) {
-    let mut integrator = scene.integrator();
-    let mut state: State = scene.initial.clone();
+/// Run `scene` from rest with `run`, keeping every sampled row (and snapshots of `surface`).
+pub fn run_rows(
+    scene: &mut Scene,
+    run: &RunConfig,
+    surface: Option<crate::render::Surface>,
+) -> (RunSummary, Vec<Sample>, Option<crate::render::Snapshots>) {
     let mut rows = Vec::new();
     let mut keep = |s: &Sample| {
         rows.push(s.clone());
         Ok(())
     };
-    let summary = run::run(
-        &mut scene.model,
-        integrator.as_mut(),
-        &mut state,
-        run,
-        &mut keep,
-    )
-    .expect("keeping rows in memory cannot fail");
-    (summary, rows)
+    let (summary, _, snapshots) = run_observed(scene, run, surface, &mut keep);
+    (summary, rows, snapshots)
 }

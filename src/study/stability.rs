@@ -21,7 +21,9 @@ use super::context::Context;
 use super::error::StudyError;
 use super::format::{cell, short};
 use super::kind::{KindSpec, References, keep_axes, no_findings, number};
-use super::measured::{Measured, build, cap_cells, outcome_of, picture_surface, summary_cells};
+use super::measured::{
+    Measured, build, cap_cells, outcome_of, picture_surface, run_observed, summary_cells,
+};
 use super::plots::{self, Emit, SceneRows};
 use super::settings::MIN_RELATIVE_PRECISION;
 use super::spec::RunSpec;
@@ -32,7 +34,7 @@ use crate::integrate::State;
 use crate::model::{HighestMode, Model, SpectrumSettings, highest_mode};
 use crate::parallel::Parallelism;
 use crate::plot::{Chart, PlotError};
-use crate::run::{self, Observer, Outcome, OutcomeKind, RunSummary, Sample};
+use crate::run::{Observer, Outcome, OutcomeKind, RunSummary, Sample};
 use crate::scene::{RunConfig, Scene};
 use std::fmt::Write;
 
@@ -498,45 +500,11 @@ pub fn measure(
             sample_every: steps.div_ceil(ROWS_PER_TRIAL).max(1),
             energy_limit: settings.energy_factor,
         };
-        let mut integrator = scene.integrator();
-        let mut state = scene.initial.clone();
         let mut output = DenseOutput::new(sample_times.clone());
-        // Every trial records its pictures (a copy of the surface per step), so the chosen
+        // Every trial records its pictures (a copy of the surface per step), so the reported
         // trial's need no second run.
-        let (mut summary, snapshots) = match &surface {
-            Some(surface) => {
-                let obstacles = scene.contact.as_ref().map(|c| c.obstacles().clone());
-                let mut recorder = crate::render::SnapshotRecorder::new(
-                    &scene.model,
-                    &state,
-                    surface.clone(),
-                    obstacles,
-                    (steps, dt),
-                    &mut output,
-                );
-                let summary = run::run(
-                    &mut scene.model,
-                    integrator.as_mut(),
-                    &mut state,
-                    &run,
-                    &mut recorder,
-                )
-                .expect("keeping rows and snapshots in memory cannot fail");
-                let snapshots = recorder.finish(&scene.model, &summary.outcome);
-                (summary, Some(snapshots))
-            }
-            None => {
-                let summary = run::run(
-                    &mut scene.model,
-                    integrator.as_mut(),
-                    &mut state,
-                    &run,
-                    &mut output,
-                )
-                .expect("keeping rows in memory cannot fail");
-                (summary, None)
-            }
-        };
+        let (mut summary, state, snapshots) =
+            run_observed(&mut scene, &run, surface.clone(), &mut output);
         if summary.outcome.is_completed() && (needed as usize) > steps {
             summary.outcome = Outcome::ended(
                 OutcomeKind::HorizonNotReached,
@@ -633,12 +601,12 @@ pub fn measure(
             }
         }
         m.series = best.rows.clone();
-        m.snapshots = best.snapshots.clone();
     } else if let Some(t) = first_unstable {
-        // Nothing stable: the smallest failing step shows how the method breaks.
         m.series = t.rows.clone();
-        m.snapshots = t.snapshots.clone();
     }
+    // The pictures of the reported trial: the largest stable step, or, with nothing stable,
+    // the smallest failing one, which shows how the method breaks.
+    let pictured = best.or(first_unstable).map(|t| t.dt);
     m.cells.extend(cap_cells(spec));
     m.set("stability", verdict.to_owned());
     m.set("max_stable_dt", cell(bracket.map(|(lo, _)| lo)));
@@ -686,6 +654,11 @@ pub fn measure(
     let total: f64 = trials.iter().map(|t| t.summary.totals.times.total).sum();
     m.set("trials_wall_seconds", cell(Some(total)));
     m.trials = Some(trial_table(&trials));
+    m.snapshots = pictured.and_then(|dt| {
+        let mut trials = trials;
+        let t = trials.iter_mut().find(|t| t.dt == dt)?;
+        t.snapshots.take()
+    });
     Ok(m)
 }
 

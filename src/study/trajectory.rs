@@ -7,8 +7,7 @@ use super::kind::{
     number, run_steps,
 };
 use super::measured::{
-    Measured, build, cap_cells, outcome_of, picture_surface, run_rows, run_rows_pictured,
-    summary_cells,
+    Measured, build, cap_cells, outcome_of, picture_surface, run_rows, summary_cells,
 };
 use super::spec::RunSpec;
 use crate::parallel::Parallelism;
@@ -117,16 +116,8 @@ pub fn measure(spec: &RunSpec, parallelism: Parallelism) -> Result<Measured, Str
     super::measured::reset_peak_rss();
     let mut scene = build(spec, parallelism).map_err(|e| e.to_string())?;
     let run = scene.config.run;
-    let (summary, rows, snapshots) = match picture_surface(&scene, spec) {
-        Some(surface) => {
-            let (summary, rows, snapshots) = run_rows_pictured(&mut scene, &run, surface);
-            (summary, rows, Some(snapshots))
-        }
-        None => {
-            let (summary, rows) = run_rows(&mut scene, &run);
-            (summary, rows, None)
-        }
-    };
+    let surface = picture_surface(&scene, spec);
+    let (summary, rows, snapshots) = run_rows(&mut scene, &run, surface);
     let (outcome, message) = outcome_of(&summary.outcome);
     let mut m = Measured {
         outcome,
