@@ -421,6 +421,12 @@ fn a_stability_study_pictures_each_methods_chosen_trial_and_marks_one_unstable_e
 /// Snapshots of a course Neo-Hookean box at rest (step 0) and with one corner pulled out by
 /// 10% of the box (step 1), recorded by the study's recorder.
 fn energy_snapshots() -> Snapshots {
+    energy_snapshots_of(|q| q[0] -= 0.02)
+}
+
+/// Snapshots of the box of [`energy_snapshots`] at rest (step 0) and deformed by `deform`
+/// (step 1).
+fn energy_snapshots_of(deform: impl Fn(&mut Vec<f64>)) -> Snapshots {
     use softbench::integrate::State;
     use softbench::material::{MaterialModel, NeoHookean};
     use softbench::model::{Model, ModelSpec};
@@ -430,7 +436,8 @@ fn energy_snapshots() -> Snapshots {
     let model = Model::new(ModelSpec::elastic(mesh, material, 1000.0)).unwrap();
     let rest = State::at_rest(&model);
     let mut pulled = rest.clone();
-    pulled.q[0] -= 0.02;
+    deform(&mut pulled.q);
+    pulled.t = 1.0;
     let surface = softbench::render::Surface::boundary(&model, model.tets());
     let mut rows = |_: &softbench::run::Sample| Ok(());
     let mut recorder =
@@ -494,4 +501,107 @@ fn energy_colouring_is_one_colour_at_rest_and_higher_where_stretched() {
     let energy = pixels(&draw(pulled, Coloring::EnergyDensity));
     let j = pixels(&draw(pulled, Coloring::VolumeRatio));
     assert_ne!(energy, j);
+}
+
+#[test]
+fn a_panel_shares_one_energy_scale_that_a_blown_up_run_does_not_set() {
+    use softbench::render::film::{max_energy_density, shared_energy_max};
+    // Stretched by 10% along x everywhere: every face stores energy.
+    let a = energy_snapshots_of(|q| q.iter_mut().step_by(3).for_each(|x| *x *= 1.1));
+    let scaled = |s: &Snapshots, k: f32, failure: &str| {
+        let mut s = s.clone();
+        for f in &mut s.frames {
+            for e in &mut f.energy_density {
+                *e *= k;
+            }
+        }
+        s.failure = failure.to_owned();
+        s
+    };
+    let b = scaled(&a, 4.0, "");
+    let blown = scaled(&a, 1000.0, "unstable: energy growth at t = 0.5 s");
+    let max_a = max_energy_density(&a);
+    fn pictures<'a>(runs: &[&'a Snapshots]) -> Vec<RunPictures<'a>> {
+        runs.iter()
+            .enumerate()
+            .map(|(i, s)| RunPictures {
+                label: format!("run {i}"),
+                snapshots: s,
+            })
+            .collect()
+    }
+    assert_eq!(shared_energy_max(&pictures(&[&a, &b])), 4.0 * max_a);
+    // The blown-up run does not wash out the others; alone, it has its own scale.
+    assert_eq!(shared_energy_max(&pictures(&[&a, &b, &blown])), 4.0 * max_a);
+    assert_eq!(shared_energy_max(&pictures(&[&blown])), 1000.0 * max_a);
+    // Drawn together, the less stretched run's hottest face is paler than the other's.
+    let dir = TempDir::new("render-shared-energy");
+    let path = dir.path().join("panel.png");
+    panel(&path, &pictures(&[&a, &b]), Coloring::EnergyDensity).unwrap();
+    let img = image::open(&path).unwrap().to_rgb8();
+    let (cw, ch) = CELL;
+    let row_h = ch + 34;
+    let label_w = img.width() - FILM_TIMES as u32 * cw;
+    // The last column shows the pulled frame; redness = red minus blue.
+    let hottest = |row: u32| {
+        let (x0, y0) = (label_w + (FILM_TIMES as u32 - 1) * cw, row * row_h);
+        (y0..y0 + ch)
+            .flat_map(|y| (x0..x0 + cw).map(move |x| (x, y)))
+            .map(|(x, y)| {
+                let p = img.get_pixel(x, y).0;
+                i32::from(p[0]) - i32::from(p[2])
+            })
+            .max()
+            .unwrap()
+    };
+    assert!(hottest(0) < hottest(1), "{} vs {}", hottest(0), hottest(1));
+}
+
+#[test]
+fn a_work_precision_study_pictures_each_method_at_its_least_accurate_completed_step() {
+    let dir = TempDir::new("render-wp");
+    std::fs::write(
+        dir.path().join("beam.toml"),
+        "[mesh]\ngenerate = { box = [4, 1, 1], size = [1.0, 0.25, 0.25] }\n\
+         [material]\nmodel = \"stable-neo-hookean\"\nyoungs_modulus = 2e6\npoisson_ratio = 0.3\n\
+         density = 1000.0\nmass = \"lumped\"\n\
+         [fixed]\nrule = { axis = \"x\", side = \"min\", tolerance = 1e-6 }\n\
+         [forces]\ngravity = [0.0, -9.81, 0.0]\n[run]\ndt = 0.01\nsteps = 1\n",
+    )
+    .unwrap();
+    // Symplectic Euler blows up at 0.02 s on this stiff beam and completes at 0.5 ms;
+    // backward Euler completes at both.
+    let study = dir.path().join("study.toml");
+    std::fs::write(
+        &study,
+        "name = \"wp\"\nstudy = \"work-precision\"\nscenes = [\"beam.toml\"]\n\
+         [grid]\n\"integrator.method\" = [\"symplectic-euler\", \"backward-euler\"]\n\
+         \"run.dt\" = [0.02, 0.0005]\n\
+         [work-precision]\nhorizon = 0.4\nsamples = 2\n\
+         reference = { method = \"rk4\", dt_factor = 4 }\n",
+    )
+    .unwrap();
+    common::run_study_ok(&study, dir.path(), &[]);
+    let results = dir.path().join("wp");
+    let runs = std::fs::read_to_string(results.join("runs.csv")).unwrap();
+    assert_eq!(runs.lines().count() - 1, 4);
+    assert!(
+        runs.lines()
+            .any(|l| l.contains("symplectic-euler") && l.contains("unstable")),
+        "{runs}"
+    );
+    // Every run keeps its snapshots; the panel shows one row per method.
+    for id in runs.lines().skip(1).map(|l| l.split(',').next().unwrap()) {
+        assert!(
+            results.join(format!("series/{id}.snapshots")).is_file(),
+            "{id}"
+        );
+    }
+    let img = image::open(results.join("pictures-beam.png")).unwrap();
+    assert_eq!(img.height(), 2 * (CELL.1 + 34));
+    let report = std::fs::read_to_string(results.join("report.md")).unwrap();
+    assert!(
+        report.contains("rows: symplectic-euler dt=5e-4; backward-euler / cholesky dt=2e-2"),
+        "{report}"
+    );
 }

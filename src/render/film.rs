@@ -36,7 +36,8 @@ pub enum Coloring {
     /// By det F of the tet under each triangle (blue compressed, red stretched).
     VolumeRatio,
     /// By the elastic energy density of the tet under each triangle: white at 0, dark red at
-    /// the run's largest density over its frames.
+    /// the largest density over the frames drawn together (a panel or animation shares one
+    /// scale: see [`shared_energy_max`]).
     EnergyDensity,
 }
 
@@ -77,13 +78,32 @@ pub fn camera_for(runs: &[&Snapshots], width: u32, height: u32) -> Camera {
     Camera::framing(&bounds, up, width, height)
 }
 
-/// Draws `frame` of `s` (obstacles, then the body) into `canvas`.
+/// Draws `frame` of `s` (obstacles, then the body) into `canvas`; energy density is scaled
+/// to the largest of `s`'s own frames.
 pub fn draw_frame(
     canvas: &mut Canvas,
     camera: &Camera,
     s: &Snapshots,
     frame: &SnapshotFrame,
     coloring: Coloring,
+) {
+    let max_energy = if coloring == Coloring::EnergyDensity {
+        max_energy_density(s)
+    } else {
+        0.0
+    };
+    draw_frame_scaled(canvas, camera, s, frame, coloring, max_energy);
+}
+
+/// [`draw_frame`] with energy density coloured on a scale ending at `max_energy` (J/m³),
+/// so that several runs drawn side by side share one scale.
+pub fn draw_frame_scaled(
+    canvas: &mut Canvas,
+    camera: &Camera,
+    s: &Snapshots,
+    frame: &SnapshotFrame,
+    coloring: Coloring,
+    max_energy: f32,
 ) {
     canvas.clear();
     let p = |v: &[f32; 3]| v.map(f64::from);
@@ -93,11 +113,6 @@ pub fn draw_frame(
     let n = s.triangles.len();
     let by_j = coloring == Coloring::VolumeRatio && frame.j.len() == n;
     let by_energy = coloring == Coloring::EnergyDensity && frame.energy_density.len() == n;
-    let max_energy = if by_energy {
-        max_energy_density(s)
-    } else {
-        0.0
-    };
     for (i, t) in s.triangles.iter().enumerate() {
         let color = if by_j {
             j_color(frame.j[i])
@@ -249,6 +264,11 @@ pub fn panel(path: &Path, runs: &[RunPictures], coloring: Coloring) -> Result<()
     let mut sheet = Sheet::new(width, height);
     let all: Vec<&Snapshots> = runs.iter().map(|r| r.snapshots).collect();
     let camera = camera_for(&all, cw, ch);
+    let max_energy = if coloring == Coloring::EnergyDensity {
+        shared_energy_max(runs)
+    } else {
+        0.0
+    };
     let mut canvas = Canvas::new(cw, ch);
     for (r, run) in runs.iter().enumerate() {
         let y0 = r as u32 * row_h;
@@ -257,7 +277,14 @@ pub fn panel(path: &Path, runs: &[RunPictures], coloring: Coloring) -> Result<()
             let x0 = label_w + k as u32 * cw;
             match frame_at(run.snapshots, f) {
                 Some(frame) => {
-                    draw_frame(&mut canvas, &camera, run.snapshots, frame, coloring);
+                    draw_frame_scaled(
+                        &mut canvas,
+                        &camera,
+                        run.snapshots,
+                        frame,
+                        coloring,
+                        max_energy,
+                    );
                     sheet.paste(&canvas, x0, y0);
                     sheet.text(&[caption(frame)], x0, y0 + ch, cw, 13.0, true)?;
                 }
@@ -326,6 +353,11 @@ pub fn animation(path: &Path, runs: &[RunPictures], coloring: Coloring) -> Resul
     let (width, height) = (cols * tw, rows * th);
     let all: Vec<&Snapshots> = runs.iter().map(|r| r.snapshots).collect();
     let camera = camera_for(&all, cw, ch);
+    let max_energy = if coloring == Coloring::EnergyDensity {
+        shared_energy_max(runs)
+    } else {
+        0.0
+    };
     let frames = super::SAMPLES;
     let mut canvas = Canvas::new(cw, ch);
     let mut gif_frames = Vec::with_capacity(frames);
@@ -336,7 +368,14 @@ pub fn animation(path: &Path, runs: &[RunPictures], coloring: Coloring) -> Resul
         for (i, run) in runs.iter().enumerate() {
             let (x0, y0) = ((i as u32 % cols) * tw, (i as u32 / cols) * th);
             if let Some(frame) = frame_at(run.snapshots, f) {
-                draw_frame(&mut canvas, &camera, run.snapshots, frame, coloring);
+                draw_frame_scaled(
+                    &mut canvas,
+                    &camera,
+                    run.snapshots,
+                    frame,
+                    coloring,
+                    max_energy,
+                );
                 sheet.paste(&canvas, x0, y0 + label_h);
                 if !frame.last_valid {
                     time.get_or_insert(frame.t);
@@ -427,6 +466,23 @@ pub fn write_gif(
         path: path.to_owned(),
         error,
     })
+}
+
+/// The energy-density scale shared by runs drawn together (J/m³): the largest density of the
+/// runs that completed, so one that blew up does not wash out the others (its faces beyond
+/// the scale are drawn at its end); of all runs when none completed.
+pub fn shared_energy_max(runs: &[RunPictures]) -> f32 {
+    let of = |completed: bool| {
+        runs.iter()
+            .filter(|r| !completed || r.snapshots.failure.is_empty())
+            .map(|r| max_energy_density(r.snapshots))
+            .fold(0.0, f32::max)
+    };
+    if runs.iter().any(|r| r.snapshots.failure.is_empty()) {
+        of(true)
+    } else {
+        of(false)
+    }
 }
 
 /// The largest finite energy density of any frame of `s` (J/m³; 0 without any).

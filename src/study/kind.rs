@@ -61,6 +61,8 @@ pub(super) struct KindSpec {
     pub by_time_step: bool,
     /// Whether the phase chart shows only each line's run at its smallest dt.
     pub phases_at_smallest_dt: bool,
+    /// Which runs the pictures of the bodies show.
+    pub picture_rows: super::pictures::PictureRows,
     /// The columns whose first number labels a phase bar with its dt.
     pub phase_dt_columns: &'static [&'static str],
 }

@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use super::plots::{Plot, label, scenes, slug};
+use super::plots::{Plot, label, least_accurate_per_line, scenes, slug};
 use super::table::Table;
 use crate::render::{self, Coloring, RenderError, RunPictures, Snapshots};
 
@@ -14,26 +14,48 @@ pub fn snapshot_path(dir: &Path, id: &str) -> std::path::PathBuf {
         .join(format!("{id}.{}", render::SNAPSHOT_EXTENSION))
 }
 
+/// Which runs of a study the pictures show.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PictureRows {
+    /// Every run with snapshots, one row each.
+    All,
+    /// One run per work-precision line (a method with its non-accuracy settings): the least
+    /// accurate setting that completed — the coarsest step, fewest iterations or substeps,
+    /// loosest tolerance — where methods differ most visibly (a line with no completed run
+    /// shows its least accurate run). Labels then name the run's dt.
+    LeastAccuratePerLine,
+}
+
 /// Draws `pictures-<scene>.png` and `.gif` for every scene with snapshots; returns them as
 /// plots (the PNG is the plot, the caption links the GIF).
 pub fn draw(
     dir: &Path,
     runs: &Table,
     params: &[String],
+    which: PictureRows,
     coloring: Coloring,
 ) -> Result<Vec<Plot>, RenderError> {
     let mut out = Vec::new();
     for scene in scenes(runs) {
-        let mut loaded: Vec<(String, Snapshots)> = Vec::new();
-        for row in runs
+        let of_scene: Vec<&Vec<String>> = runs
             .rows
             .iter()
             .filter(|r| runs.get(r, "scene") == Some(&scene))
-        {
-            let path = snapshot_path(dir, &row[0]);
-            if path.exists() {
-                loaded.push((label(runs, params, row, &[]), Snapshots::read(&path)?));
+            .filter(|r| snapshot_path(dir, &r[0]).exists())
+            .collect();
+        let shown = match which {
+            PictureRows::All => of_scene,
+            PictureRows::LeastAccuratePerLine => least_accurate_per_line(runs, params, &of_scene),
+        };
+        let mut loaded: Vec<(String, Snapshots)> = Vec::new();
+        for row in shown {
+            let mut name = label(runs, params, row, &[]);
+            if which == PictureRows::LeastAccuratePerLine
+                && let Some(dt) = runs.get(row, "dt").filter(|d| !d.is_empty())
+            {
+                name.push_str(&format!(" dt={dt}"));
             }
+            loaded.push((name, Snapshots::read(&snapshot_path(dir, &row[0]))?));
         }
         if loaded.is_empty() {
             continue;
@@ -48,10 +70,22 @@ pub fn draw(
         let stem = format!("pictures-{}", slug(&scene));
         render::panel(&dir.join(format!("{stem}.png")), &pictures, coloring)?;
         render::animation(&dir.join(format!("{stem}.gif")), &pictures, coloring)?;
+        let rows_are = match which {
+            PictureRows::All => "One row per run".to_owned(),
+            PictureRows::LeastAccuratePerLine => format!(
+                "One row per method, each at its least accurate setting that completed (the \
+                 largest dt, fewest iterations or loosest tolerance of its line; rows: {})",
+                loaded
+                    .iter()
+                    .map(|(l, _)| l.as_str())
+                    .collect::<Vec<_>>()
+                    .join("; ")
+            ),
+        };
         out.push(Plot {
             title: format!("The body over time: {scene}"),
             caption: format!(
-                "One row per run at 0, 1/5, ..., 5/5 of the horizon, one camera for all{}. A \
+                "{rows_are}, at 0, 1/5, ..., 5/5 of the horizon, one camera for all{}. A \
                  run that ended early shows its last valid state framed in red with the cause. \
                  The runs side by side as an animation: [{stem}.gif]({stem}.gif).",
                 match coloring {
@@ -61,7 +95,8 @@ pub fn draw(
                     }
                     Coloring::EnergyDensity => {
                         "; coloured by the elastic energy density of the tet under each face \
-                         (white at 0, dark red at each run's largest density)"
+                         (white at 0, dark red at the largest density of the runs that completed, \
+                         one scale for all)"
                     }
                     Coloring::Plain => "",
                 }
@@ -90,6 +125,7 @@ pub fn draw_folder(dir: &Path, coloring: Coloring) -> Result<Vec<Plot>, super::R
         path: runs_path.clone(),
         error: std::io::Error::from(std::io::ErrorKind::NotFound),
     })?;
-    draw(dir, &runs, &meta.study.parameters, coloring)
+    let which = super::kinds::spec(meta.study.kind).picture_rows;
+    draw(dir, &runs, &meta.study.parameters, which, coloring)
         .map_err(|e| super::RedrawError::Plot(crate::plot::PlotError::Draw(e.to_string())))
 }

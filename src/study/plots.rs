@@ -58,7 +58,8 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
                 )?;
             }
         }
-        plots.extend(pictures(dir, runs, params)?);
+        let which = super::kinds::spec(study.kind).picture_rows;
+        plots.extend(pictures(dir, runs, params, which)?);
         remove_stale(dir, &plots);
         return Ok(plots);
     }
@@ -121,15 +122,26 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
             )),
         )?;
     }
-    plots.extend(pictures(dir, runs, params)?);
+    plots.extend(pictures(dir, runs, params, kind.picture_rows)?);
     remove_stale(dir, &plots);
     Ok(plots)
 }
 
 /// The study's pictures of the bodies (see [`super::pictures`]).
-fn pictures(dir: &Path, runs: &Table, params: &[String]) -> Result<Vec<Plot>, PlotError> {
-    super::pictures::draw(dir, runs, params, crate::render::Coloring::VolumeRatio)
-        .map_err(|e| PlotError::Draw(e.to_string()))
+fn pictures(
+    dir: &Path,
+    runs: &Table,
+    params: &[String],
+    which: super::pictures::PictureRows,
+) -> Result<Vec<Plot>, PlotError> {
+    super::pictures::draw(
+        dir,
+        runs,
+        params,
+        which,
+        crate::render::Coloring::VolumeRatio,
+    )
+    .map_err(|e| PlotError::Draw(e.to_string()))
 }
 
 /// One scene's rows of `runs.csv`, for the charts a kind draws of it.
@@ -172,6 +184,40 @@ fn accuracy_rank(runs: &Table, row: &[String]) -> f64 {
             }
         })
         .sum()
+}
+
+/// One run per work-precision line (its label without the accuracy knobs): the completed run
+/// of lowest accuracy (largest dt, then [`accuracy_rank`]), or the lowest-accuracy run when
+/// none completed; in the order of `rows`.
+pub(super) fn least_accurate_per_line<'a>(
+    runs: &Table,
+    params: &[String],
+    rows: &[&'a Vec<String>],
+) -> Vec<&'a Vec<String>> {
+    // Larger is shown first: completed, then less accurate.
+    let preference = |r: &[String]| {
+        let dt = runs
+            .number(r, "dt")
+            .filter(|v| *v > 0.0)
+            .map_or(0.0, f64::ln);
+        let completed = runs.get(r, "outcome") == Some("completed");
+        (completed, dt - accuracy_rank(runs, r))
+    };
+    let mut best: BTreeMap<String, &'a Vec<String>> = BTreeMap::new();
+    for r in rows {
+        let key = label(runs, params, r, &ACCURACY_KNOBS);
+        let better = best.get(&key).is_none_or(|b| {
+            let ((rc, ra), (bc, ba)) = (preference(r), preference(b));
+            rc.cmp(&bc).then(ra.total_cmp(&ba)).is_gt()
+        });
+        if better {
+            best.insert(key, r);
+        }
+    }
+    rows.iter()
+        .copied()
+        .filter(|r| best.values().any(|b| std::ptr::eq(*b, *r)))
+        .collect()
 }
 
 /// The stem prefixes of every file the plots and pictures of a study write. Only such files

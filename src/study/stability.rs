@@ -162,6 +162,7 @@ pub(super) const SPEC: KindSpec = KindSpec {
          (log scale).",
     ),
     by_time_step: false,
+    picture_rows: super::pictures::PictureRows::All,
     phases_at_smallest_dt: false,
     phase_dt_columns: &["max_stable_dt", "dt"],
 };

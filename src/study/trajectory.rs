@@ -107,6 +107,7 @@ pub(super) const SPEC: KindSpec = KindSpec {
     // One chart per time step when the study sweeps it: a chart of every run would be
     // unreadable.
     by_time_step: true,
+    picture_rows: super::pictures::PictureRows::All,
     phases_at_smallest_dt: false,
     phase_dt_columns: &["dt"],
 };

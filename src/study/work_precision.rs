@@ -16,7 +16,9 @@ use super::format::{cell, short};
 use super::grid::Axis;
 use super::identity::float;
 use super::kind::{KindSpec, References, no_quick_check, number, run_steps};
-use super::measured::{Measured, build, cap_cells, outcome_of, summary_cells};
+use super::measured::{
+    Measured, build, cap_cells, outcome_of, picture_surface, run_observed, summary_cells,
+};
 use super::plots::{self, Emit, SceneRows};
 use super::spec::RunSpec;
 use super::spec::Study;
@@ -25,7 +27,7 @@ use crate::integrate::{Method, State};
 use crate::model::Model;
 use crate::parallel::Parallelism;
 use crate::plot::{Chart, PlotError};
-use crate::run::{self, Energies, Observer, RunSummary, Sample};
+use crate::run::{Energies, Observer, RunSummary, Sample};
 use crate::scene::SceneConfig;
 use crate::scene::{RunConfig, Scene};
 use std::fmt::Write;
@@ -115,6 +117,7 @@ pub(super) const SPEC: KindSpec = KindSpec {
     // No time histories: its runs differ only in accuracy.
     energy_caption: None,
     by_time_step: false,
+    picture_rows: super::pictures::PictureRows::LeastAccuratePerLine,
     phases_at_smallest_dt: true,
     phase_dt_columns: &["dt"],
 };
@@ -397,14 +400,19 @@ impl Observer for SampleObserver {
     }
 }
 
-/// Run `scene` and keep the state at every multiple of `stride` steps.
+/// Run `scene` and keep the state at every multiple of `stride` steps (and, with a
+/// `surface`, the snapshots its pictures are drawn from).
 fn sampled_run(
     scene: &mut Scene,
     run: &RunConfig,
     stride: usize,
-) -> (RunSummary, Vec<Sample>, Snapshots) {
-    let mut integrator = scene.integrator();
-    let mut state = scene.initial.clone();
+    surface: Option<crate::render::Surface>,
+) -> (
+    RunSummary,
+    Vec<Sample>,
+    Snapshots,
+    Option<crate::render::Snapshots>,
+) {
     let mut observer = SampleObserver {
         stride,
         rows: Vec::new(),
@@ -413,14 +421,7 @@ fn sampled_run(
             energies: Vec::new(),
         },
     };
-    let summary = run::run(
-        &mut scene.model,
-        integrator.as_mut(),
-        &mut state,
-        run,
-        &mut observer,
-    )
-    .expect("keeping rows in memory cannot fail");
+    let (summary, _, pictures) = run_observed(scene, run, surface, &mut observer);
     // Rows exist at every sample time (sample_every divides the stride): their energies are
     // the sample energies.
     observer.snapshots.energies = observer
@@ -435,7 +436,7 @@ fn sampled_run(
             external: r.external,
         })
         .collect();
-    (summary, observer.rows, observer.snapshots)
+    (summary, observer.rows, observer.snapshots, pictures)
 }
 
 /// Largest relative position error and energy error of `run` against `reference` over the
@@ -511,7 +512,7 @@ pub fn reference(
             sample_every: stride,
             energy_limit: 0.0,
         };
-        let (summary, _, snapshots) = sampled_run(&mut scene, &run, stride);
+        let (summary, _, snapshots, _) = sampled_run(&mut scene, &run, stride, None);
         if !summary.outcome.is_completed() {
             let (status, message) = outcome_of(&summary.outcome);
             return Err(format!(
@@ -560,13 +561,16 @@ pub fn measure(
 ) -> Result<Measured, String> {
     let mut scene = build(spec, parallelism).map_err(|e| e.to_string())?;
     let run = scene.config.run;
-    let (summary, rows, snapshots) = sampled_run(&mut scene, &run, stride(settings, run.dt));
+    let surface = picture_surface(&scene, spec);
+    let (summary, rows, snapshots, pictures) =
+        sampled_run(&mut scene, &run, stride(settings, run.dt), surface);
     let (outcome, message) = outcome_of(&summary.outcome);
     let mut m = Measured {
         outcome,
         message,
         cells: summary_cells(&summary),
         series: rows,
+        snapshots: pictures,
         ..Measured::default()
     };
     m.cells.extend(cap_cells(spec));
