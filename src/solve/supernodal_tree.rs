@@ -34,10 +34,20 @@ use crate::sparse::SparsityPattern;
 
 const NONE: usize = usize::MAX;
 
-/// Estimated flops of one supernode (right-looking count: dense LLᵀ of its diagonal block,
-/// the triangular solve below it and the update it sends to its ancestors) from which its
-/// dense kernels run on rayon's pool. Below it faer's kernels are faster sequentially.
-pub const NODE_PARALLEL_FLOPS: f64 = 2.0e7;
+/// Flops of one dense kernel call (an update product, the LLᵀ of a diagonal block, a
+/// triangular solve) from which it runs on rayon's pool; smaller calls run sequentially,
+/// where splitting costs more than it gains. Decided by sizes alone, so the arithmetic does
+/// not depend on the schedule.
+pub const KERNEL_PARALLEL_FLOPS: f64 = 1.0e7;
+
+/// The parallelism of a dense kernel call of `flops`.
+fn kernel_par(flops: f64) -> Par {
+    if flops >= KERNEL_PARALLEL_FLOPS {
+        Par::rayon(0)
+    } else {
+        Par::Seq
+    }
+}
 
 /// A subtree with fewer estimated flops than this is one sequential task: splitting it
 /// further costs more in task overhead than it can gain.
@@ -254,13 +264,31 @@ impl TreeSchedule {
         self.roots.iter().map(|&r| self.subtree_flops[r]).sum()
     }
 
-    /// Supernodes whose dense kernels run on the pool (front of at least
-    /// [`NODE_PARALLEL_FLOPS`]).
-    pub fn parallel_nodes(&self) -> usize {
-        self.node_flops
-            .iter()
-            .filter(|&&f| f >= NODE_PARALLEL_FLOPS)
-            .count()
+    /// The work of one factorization by where it runs with `threads`: estimated flops in
+    /// sequential subtree tasks, and in the supernodes above them that wait for their
+    /// children (split nodes), whose dense kernels are the only parallelism left when their
+    /// subtree has no concurrent sibling. Returns `(in_tasks, in_split_nodes, tasks,
+    /// split_nodes)`.
+    pub fn split_profile(&self, threads: usize) -> (f64, f64, usize, usize) {
+        let grain = self.grain(threads);
+        let (mut in_tasks, mut in_split, mut tasks, mut split) = (0.0, 0.0, 0, 0);
+        let mut stack: Vec<usize> = self.roots.clone();
+        while let Some(r) = stack.pop() {
+            if self.subtree_flops[r] <= grain || self.children(r).is_empty() {
+                in_tasks += self.subtree_flops[r];
+                tasks += 1;
+            } else {
+                in_split += self.node_flops[r];
+                split += 1;
+                stack.extend_from_slice(self.children(r));
+            }
+        }
+        (in_tasks, in_split, tasks, split)
+    }
+
+    /// Subtrees with at most this many flops run as one sequential task on `threads`.
+    fn grain(&self, threads: usize) -> f64 {
+        (self.total_flops() / (threads as f64 * TASKS_PER_THREAD)).max(MIN_TASK_FLOPS)
     }
 
     fn children(&self, s: usize) -> &[usize] {
@@ -397,7 +425,7 @@ pub fn factorize(
         schedule,
         pool,
         a_values,
-        grain: (schedule.total_flops() / (threads * TASKS_PER_THREAD)).max(MIN_TASK_FLOPS),
+        grain: schedule.grain(threads as usize),
         failed: AtomicUsize::new(NONE),
     };
     if threads <= 1.0 {
@@ -487,11 +515,6 @@ fn factor_supernode(
     let s_ncols = s_end - s_start;
     let s_pattern = supernode_pattern(symbolic, s);
     let s_nrows = s_ncols + s_pattern.len();
-    let par = if schedule.node_flops[s] >= NODE_PARALLEL_FLOPS {
-        Par::rayon(0)
-    } else {
-        Par::Seq
-    };
 
     let (head, tail) = values.split_at_mut(val_ptr[s] - base);
     let block = &mut tail[..val_ptr[s + 1] - val_ptr[s]];
@@ -524,6 +547,7 @@ fn factor_supernode(
         // W = L_d[mid∪bot] · L_d[mid]ᵀ, lower triangle of its top k×k block only.
         let mut w = MatMut::from_column_major_slice_mut(&mut scratch.update[..m * k], m, k);
         let (w_top, w_bot) = w.rb_mut().split_at_row_mut(k);
+        let par = kernel_par(2.0 * (m * k * d_ncols) as f64);
         triangular::matmul(
             w_top,
             BlockStructure::TriangularLower,
@@ -557,17 +581,19 @@ fn factor_supernode(
     let mut ls = MatMut::from_column_major_slice_mut(block, s_nrows, s_ncols);
     let (mut top, bot) = ls.rb_mut().split_at_row_mut(s_ncols);
     let stack = MemStack::new(&mut scratch.stack);
+    let c = s_ncols as f64;
     match cholesky_in_place(
         top.rb_mut(),
         LltRegularization::default(),
-        par,
+        kernel_par(c * c * c / 3.0),
         stack,
         Default::default(),
     ) {
         Ok(_) => {}
         Err(LltError::NonPositivePivot { index }) => return Err(s_start + index),
     }
-    solve_lower_triangular_in_place(top.rb(), bot.transpose_mut(), par);
+    let trsm_flops = c * c * (s_nrows - s_ncols) as f64;
+    solve_lower_triangular_in_place(top.rb(), bot.transpose_mut(), kernel_par(trsm_flops));
     Ok(())
 }
 
@@ -584,8 +610,7 @@ pub fn postorder_permutation(pattern: &SparsityPattern, perm: &[usize]) -> Vec<u
     // Elimination tree (Liu, path compression) of the permuted matrix.
     let mut parent = vec![NONE; n];
     let mut ancestor = vec![NONE; n];
-    for k in 0..n {
-        let old = perm[k];
+    for (k, &old) in perm.iter().enumerate() {
         for &r in &ri[cp[old]..cp[old + 1]] {
             let mut i = inv[r];
             while i != NONE && i < k {
