@@ -362,3 +362,14 @@ fn postordering_keeps_the_fill_and_makes_subtrees_contiguous() {
     };
     assert!(is_postordered(sn));
 }
+
+#[test]
+fn the_scheduler_is_read_from_a_config_and_a_bad_name_lists_the_valid_ones() {
+    let s: DirectSettings = toml::from_str("scheduler = \"faer\"").unwrap();
+    assert_eq!(s.scheduler, Scheduler::Faer);
+    assert_eq!(DirectSettings::default().scheduler, Scheduler::Subtrees);
+    let e = toml::from_str::<DirectSettings>("scheduler = \"tree\"")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("subtrees") && e.contains("faer"), "{e}");
+}
