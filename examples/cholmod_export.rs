@@ -8,7 +8,7 @@
 //! mass, clamped at x = 0, at a sagged state. For each mesh it writes `<name>.mtx` and
 //! `<name>.softbench.json` (n, nnz(A), nnz(L) and flops per ordering, the numeric
 //! factorization's wall times and median per thread count: `factor_metis_threads` for
-//! softbench's default — faer's loop on one thread, subtrees on two — and
+//! softbench's default scheduler (subtrees) and
 //! `factor_metis_schedulers` for both schedulers at both thread counts, plus the load average
 //! after timing).
 //!
@@ -22,14 +22,8 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context, bail};
-use faer::sparse::linalg::cholesky::{
-    CholeskySymbolicParams, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
-    factorize_symbolic_cholesky,
-};
 use fem_system::{fem_ball, fem_box};
 use softbench::parallel::Parallelism;
-use softbench::solve::ordering::nested_dissection;
-use softbench::solve::supernodal_tree::{self, ScratchPool, TreeSchedule};
 use softbench::solve::{CholeskySolver, DirectSettings, LinearSolver, Ordering, Scheduler};
 use softbench::sparse::SymmetricMatrix;
 
@@ -63,25 +57,13 @@ fn settings_with(ordering: Ordering, threads: usize, scheduler: Scheduler) -> Di
     }
 }
 
-/// One timed configuration: a scheduler on a pool of `threads`. The solver runs the
-/// subtree schedule only on several threads, so the one-thread subtree time calls
-/// `supernodal_tree::factorize` directly on the solver's own symbolic analysis (METIS composed
-/// with its postorder).
+/// One timed configuration: a scheduler on a pool of `threads`.
 struct Timed {
     scheduler: Scheduler,
     threads: usize,
     pool: rayon::ThreadPool,
     solver: CholeskySolver,
-    direct: Option<Direct>,
     seconds: Vec<f64>,
-}
-
-/// The subtree LLᵀ outside the solver (one thread).
-struct Direct {
-    symbolic: SymbolicCholesky<usize>,
-    schedule: TreeSchedule,
-    scratch: ScratchPool,
-    values: Vec<f64>,
 }
 
 impl Timed {
@@ -91,25 +73,17 @@ impl Timed {
             .build()?;
         let mut solver = CholeskySolver::new(settings_with(Ordering::Metis, threads, scheduler));
         pool.install(|| solver.analyze(a.pattern()))?;
-        let expected = if threads == 1 {
-            "sequential"
-        } else {
-            scheduler.name()
-        };
         anyhow::ensure!(
-            solver.stats().factor_scheduler == expected,
-            "expected scheduler {expected}, got {}",
+            solver.stats().factor_scheduler == scheduler.name(),
+            "expected scheduler {}, got {}",
+            scheduler.name(),
             solver.stats().factor_scheduler
         );
-        let direct = (scheduler == Scheduler::Subtrees && threads == 1)
-            .then(|| Direct::new(a))
-            .transpose()?;
         let mut timed = Self {
             scheduler,
             threads,
             pool,
             solver,
-            direct,
             seconds: Vec::new(),
         };
         timed.factor(a)?; // warm-up: first touch of the factor's pages
@@ -117,25 +91,9 @@ impl Timed {
     }
 
     fn factor(&mut self, a: &SymmetricMatrix) -> anyhow::Result<()> {
-        let (solver, direct) = (&mut self.solver, &mut self.direct);
-        self.pool.install(|| -> anyhow::Result<()> {
-            match direct {
-                Some(d) => {
-                    let SymbolicCholeskyRaw::Supernodal(sn) = d.symbolic.raw() else {
-                        bail!("not supernodal");
-                    };
-                    supernodal_tree::factorize(
-                        &mut d.values,
-                        a.values(),
-                        sn,
-                        &d.schedule,
-                        &d.scratch,
-                    )
-                    .map_err(|e| anyhow::anyhow!("non-positive pivot {}", e.index))
-                }
-                None => solver.factor(a).map(|_| ()).map_err(Into::into),
-            }
-        })
+        let solver = &mut self.solver;
+        self.pool.install(|| solver.factor(a))?;
+        Ok(())
     }
 
     fn time_once(&mut self, a: &SymmetricMatrix) -> anyhow::Result<()> {
@@ -143,36 +101,6 @@ impl Timed {
         self.factor(a)?;
         self.seconds.push(start.elapsed().as_secs_f64());
         Ok(())
-    }
-}
-
-impl Direct {
-    fn new(a: &SymmetricMatrix) -> anyhow::Result<Self> {
-        let p = a.pattern();
-        let fwd = supernodal_tree::postorder_permutation(p, &nested_dissection(p)?);
-        let mut inv = vec![0; fwd.len()];
-        for (i, &o) in fwd.iter().enumerate() {
-            inv[o] = i;
-        }
-        let symbolic = factorize_symbolic_cholesky(
-            p.as_faer(),
-            faer::Side::Lower,
-            SymmetricOrdering::Custom(faer::perm::PermRef::new_checked(&fwd, &inv, p.dim())),
-            CholeskySymbolicParams::default(),
-        )
-        .map_err(|e| anyhow::anyhow!("{e:?}"))?;
-        let SymbolicCholeskyRaw::Supernodal(sn) = symbolic.raw() else {
-            bail!("not supernodal");
-        };
-        let schedule = TreeSchedule::new(sn, p, symbolic.perm().map(|q| q.arrays()))?;
-        let scratch = ScratchPool::new(&schedule, 1);
-        let values = vec![0.0; symbolic.len_val()];
-        Ok(Self {
-            symbolic,
-            schedule,
-            scratch,
-            values,
-        })
     }
 }
 
@@ -237,8 +165,8 @@ fn export(dir: &Path, name: &str, repeats: usize) -> anyhow::Result<()> {
             "\"{}\": {{\"median_seconds\": {med:.6}, \"seconds\": [{list}]}}",
             c.threads
         );
-        // softbench's default: faer's sequential loop on one thread, subtrees on two.
-        if (c.scheduler == Scheduler::Faer) == (c.threads == 1) {
+        // softbench's default scheduler.
+        if c.scheduler == Scheduler::default() {
             timings.push(entry.clone());
         }
         by_scheduler.push((c.scheduler.name(), entry));

@@ -94,8 +94,13 @@ fn tree_factor(
     let schedule = TreeSchedule::new(sn, a.pattern(), sym.perm().map(|p| p.arrays())).unwrap();
     let scratch = ScratchPool::new(&schedule, threads);
     let mut values = vec![f64::NAN; sym.len_val()];
+    let par = if threads > 1 {
+        faer::Par::rayon(0)
+    } else {
+        faer::Par::Seq
+    };
     pool(threads).install(|| {
-        factorize(&mut values, a.values(), sn, &schedule, &scratch)
+        factorize(&mut values, a.values(), sn, &schedule, &scratch, par)
             .map(|()| values)
             .map_err(|e| e.index)
     })
@@ -199,6 +204,37 @@ fn the_solver_uses_the_subtree_schedule_and_solves_to_1e_10() {
 }
 
 #[test]
+fn the_sequential_and_threaded_solvers_give_the_same_bits() {
+    let a = fem_box([16, 8, 8]).matrix;
+    let solve = |parallelism, threads| {
+        pool(threads).install(|| {
+            let mut s = CholeskySolver::new(DirectSettings {
+                ordering: Ordering::Metis,
+                parallelism,
+                parallel_min_flops: 0.0,
+                ..Default::default()
+            });
+            s.analyze(a.pattern()).unwrap();
+            assert_eq!(s.stats().factor_scheduler, "subtrees");
+            s.factor(&a).unwrap();
+            let mut x = vec![1.0; a.dim()];
+            s.solve(&mut x).unwrap();
+            x
+        })
+    };
+    let sequential = solve(Parallelism::Sequential, 1);
+    for threads in [2, 3] {
+        let x = solve(Parallelism::Rayon, threads);
+        assert!(
+            x.iter()
+                .zip(&sequential)
+                .all(|(p, q)| p.to_bits() == q.to_bits()),
+            "{threads} threads"
+        );
+    }
+}
+
+#[test]
 fn the_faer_scheduler_setting_keeps_faers_loop() {
     let a = fem_box([6, 3, 3]).matrix;
     let scheduler = pool(2).install(|| {
@@ -208,9 +244,13 @@ fn the_faer_scheduler_setting_keeps_faers_loop() {
         s.stats().factor_scheduler
     });
     assert_eq!(scheduler, "faer");
-    let mut s = CholeskySolver::new(DirectSettings::default());
+    let mut s = CholeskySolver::new(DirectSettings {
+        scheduler: Scheduler::Faer,
+        ..Default::default()
+    });
     s.analyze(a.pattern()).unwrap();
-    assert_eq!(s.stats().factor_scheduler, "sequential");
+    assert_eq!(s.stats().factor_scheduler, "faer");
+    assert!(!s.stats().parallel_factor);
 }
 
 /// `a` with the diagonal entries of `columns` replaced by `-1`.

@@ -127,10 +127,9 @@ impl FaerFactor {
             }
             _ => Par::Seq,
         };
-        let tree = match (kind, par, settings.scheduler, symbolic.raw()) {
+        let tree = match (kind, settings.scheduler, symbolic.raw()) {
             (
                 ScratchKind::Llt,
-                Par::Rayon(_),
                 Scheduler::Subtrees,
                 SymbolicCholeskyRaw::Supernodal(supernodal),
             ) => {
@@ -180,13 +179,12 @@ impl FaerFactor {
         !matches!(self.par, Par::Seq)
     }
 
-    /// Who schedules a parallel numeric phase: `subtrees` (the subtree-parallel LLᵀ),
-    /// `faer` (faer's loop, parallel inside each supernode's kernels), or `sequential`.
+    /// Who schedules the numeric phase: `subtrees` (the subtree-parallel LLᵀ) or `faer`
+    /// (faer's loop over supernodes, parallel only inside each one's kernels).
     pub fn scheduler_name(&self) -> &'static str {
-        match (&self.tree, self.is_parallel()) {
-            (Some(_), _) => Scheduler::Subtrees.name(),
-            (None, true) => Scheduler::Faer.name(),
-            (None, false) => "sequential",
+        match self.tree {
+            Some(_) => Scheduler::Subtrees.name(),
+            None => Scheduler::Faer.name(),
         }
     }
 
@@ -198,8 +196,15 @@ impl FaerFactor {
             return None;
         };
         Some(
-            supernodal_tree::factorize(&mut self.values, a, supernodal, &tree.schedule, &tree.pool)
-                .map_err(|e| e.index),
+            supernodal_tree::factorize(
+                &mut self.values,
+                a,
+                supernodal,
+                &tree.schedule,
+                &tree.pool,
+                self.par,
+            )
+            .map_err(|e| e.index),
         )
     }
 

@@ -40,9 +40,10 @@ const NONE: usize = usize::MAX;
 /// not depend on the schedule.
 pub const KERNEL_PARALLEL_FLOPS: f64 = 1.0e7;
 
-/// The parallelism of a dense kernel call of `flops`.
-fn kernel_par(flops: f64) -> Par {
-    if flops >= KERNEL_PARALLEL_FLOPS {
+/// The parallelism of a dense kernel call of `flops` in a factorization that may (`parallel`)
+/// use the pool.
+fn kernel_par(parallel: bool, flops: f64) -> Par {
+    if parallel && flops >= KERNEL_PARALLEL_FLOPS {
         Par::rayon(0)
     } else {
         Par::Seq
@@ -402,33 +403,39 @@ struct Job<'a> {
     a_values: &'a [f64],
     /// Subtrees with at most this many flops run as one sequential task.
     grain: f64,
+    /// Whether dense kernels and subtrees may use rayon's pool at all.
+    parallel: bool,
     /// Smallest failing pivot column so far (`NONE`: none): supernodes that start after it
     /// are skipped, since the reported failure is the first in elimination order.
     failed: AtomicUsize,
 }
 
 /// Numeric LLᵀ of `A` (values `a_values` over the pattern the schedule was built from, read
-/// as its lower triangle) into `l_values` (`symbolic.len_val()` entries, faer's layout), on
-/// rayon's current pool. On a non-positive pivot, the first one in elimination order (the
-/// one faer's sequential loop would report) is returned and `l_values` is unspecified.
+/// as its lower triangle) into `l_values` (`symbolic.len_val()` entries, faer's layout).
+/// `Par::Seq` runs everything on the calling thread; `Par::Rayon` on rayon's current pool
+/// (the thread count of `par` sizes the tasks). The factor's bits are the same either way.
+/// On a non-positive pivot, the first one in elimination order (the one faer's sequential
+/// loop would report) is returned and `l_values` is unspecified.
 pub fn factorize(
     l_values: &mut [f64],
     a_values: &[f64],
     symbolic: &SymbolicSupernodalCholesky<usize>,
     schedule: &TreeSchedule,
     pool: &ScratchPool,
+    par: Par,
 ) -> Result<(), NonPositivePivot> {
     assert_eq!(l_values.len(), symbolic.len_val(), "factor storage size");
-    let threads = rayon::current_num_threads() as f64;
+    let threads = par.degree();
     let job = Job {
         symbolic,
         schedule,
         pool,
         a_values,
-        grain: schedule.grain(threads as usize),
+        grain: schedule.grain(threads),
+        parallel: threads > 1,
         failed: AtomicUsize::new(NONE),
     };
-    if threads <= 1.0 {
+    if threads <= 1 {
         let ns = symbolic.n_supernodes();
         if ns > 0 {
             factor_sequential(&job, 0..ns, l_values, 0);
@@ -547,7 +554,7 @@ fn factor_supernode(
         // W = L_d[mid∪bot] · L_d[mid]ᵀ, lower triangle of its top k×k block only.
         let mut w = MatMut::from_column_major_slice_mut(&mut scratch.update[..m * k], m, k);
         let (w_top, w_bot) = w.rb_mut().split_at_row_mut(k);
-        let par = kernel_par(2.0 * (m * k * d_ncols) as f64);
+        let par = kernel_par(job.parallel, 2.0 * (m * k * d_ncols) as f64);
         triangular::matmul(
             w_top,
             BlockStructure::TriangularLower,
@@ -585,7 +592,7 @@ fn factor_supernode(
     match cholesky_in_place(
         top.rb_mut(),
         LltRegularization::default(),
-        kernel_par(c * c * c / 3.0),
+        kernel_par(job.parallel, c * c * c / 3.0),
         stack,
         Default::default(),
     ) {
@@ -593,7 +600,11 @@ fn factor_supernode(
         Err(LltError::NonPositivePivot { index }) => return Err(s_start + index),
     }
     let trsm_flops = c * c * (s_nrows - s_ncols) as f64;
-    solve_lower_triangular_in_place(top.rb(), bot.transpose_mut(), kernel_par(trsm_flops));
+    solve_lower_triangular_in_place(
+        top.rb(),
+        bot.transpose_mut(),
+        kernel_par(job.parallel, trsm_flops),
+    );
     Ok(())
 }
 
