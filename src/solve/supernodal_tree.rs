@@ -50,6 +50,10 @@ fn kernel_par(parallel: bool, flops: f64) -> Par {
     }
 }
 
+/// Entries from which a memory-bound pass over a block (zeroing it, scatter-subtracting an
+/// update) is split over the pool in a parallel factorization.
+pub const PARALLEL_MEMORY_ENTRIES: usize = 1 << 18;
+
 /// A subtree with fewer estimated flops than this is one sequential task: splitting it
 /// further costs more in task overhead than it can gain.
 pub const MIN_TASK_FLOPS: f64 = 2.0e6;
@@ -525,7 +529,14 @@ fn factor_supernode(
 
     let (head, tail) = values.split_at_mut(val_ptr[s] - base);
     let block = &mut tail[..val_ptr[s + 1] - val_ptr[s]];
-    block.fill(0.0);
+    if job.parallel && block.len() >= PARALLEL_MEMORY_ENTRIES {
+        use rayon::prelude::*;
+        block
+            .par_chunks_mut(PARALLEL_MEMORY_ENTRIES / 4)
+            .for_each(|c| c.fill(0.0));
+    } else {
+        block.fill(0.0);
+    }
     let assembly = schedule.assembly_ptr[s]..schedule.assembly_ptr[s + 1];
     for (&slot, &offset) in schedule.assembly_slot[assembly.clone()]
         .iter()
@@ -572,14 +583,13 @@ fn factor_supernode(
         for (i, (local, &row)) in rows.iter_mut().zip(&d_pattern[first..]).enumerate() {
             *local = if i < k { row - s_start } else { g2l[row] };
         }
-        let w = &scratch.update[..m * k];
-        for j in 0..k {
-            let dst = &mut block[rows[j] * s_nrows..(rows[j] + 1) * s_nrows];
-            let src = &w[j * m..(j + 1) * m];
-            for i in j..m {
-                dst[rows[i]] -= src[i];
-            }
-        }
+        let update = Update {
+            w: &scratch.update[..m * k],
+            rows,
+            m,
+            s_nrows,
+        };
+        update.subtract(job.parallel, 0..k, block, 0);
     }
     for &row in s_pattern {
         g2l[row] = NONE;
@@ -606,6 +616,48 @@ fn factor_supernode(
         kernel_par(job.parallel, trsm_flops),
     );
     Ok(())
+}
+
+/// One descendant's update `W` (m × k, column-major, lower triangle of its top k × k block)
+/// and where its rows go in the target supernode's block.
+struct Update<'a> {
+    w: &'a [f64],
+    rows: &'a [usize],
+    m: usize,
+    s_nrows: usize,
+}
+
+impl Update<'_> {
+    /// Subtracts columns `cols` of `W` from the block; `block` starts at the target column
+    /// `first_col` (= `rows[cols.start]` at the top call, 0 there) and covers every column
+    /// that `cols` writes. Large updates split their columns in halves over the pool: each
+    /// entry is written once, so the split does not change the result.
+    fn subtract(
+        &self,
+        parallel: bool,
+        cols: std::ops::Range<usize>,
+        block: &mut [f64],
+        first_col: usize,
+    ) {
+        let (m, rows, n) = (self.m, self.rows, self.s_nrows);
+        if parallel && cols.len() >= 2 && cols.len() * m >= PARALLEL_MEMORY_ENTRIES {
+            let mid = cols.start + cols.len() / 2;
+            let (left, right) = block.split_at_mut((rows[mid] - first_col) * n);
+            rayon::join(
+                || self.subtract(parallel, cols.start..mid, left, first_col),
+                || self.subtract(parallel, mid..cols.end, right, rows[mid]),
+            );
+            return;
+        }
+        for j in cols {
+            let c = rows[j] - first_col;
+            let dst = &mut block[c * n..(c + 1) * n];
+            let src = &self.w[j * m..(j + 1) * m];
+            for i in j..m {
+                dst[rows[i]] -= src[i];
+            }
+        }
+    }
 }
 
 /// A postorder of the elimination tree of `P A Pᵀ` composed with `perm` (`perm[new] = old`):
