@@ -1,12 +1,16 @@
 //! Exports backward-Euler system matrices in Matrix Market format and times softbench's own
-//! factorization of them (faer supernodal LLᵀ, METIS nested dissection, one and two
-//! threads), for `tools/cholmod_compare.py` to factor the very same matrices with CHOLMOD.
+//! factorization of them (supernodal LLᵀ, METIS nested dissection, one and two threads, with
+//! faer's loop and with the subtree-parallel schedule, interleaved), for
+//! `tools/cholmod_compare.py` to factor the very same matrices with CHOLMOD.
 //!
 //! The systems are those of the solver tests and benches (`tests/support/fem_system.rs`):
 //! `M + dt² K`, dt = 0.01, Stable Neo-Hookean (E = 1e6 Pa, ν = 0.45, 1000 kg/m³), lumped
 //! mass, clamped at x = 0, at a sagged state. For each mesh it writes `<name>.mtx` and
 //! `<name>.softbench.json` (n, nnz(A), nnz(L) and flops per ordering, the numeric
-//! factorization's wall times and median per thread count).
+//! factorization's wall times and median per thread count: `factor_metis_threads` for
+//! softbench's default scheduler (subtrees) and
+//! `factor_metis_schedulers` for both schedulers at both thread counts, plus the load average
+//! after timing).
 //!
 //! `cargo run --release --example cholmod_export -- <out_dir> [repeats] [mesh ...]`
 //! (meshes: box_12k, box_49k, ball_83k; default all).
@@ -20,7 +24,7 @@ use std::time::Instant;
 use anyhow::{Context, bail};
 use fem_system::{fem_ball, fem_box};
 use softbench::parallel::Parallelism;
-use softbench::solve::{CholeskySolver, DirectSettings, LinearSolver, Ordering};
+use softbench::solve::{CholeskySolver, DirectSettings, LinearSolver, Ordering, Scheduler};
 use softbench::sparse::SymmetricMatrix;
 
 const MESHES: [&str; 3] = ["box_12k", "box_49k", "ball_83k"];
@@ -35,8 +39,13 @@ fn system(name: &str) -> SymmetricMatrix {
 }
 
 fn settings(ordering: Ordering, threads: usize) -> DirectSettings {
+    settings_with(ordering, threads, Scheduler::default())
+}
+
+fn settings_with(ordering: Ordering, threads: usize, scheduler: Scheduler) -> DirectSettings {
     DirectSettings {
         ordering,
+        scheduler,
         parallelism: if threads > 1 {
             Parallelism::Rayon
         } else {
@@ -45,6 +54,53 @@ fn settings(ordering: Ordering, threads: usize) -> DirectSettings {
         // Measure the threads themselves, whatever the flops rule would pick.
         parallel_min_flops: 0.0,
         ..DirectSettings::default()
+    }
+}
+
+/// One timed configuration: a scheduler on a pool of `threads`.
+struct Timed {
+    scheduler: Scheduler,
+    threads: usize,
+    pool: rayon::ThreadPool,
+    solver: CholeskySolver,
+    seconds: Vec<f64>,
+}
+
+impl Timed {
+    fn new(a: &SymmetricMatrix, scheduler: Scheduler, threads: usize) -> anyhow::Result<Self> {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()?;
+        let mut solver = CholeskySolver::new(settings_with(Ordering::Metis, threads, scheduler));
+        pool.install(|| solver.analyze(a.pattern()))?;
+        anyhow::ensure!(
+            solver.stats().factor_scheduler == scheduler.name(),
+            "expected scheduler {}, got {}",
+            scheduler.name(),
+            solver.stats().factor_scheduler
+        );
+        let mut timed = Self {
+            scheduler,
+            threads,
+            pool,
+            solver,
+            seconds: Vec::new(),
+        };
+        timed.factor(a)?; // warm-up: first touch of the factor's pages
+        Ok(timed)
+    }
+
+    fn factor(&mut self, a: &SymmetricMatrix) -> anyhow::Result<()> {
+        let solver = &mut self.solver;
+        self.pool.install(|| solver.factor(a))?;
+        Ok(())
+    }
+
+    fn time_once(&mut self, a: &SymmetricMatrix) -> anyhow::Result<()> {
+        let start = Instant::now();
+        self.factor(a)?;
+        self.seconds.push(start.elapsed().as_secs_f64());
+        Ok(())
     }
 }
 
@@ -74,41 +130,68 @@ fn export(dir: &Path, name: &str, repeats: usize) -> anyhow::Result<()> {
             s.stats().factor_flops
         ));
     }
+    // Interleaved: each repeat times every configuration once, so a change of machine load
+    // hits them all alike.
+    let mut configs = Vec::new();
+    for (scheduler, threads) in [
+        (Scheduler::Faer, 1),
+        (Scheduler::Faer, 2),
+        (Scheduler::Subtrees, 1),
+        (Scheduler::Subtrees, 2),
+    ] {
+        configs.push(Timed::new(&a, scheduler, threads)?);
+    }
+    for _ in 0..repeats {
+        for c in &mut configs {
+            c.time_once(&a)?;
+        }
+    }
     let mut timings = Vec::new();
-    for threads in [1, 2] {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()?;
-        let mut times: Vec<f64> = pool.install(|| -> anyhow::Result<Vec<f64>> {
-            let mut s = CholeskySolver::new(settings(Ordering::Metis, threads));
-            s.analyze(a.pattern())?;
-            s.factor(&a)?; // warm-up: first touch of the factor's pages
-            (0..repeats)
-                .map(|_| {
-                    let start = Instant::now();
-                    s.factor(&a)?;
-                    Ok(start.elapsed().as_secs_f64())
-                })
-                .collect()
-        })?;
-        let list = times
+    let mut by_scheduler = Vec::new();
+    for c in &mut configs {
+        let list = c
+            .seconds
             .iter()
             .map(|t| format!("{t:.6}"))
             .collect::<Vec<_>>()
             .join(", ");
-        let med = median(&mut times);
-        eprintln!("{name}: faer + METIS, {threads} thread(s): median {med:.4} s");
-        timings.push(format!(
-            "\"{threads}\": {{\"median_seconds\": {med:.6}, \"seconds\": [{list}]}}"
-        ));
+        let med = median(&mut c.seconds.clone());
+        eprintln!(
+            "{name}: METIS, scheduler {}, {} thread(s): median {med:.4} s",
+            c.scheduler.name(),
+            c.threads
+        );
+        let entry = format!(
+            "\"{}\": {{\"median_seconds\": {med:.6}, \"seconds\": [{list}]}}",
+            c.threads
+        );
+        // softbench's default scheduler.
+        if c.scheduler == Scheduler::default() {
+            timings.push(entry.clone());
+        }
+        by_scheduler.push((c.scheduler.name(), entry));
     }
+    let schedulers = [Scheduler::Faer, Scheduler::Subtrees]
+        .map(|sch| {
+            let entries: Vec<&str> = by_scheduler
+                .iter()
+                .filter(|(n, _)| *n == sch.name())
+                .map(|(_, e)| e.as_str())
+                .collect();
+            format!("\"{}\": {{{}}}", sch.name(), entries.join(", "))
+        })
+        .join(", ");
+    let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
+    let load = load.split_whitespace().next().unwrap_or("null");
     let json = format!(
         "{{\n  \"mesh\": \"{name}\",\n  \"n\": {},\n  \"nnz_lower\": {},\n  \"orderings\": {{{}}},\n  \
-         \"factor_metis_threads\": {{{}}},\n  \"repeats\": {repeats}\n}}\n",
+         \"factor_metis_threads\": {{{}}},\n  \"factor_metis_schedulers\": {{{}}},\n  \
+         \"repeats\": {repeats},\n  \"load_average_1min_after\": {load}\n}}\n",
         a.dim(),
         (a.pattern().nnz() + a.dim()) / 2,
         orderings.join(", "),
-        timings.join(", ")
+        timings.join(", "),
+        schedulers
     );
     let path = dir.join(format!("{name}.softbench.json"));
     softbench::io::write_atomic(&path, |w| w.write_all(json.as_bytes()))

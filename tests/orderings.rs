@@ -31,6 +31,7 @@ fn analyzed_with(
         supernodal: Supernodal::Auto,
         parallelism,
         parallel_min_flops,
+        ..Default::default()
     });
     s.analyze(a.pattern()).unwrap();
     s

@@ -4,7 +4,8 @@
 `cargo run --release --example cholmod_export -- DIR` writes DIR/<mesh>.mtx (the
 backward-Euler system M + dt^2 K, Matrix Market, lower triangle) and
 DIR/<mesh>.softbench.json (softbench's nnz(L), flops and numeric-factorization times with
-faer + METIS at 1 and 2 threads). This script factors each matrix with CHOLMOD (supernodal,
+METIS at 1 and 2 threads: its default scheduler, and each scheduler — `subtrees`, `faer` —
+when the file has them). This script factors each matrix with CHOLMOD (supernodal,
 METIS ordering; scikit-sparse 0.4.16 over Debian's libsuitesparse-dev, OpenBLAS) at 1 and 2
 threads and writes DIR/comparison.csv plus a Markdown table on stdout.
 
@@ -84,6 +85,10 @@ def main():
             theirs = cholmod(mtx, threads, repeats)
             ours_t = ours["factor_metis_threads"][str(threads)]["median_seconds"]
             theirs_t = statistics.median(theirs["seconds"])
+            per_scheduler = {
+                f"softbench_{name}_s": times[str(threads)]["median_seconds"]
+                for name, times in ours.get("factor_metis_schedulers", {}).items()
+            }
             rows.append(
                 {
                     "mesh": mesh,
@@ -96,6 +101,7 @@ def main():
                     "cholmod_factor_s": theirs_t,
                     "speedup": theirs_t / ours_t,
                     "repeats": f'{ours["repeats"]}/{repeats}',
+                    **per_scheduler,
                 }
             )
             print(f"{mesh} {threads}t: softbench {ours_t:.4f} s, CHOLMOD {theirs_t:.4f} s", file=sys.stderr)
@@ -105,12 +111,17 @@ def main():
         w.writeheader()
         w.writerows(rows)
     os.replace(path + ".partial", path)
-    print("| mesh | DOFs | threads | nnz(L) softbench | nnz(L) CHOLMOD | ratio | factor softbench (s) | factor CHOLMOD (s) | CHOLMOD / softbench |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    schedulers = [k for k in rows[0] if k.startswith("softbench_") and k.endswith("_s")
+                  and k != "softbench_factor_s"]
+    extra_head = "".join(f" {k[len('softbench_'):-2]} (s) |" for k in schedulers)
+    print("| mesh | DOFs | threads | nnz(L) softbench | nnz(L) CHOLMOD | ratio | factor softbench (s) |"
+          + extra_head + " factor CHOLMOD (s) | CHOLMOD / softbench |")
+    print("|---" * (9 + len(schedulers)) + "|")
     for r in rows:
+        extra = "".join(f" {r.get(k, float('nan')):.3f} |" for k in schedulers)
         print(
             f'| {r["mesh"]} | {r["n"]} | {r["threads"]} | {r["softbench_nnz_l"]:,} | {r["cholmod_nnz_l"]:,} '
-            f'| {r["nnz_ratio"]:.3f} | {r["softbench_factor_s"]:.3f} | {r["cholmod_factor_s"]:.3f} | {r["speedup"]:.2f}× |'
+            f'| {r["nnz_ratio"]:.3f} | {r["softbench_factor_s"]:.3f} |{extra} {r["cholmod_factor_s"]:.3f} | {r["speedup"]:.2f}× |'
         )
 
 

@@ -63,6 +63,8 @@ pub struct StepReport {
     pub ordering: &'static str,
     /// Threads of the numeric factorization (1 when kept sequential by the flops rule).
     pub factor_threads: u32,
+    /// Who scheduled it: `subtrees`, `faer` or `sequential` (empty without a sparse factor).
+    pub factor_scheduler: &'static str,
     /// AMG (CG's preconditioner): Σ nnz(A_l) / nnz(A_0) and Σ n_l / n_0 of the largest
     /// hierarchy in use (0 without AMG).
     pub amg_operator_complexity: f64,
@@ -119,6 +121,7 @@ impl StepReport {
             self.linear_solver = other.linear_solver;
             self.ordering = other.ordering;
             self.factor_threads = other.factor_threads;
+            self.factor_scheduler = other.factor_scheduler;
         }
         self.indefinite_fallbacks += other.indefinite_fallbacks;
         self.dt_halvings += other.dt_halvings;

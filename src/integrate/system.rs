@@ -56,6 +56,7 @@ fn record_solver(stats: &crate::solve::SolverStats, report: &mut StepReport) {
     report.amg_grid_complexity = report.amg_grid_complexity.max(stats.amg.grid_complexity);
     report.linear_solver = stats.chosen;
     report.ordering = stats.ordering;
+    report.factor_scheduler = stats.factor_scheduler;
     report.factor_threads = if stats.parallel_factor {
         rayon::current_num_threads() as u32
     } else {

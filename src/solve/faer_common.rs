@@ -10,7 +10,8 @@ use faer::sparse::linalg::cholesky::{
 };
 
 use super::ordering::{FactorCost, Ordering, nested_dissection};
-use super::{DirectSettings, SolveError, Supernodal};
+use super::supernodal_tree::{self, ScratchPool, TreeSchedule};
+use super::{DirectSettings, Scheduler, SolveError, Supernodal};
 use crate::parallel::Parallelism;
 use crate::sparse::SparsityPattern;
 
@@ -35,6 +36,15 @@ pub struct FaerFactor {
     pub flops: f64,
     /// The ordering used (`Amd`, `Metis` or `Identity`; never `Auto`).
     pub ordering: Ordering,
+    /// The subtree-parallel schedule of a parallel supernodal LLᵀ (`None`: faer's own loop).
+    pub tree: Option<SubtreeFactor>,
+}
+
+/// What the subtree-parallel numeric LLᵀ keeps per analysis: its schedule and the workers'
+/// scratch.
+pub struct SubtreeFactor {
+    pub schedule: TreeSchedule,
+    pub pool: ScratchPool,
 }
 
 /// The symbolic factorization of a pattern in its chosen ordering, with its predicted cost:
@@ -88,11 +98,17 @@ impl FaerFactor {
         settings: &DirectSettings,
         kind: ScratchKind,
     ) -> Result<Self, SolveError> {
-        Self::allocate(SymbolicAnalysis::new(pattern, settings)?, settings, kind)
+        Self::allocate(
+            pattern,
+            SymbolicAnalysis::new(pattern, settings)?,
+            settings,
+            kind,
+        )
     }
 
-    /// Allocates the value and scratch storage for an analysis.
+    /// Allocates the value and scratch storage for an analysis of `pattern`.
     pub fn allocate(
+        pattern: &SparsityPattern,
         analysis: SymbolicAnalysis,
         settings: &DirectSettings,
         kind: ScratchKind,
@@ -110,6 +126,22 @@ impl FaerFactor {
                 Par::rayon(0)
             }
             _ => Par::Seq,
+        };
+        let tree = match (kind, settings.scheduler, symbolic.raw()) {
+            (
+                ScratchKind::Llt,
+                Scheduler::Subtrees,
+                SymbolicCholeskyRaw::Supernodal(supernodal),
+            ) => {
+                // Not postordered only with the caller's own (identity) ordering: faer's loop.
+                TreeSchedule::new(supernodal, pattern, symbolic.perm().map(|p| p.arrays()))
+                    .ok()
+                    .map(|schedule| SubtreeFactor {
+                        pool: ScratchPool::new(&schedule, rayon::current_num_threads()),
+                        schedule,
+                    })
+            }
+            _ => None,
         };
         let factor_req = match kind {
             ScratchKind::Llt => {
@@ -138,12 +170,42 @@ impl FaerFactor {
             nnz: cost.nnz,
             flops: cost.flops,
             ordering,
+            tree,
         })
     }
 
     /// Whether the numeric phase runs on several threads.
     pub fn is_parallel(&self) -> bool {
         !matches!(self.par, Par::Seq)
+    }
+
+    /// Who schedules the numeric phase: `subtrees` (the subtree-parallel LLᵀ) or `faer`
+    /// (faer's loop over supernodes, parallel only inside each one's kernels).
+    pub fn scheduler_name(&self) -> &'static str {
+        match self.tree {
+            Some(_) => Scheduler::Subtrees.name(),
+            None => Scheduler::Faer.name(),
+        }
+    }
+
+    /// Numeric LLᵀ of `a` into `values` with the subtree-parallel schedule; `None` when this
+    /// factor has none (then faer's own loop applies). The error is faer's, permuted index.
+    pub fn factor_subtrees(&mut self, a: &[f64]) -> Option<Result<(), usize>> {
+        let tree = self.tree.as_ref()?;
+        let SymbolicCholeskyRaw::Supernodal(supernodal) = self.symbolic.raw() else {
+            return None;
+        };
+        Some(
+            supernodal_tree::factorize(
+                &mut self.values,
+                a,
+                supernodal,
+                &tree.schedule,
+                &tree.pool,
+                self.par,
+            )
+            .map_err(|e| e.index),
+        )
     }
 
     /// The original column of the failed pivot reported as `index` by faer. faer 0.24.4
@@ -169,9 +231,14 @@ fn symbolic_analysis(
     // Identity goes through a custom identity permutation: with `SymmetricOrdering::Identity`
     // faer's numeric phase transposes A instead of extracting the `Side` triangle, so the
     // simplicial path would read both triangles of our storage and compute garbage.
+    // METIS's order is composed with a postorder of its elimination tree, so every subtree
+    // is a contiguous range of supernodes (the subtree-parallel LLᵀ needs it; fill and flops
+    // are unchanged). faer's AMD is checked below.
     let custom: Vec<usize> = match ordering {
         Ordering::Identity => (0..pattern.dim()).collect(),
-        Ordering::Metis => nested_dissection(pattern)?,
+        Ordering::Metis => {
+            supernodal_tree::postorder_permutation(pattern, &nested_dissection(pattern)?)
+        }
         Ordering::Amd | Ordering::Auto => Vec::new(),
     };
     let inverse = inverse_permutation(&custom);
@@ -190,8 +257,29 @@ fn symbolic_analysis(
         supernodal_flop_ratio_threshold: threshold,
         ..Default::default()
     };
-    factorize_symbolic_cholesky(pattern.as_faer(), faer::Side::Lower, faer_ordering, params)
-        .map_err(|e| SolveError::Analysis(format!("{e:?}")))
+    let analyze = |ordering| {
+        factorize_symbolic_cholesky(pattern.as_faer(), faer::Side::Lower, ordering, params)
+            .map_err(|e| SolveError::Analysis(format!("{e:?}")))
+    };
+    let symbolic = analyze(faer_ordering)?;
+    if !matches!(ordering, Ordering::Amd | Ordering::Auto) {
+        return Ok(symbolic);
+    }
+    let (SymbolicCholeskyRaw::Supernodal(supernodal), Some(perm)) =
+        (symbolic.raw(), symbolic.perm())
+    else {
+        return Ok(symbolic);
+    };
+    if supernodal_tree::is_postordered(supernodal) {
+        return Ok(symbolic);
+    }
+    let post = supernodal_tree::postorder_permutation(pattern, perm.arrays().0);
+    let inverse = inverse_permutation(&post);
+    analyze(SymmetricOrdering::Custom(faer::perm::PermRef::new_checked(
+        &post,
+        &inverse,
+        pattern.dim(),
+    )))
 }
 
 /// `inv[perm[i]] = i`.

@@ -58,6 +58,14 @@ impl Factorization for Llt {
     const SCRATCH: ScratchKind = ScratchKind::Llt;
 
     fn factor(f: &mut FaerFactor, a: &SymmetricMatrix) -> Result<FactorReport, SolveError> {
+        if let Some(result) = f.factor_subtrees(a.values()) {
+            return match result {
+                Ok(()) => Ok(FactorReport::default()),
+                Err(index) => Err(SolveError::NotPositiveDefinite {
+                    column: f.original_column(index),
+                }),
+            };
+        }
         let result = f.symbolic.factorize_numeric_llt(
             &mut f.values,
             a.as_faer(),
@@ -190,12 +198,13 @@ impl<F: Factorization> FaerDirectSolver<F> {
                 Some(a) => a,
                 None => SymbolicAnalysis::new(pattern, &self.settings)?,
             };
-            let f = FaerFactor::allocate(analysis, &self.settings, F::SCRATCH)?;
+            let f = FaerFactor::allocate(pattern, analysis, &self.settings, F::SCRATCH)?;
             self.stats.factor_nnz = f.nnz;
             self.stats.factor_storage = f.values.len();
             self.stats.factor_flops = f.flops;
             self.stats.ordering = f.ordering.name();
             self.stats.parallel_factor = f.is_parallel();
+            self.stats.factor_scheduler = f.scheduler_name();
             self.stats.chosen = F::NAME;
             self.factor = Some(f);
             self.analyzed.set(pattern);

@@ -29,6 +29,32 @@ pub struct DirectSettings {
     /// Predicted factorization flops (Σ c_j²) from which the factorization runs on threads.
     /// Default: [`PARALLEL_MIN_FLOPS`].
     pub parallel_min_flops: f64,
+    /// Who schedules a parallel Cholesky factorization: `subtrees` (independent subtrees of
+    /// the elimination tree concurrently, the separators near the root with parallel dense
+    /// kernels) or `faer` (faer's sequential loop over supernodes, parallel only inside each
+    /// supernode's kernels). LDLᵀ always uses faer's. Default: `subtrees`.
+    pub scheduler: Scheduler,
+}
+
+/// Who schedules the parallel numeric LLᵀ (see [`DirectSettings::scheduler`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Scheduler {
+    /// Subtree-parallel supernodal LLᵀ (`supernodal_tree.rs`).
+    #[default]
+    Subtrees,
+    /// faer's own supernodal loop.
+    Faer,
+}
+
+impl Scheduler {
+    /// The name as written in a config file.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Subtrees => "subtrees",
+            Self::Faer => "faer",
+        }
+    }
 }
 
 impl Default for DirectSettings {
@@ -38,6 +64,7 @@ impl Default for DirectSettings {
             supernodal: Supernodal::Auto,
             parallelism: Parallelism::Sequential,
             parallel_min_flops: PARALLEL_MIN_FLOPS,
+            scheduler: Scheduler::default(),
         }
     }
 }

@@ -28,6 +28,7 @@ pub mod faer_direct;
 mod kind;
 pub mod ordering;
 mod precond;
+pub mod supernodal_tree;
 
 use std::sync::Arc;
 use std::time::Duration;
@@ -45,7 +46,8 @@ pub use dense::DenseCholeskySolver;
 pub use faer_common::PARALLEL_MIN_FLOPS;
 pub use faer_direct::{CholeskySolver, FaerDirectSolver, LdltSolver};
 pub use kind::{
-    DirectSettings, LINEAR_SOLVERS, LinearSolverKind, SolverEntry, SolverSettings, Supernodal,
+    DirectSettings, LINEAR_SOLVERS, LinearSolverKind, Scheduler, SolverEntry, SolverSettings,
+    Supernodal,
 };
 pub use ordering::Ordering;
 
@@ -217,6 +219,9 @@ pub struct SolverStats {
     pub ordering: &'static str,
     /// Whether the current factorization runs on several threads.
     pub parallel_factor: bool,
+    /// Who schedules the current numeric factorization: `subtrees`, `faer` or `sequential`
+    /// (empty for solvers without a sparse factor).
+    pub factor_scheduler: &'static str,
     /// What `auto` chose (the solver that did the work), or this solver's own name.
     pub chosen: &'static str,
     /// CG with AMG: the current hierarchy's shape and its builds and reuses (default

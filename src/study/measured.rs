@@ -128,6 +128,7 @@ pub fn summary_cells(s: &RunSummary) -> Vec<(&'static str, String)> {
         ("symbolic_analyses", t.symbolic_analyses.to_string()),
         ("factor_flops", f(t.factor_flops)),
         ("factor_threads", t.factor_threads.to_string()),
+        ("factor_scheduler", t.factor_scheduler.to_owned()),
         ("amg_operator_complexity", amg(t.amg_operator_complexity)),
         ("amg_grid_complexity", amg(t.amg_grid_complexity)),
         ("amg_builds", t.amg_builds.to_string()),

@@ -56,6 +56,7 @@ pub const COLUMNS: &[&str] = &[
     "symbolic_analyses",
     "factor_flops",
     "factor_threads",
+    "factor_scheduler",
     "amg_operator_complexity",
     "amg_grid_complexity",
     "amg_builds",
