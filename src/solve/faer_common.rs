@@ -310,23 +310,9 @@ pub fn factor_cost(pattern: &SparsityPattern, symbolic: &SymbolicCholesky<usize>
     // Entries of new column k above the diagonal, in the new order (= row k left of it).
     let upper = |k: usize| ri[cp[fwd[k]]..cp[fwd[k] + 1]].iter().map(|&r| inv[r]);
     const NONE: usize = usize::MAX;
-    let mut parent = vec![NONE; n];
-    let mut ancestor = vec![NONE; n];
-    for k in 0..n {
-        for mut i in upper(k) {
-            while i != NONE && i < k {
-                let next = ancestor[i];
-                ancestor[i] = k;
-                if next == NONE {
-                    parent[i] = k;
-                }
-                i = next;
-            }
-        }
-    }
+    let parent = supernodal_tree::elimination_tree(pattern, fwd, inv);
     let mut counts = vec![1usize; n];
-    let mut mark = ancestor;
-    mark.fill(NONE);
+    let mut mark = vec![NONE; n];
     for k in 0..n {
         mark[k] = k;
         for i in upper(k) {

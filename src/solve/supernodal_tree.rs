@@ -660,20 +660,15 @@ impl Update<'_> {
     }
 }
 
-/// A postorder of the elimination tree of `P A Pᵀ` composed with `perm` (`perm[new] = old`):
-/// the same fill and flops, with every subtree a contiguous range of columns (and so of
-/// supernodes). `pattern` is read as its lower triangle.
-pub fn postorder_permutation(pattern: &SparsityPattern, perm: &[usize]) -> Vec<usize> {
+/// The elimination tree of `P A Pᵀ` (`fwd[new] = old`, `inv[old] = new`; `pattern` read as
+/// its lower triangle): `parent[k]`, or `NONE` at a root. Liu's algorithm with path
+/// compression, O(nnz(A) log n) time, O(n) memory.
+pub fn elimination_tree(pattern: &SparsityPattern, fwd: &[usize], inv: &[usize]) -> Vec<usize> {
     let n = pattern.dim();
-    let mut inv = vec![0usize; n];
-    for (new, &old) in perm.iter().enumerate() {
-        inv[old] = new;
-    }
     let (cp, ri) = (pattern.col_ptr(), pattern.row_idx());
-    // Elimination tree (Liu, path compression) of the permuted matrix.
     let mut parent = vec![NONE; n];
     let mut ancestor = vec![NONE; n];
-    for (k, &old) in perm.iter().enumerate() {
+    for (k, &old) in fwd.iter().enumerate() {
         for &r in &ri[cp[old]..cp[old + 1]] {
             let mut i = inv[r];
             while i != NONE && i < k {
@@ -686,6 +681,19 @@ pub fn postorder_permutation(pattern: &SparsityPattern, perm: &[usize]) -> Vec<u
             }
         }
     }
+    parent
+}
+
+/// A postorder of the elimination tree of `P A Pᵀ` composed with `perm` (`perm[new] = old`):
+/// the same fill and flops, with every subtree a contiguous range of columns (and so of
+/// supernodes). `pattern` is read as its lower triangle.
+pub fn postorder_permutation(pattern: &SparsityPattern, perm: &[usize]) -> Vec<usize> {
+    let n = pattern.dim();
+    let mut inv = vec![0usize; n];
+    for (new, &old) in perm.iter().enumerate() {
+        inv[old] = new;
+    }
+    let parent = elimination_tree(pattern, perm, &inv);
     // Children lists in ascending order, then an iterative depth-first postorder.
     let mut child_count = vec![0usize; n];
     for &p in &parent {
