@@ -13,7 +13,8 @@
 //! after timing).
 //!
 //! `cargo run --release --example cholmod_export -- <out_dir> [repeats] [mesh ...]`
-//! (meshes: box_12k, box_49k, ball_83k; default all).
+//! (meshes: box_12k, box_49k, ball_83k, or the path of a tet mesh file, such as the ~57k-tet
+//! TetGen armadillo that `tools/armadillo_tetgen.py` writes; default the three generated ones).
 
 #[path = "../tests/support/fem_system.rs"]
 mod fem_system;
@@ -22,19 +23,53 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context, bail};
-use fem_system::{fem_ball, fem_box};
+use fem_system::{fem_ball, fem_box, fem_system};
 use softbench::parallel::Parallelism;
 use softbench::solve::{CholeskySolver, DirectSettings, LinearSolver, Ordering, Scheduler};
 use softbench::sparse::SymmetricMatrix;
 
 const MESHES: [&str; 3] = ["box_12k", "box_49k", "ball_83k"];
 
-fn system(name: &str) -> SymmetricMatrix {
-    match name {
-        "box_12k" => fem_box([20, 10, 10]).matrix,
-        "box_49k" => fem_box([32, 16, 16]).matrix,
-        // 48 n³ tets: n = 12.
-        _ => fem_ball(12).matrix,
+/// A generated mesh's name, or a mesh file (named by its file stem).
+enum Source {
+    Generated(&'static str),
+    File(PathBuf),
+}
+
+impl Source {
+    fn parse(arg: &str) -> anyhow::Result<Self> {
+        if let Some(name) = MESHES.iter().find(|m| **m == arg) {
+            return Ok(Self::Generated(name));
+        }
+        let path = PathBuf::from(arg);
+        if path.is_file() {
+            return Ok(Self::File(path));
+        }
+        bail!("{arg:?} is neither a generated mesh ({MESHES:?}) nor a mesh file")
+    }
+
+    fn name(&self) -> String {
+        match self {
+            Self::Generated(name) => name.to_string(),
+            Self::File(path) => path
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_else(|| "mesh".to_string()),
+        }
+    }
+
+    fn system(&self) -> anyhow::Result<SymmetricMatrix> {
+        Ok(match self {
+            Self::Generated("box_12k") => fem_box([20, 10, 10]).matrix,
+            Self::Generated("box_49k") => fem_box([32, 16, 16]).matrix,
+            // 48 n³ tets: n = 12.
+            Self::Generated(_) => fem_ball(12).matrix,
+            Self::File(path) => {
+                let mesh = softbench::mesh::read_tet_mesh(path)
+                    .with_context(|| format!("reading {}", path.display()))?;
+                fem_system(mesh).matrix
+            }
+        })
     }
 }
 
@@ -114,8 +149,9 @@ fn median(v: &mut [f64]) -> f64 {
     }
 }
 
-fn export(dir: &Path, name: &str, repeats: usize) -> anyhow::Result<()> {
-    let a = system(name);
+fn export(dir: &Path, source: &Source, repeats: usize) -> anyhow::Result<()> {
+    let name = source.name();
+    let a = source.system()?;
     let mtx = dir.join(format!("{name}.mtx"));
     softbench::io::write_atomic(&mtx, |w| a.write_matrix_market(w))
         .with_context(|| format!("writing {}", mtx.display()))?;
@@ -202,7 +238,9 @@ fn export(dir: &Path, name: &str, repeats: usize) -> anyhow::Result<()> {
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let Some(dir) = args.first().map(PathBuf::from) else {
-        bail!("usage: cholmod_export <out_dir> [repeats] [mesh ...] (meshes: {MESHES:?})");
+        bail!(
+            "usage: cholmod_export <out_dir> [repeats] [mesh ...] (meshes: {MESHES:?} or a tet mesh file)"
+        );
     };
     let repeats = match args.get(1) {
         Some(r) => r
@@ -212,18 +250,16 @@ fn main() -> anyhow::Result<()> {
             .with_context(|| format!("repeats must be a positive integer, got {r:?}"))?,
         None => 5,
     };
-    let meshes: Vec<&str> = if args.len() > 2 {
-        args[2..].iter().map(String::as_str).collect()
+    let meshes: Vec<Source> = if args.len() > 2 {
+        args[2..]
+            .iter()
+            .map(|a| Source::parse(a))
+            .collect::<anyhow::Result<_>>()?
     } else {
-        MESHES.to_vec()
+        MESHES.iter().map(|m| Source::Generated(m)).collect()
     };
-    for m in &meshes {
-        if !MESHES.contains(m) {
-            bail!("unknown mesh {m:?}; valid: {MESHES:?}");
-        }
-    }
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
-    for m in meshes {
+    for m in &meshes {
         export(&dir, m, repeats)?;
     }
     Ok(())
