@@ -1,5 +1,5 @@
-//! `linear_solver = "auto"`: sparse Cholesky or AMG-preconditioned CG, whichever the
-//! symbolic analysis predicts to be cheaper per Newton iteration.
+//! `linear_solver = "auto"`: sparse Cholesky or AMG-preconditioned CG, whichever is predicted
+//! to be cheaper per Newton iteration from the ordering's exact factorization cost.
 //!
 //! The direct solver's cost grows like n² on 3D meshes (its factorization flops), CG with
 //! AMG's like n (a fixed number of V-cycles of O(nnz(A)) work), so large meshes go to CG.
@@ -18,13 +18,15 @@
 //! refresh 57–183, an iteration 10–14, and CG took 20–24 iterations on a smooth load (21–33 per
 //! Newton solve in `experiments/solver_scaling.toml`). The rates enter only as their ratio.
 //! With them the rule picked the measured faster solver on all six meshes of that run
-//! (Cholesky up to the 12k box and 10k ball, CG+AMG from 48k tets). The symbolic analysis is
-//! done once (and handed to Cholesky when it wins); the choice is reported per run
-//! (`SolverStats::chosen`, the `linear_solver_used` column).
+//! (Cholesky up to the 12k box and 10k ball, CG+AMG from 48k tets). The prediction needs only
+//! the ordering and L's column counts (`OrderingChoice`), so choosing CG costs no symbolic
+//! factorization; when Cholesky wins, the ordering is handed to it and symbolically factored
+//! once. The choice is reported per run (`SolverStats::chosen`, the `linear_solver_used`
+//! column).
 
 use std::sync::Arc;
 
-use super::faer_common::SymbolicAnalysis;
+use super::faer_common::{OrderingChoice, SymbolicAnalysis};
 use super::{
     AmgSettings, CgSettings, CgSolver, CholeskySolver, FactorReport, LinearSolver, Preconditioner,
     SolveError, SolveReport, SolverSettings, SolverStats,
@@ -140,19 +142,19 @@ impl LinearSolver for AutoSolver {
         if same {
             return self.inner("analyze")?.analyze(pattern);
         }
-        let analysis = SymbolicAnalysis::new(pattern, &self.settings.direct)?;
+        let choice = OrderingChoice::new(pattern, &self.settings.direct)?;
         let prediction = AutoPrediction::with_rebuild_every(
-            analysis.cost.nnz,
-            analysis.cost.flops,
+            choice.cost.nnz,
+            choice.cost.flops,
             pattern.nnz(),
             self.settings.cg.amg.rebuild_every,
         );
         let solver: Box<dyn LinearSolver> = if prediction.direct() {
+            let analysis = SymbolicAnalysis::from_choice(pattern, &self.settings.direct, choice)?;
             let mut s = CholeskySolver::new(self.settings.direct);
             s.analyze_with(pattern, Some(analysis))?;
             Box::new(s)
         } else {
-            drop(analysis);
             let mut s = CgSolver::new(CgSettings {
                 preconditioner: Preconditioner::Amg,
                 ..self.settings.cg

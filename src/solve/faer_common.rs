@@ -2,8 +2,9 @@
 //! storage and the scratch memory, all allocated once per pattern.
 
 use faer::Par;
-use faer::dyn_stack::{MemBuffer, StackReq};
+use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::sparse::linalg::SupernodalThreshold;
+use faer::sparse::linalg::amd;
 use faer::sparse::linalg::cholesky::{
     CholeskySymbolicParams, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
     factorize_symbolic_cholesky,
@@ -47,24 +48,28 @@ pub struct SubtreeFactor {
     pub pool: ScratchPool,
 }
 
-/// The symbolic factorization of a pattern in its chosen ordering, with its predicted cost:
-/// what a solver that decides between direct and iterative reads before allocating a factor.
-pub struct SymbolicAnalysis {
-    pub symbolic: SymbolicCholesky<usize>,
+/// A fill-reducing permutation of a pattern and the exact cost of factoring in it, found
+/// before any symbolic factorization: what `Auto` compares orderings by, and what decides
+/// between the direct and the iterative solver without paying for a symbolic analysis the
+/// iterative one would throw away.
+pub struct OrderingChoice {
     /// `Amd`, `Metis` or `Identity` (never `Auto`).
     pub ordering: Ordering,
+    /// `perm[new] = old`, composed with a postorder of its elimination tree (except the
+    /// identity), so every subtree is a contiguous range of supernodes.
+    perm: Vec<usize>,
     pub cost: FactorCost,
 }
 
-impl SymbolicAnalysis {
-    /// Orders and symbolically factors `pattern`; `Auto` keeps the cheaper of AMD and METIS.
+impl OrderingChoice {
+    /// Orders `pattern` as `settings` asks; `Auto` keeps the cheaper of AMD and METIS.
     pub fn new(pattern: &SparsityPattern, settings: &DirectSettings) -> Result<Self, SolveError> {
         let single = |ordering| -> Result<Self, SolveError> {
-            let symbolic = symbolic_analysis(pattern, settings, ordering)?;
-            let cost = factor_cost(pattern, &symbolic);
+            let perm = permutation(pattern, ordering)?;
+            let cost = factor_cost(pattern, &perm);
             Ok(Self {
-                symbolic,
                 ordering,
+                perm,
                 cost,
             })
         };
@@ -79,6 +84,34 @@ impl SymbolicAnalysis {
             }
             o => single(o),
         }
+    }
+}
+
+/// The symbolic factorization of a pattern in its chosen ordering, with its predicted cost.
+pub struct SymbolicAnalysis {
+    pub symbolic: SymbolicCholesky<usize>,
+    /// `Amd`, `Metis` or `Identity` (never `Auto`).
+    pub ordering: Ordering,
+    pub cost: FactorCost,
+}
+
+impl SymbolicAnalysis {
+    /// Orders and symbolically factors `pattern`; `Auto` keeps the cheaper of AMD and METIS.
+    pub fn new(pattern: &SparsityPattern, settings: &DirectSettings) -> Result<Self, SolveError> {
+        Self::from_choice(pattern, settings, OrderingChoice::new(pattern, settings)?)
+    }
+
+    /// Symbolically factors `pattern` in an ordering already chosen.
+    pub fn from_choice(
+        pattern: &SparsityPattern,
+        settings: &DirectSettings,
+        choice: OrderingChoice,
+    ) -> Result<Self, SolveError> {
+        Ok(Self {
+            symbolic: symbolic_analysis(pattern, settings, &choice.perm)?,
+            ordering: choice.ordering,
+            cost: choice.cost,
+        })
     }
 }
 
@@ -222,32 +255,49 @@ impl FaerFactor {
     }
 }
 
-/// The symbolic Cholesky factorization of `pattern` in the given ordering (not `Auto`).
+/// The permutation `ordering` (not `Auto`) gives `pattern`, `perm[new] = old`. AMD is faer's
+/// (the call faer's own symbolic analysis makes) and METIS is nested dissection on the vertex
+/// graph; both are composed with a postorder of their elimination tree, so every subtree is a
+/// contiguous range of supernodes (the subtree-parallel LLᵀ needs it; fill and flops are
+/// unchanged).
+fn permutation(pattern: &SparsityPattern, ordering: Ordering) -> Result<Vec<usize>, SolveError> {
+    let n = pattern.dim();
+    let fill_reducing = match ordering {
+        Ordering::Identity => return Ok((0..n).collect()),
+        Ordering::Metis => nested_dissection(pattern)?,
+        Ordering::Amd | Ordering::Auto => {
+            let (mut fwd, mut inv) = (vec![0usize; n], vec![0usize; n]);
+            let nnz = pattern.nnz();
+            let mut mem = MemBuffer::try_new(amd::order_maybe_unsorted_scratch::<usize>(n, nnz))
+                .map_err(|_| SolveError::Analysis("out of memory for the AMD ordering".into()))?;
+            amd::order_maybe_unsorted(
+                &mut fwd,
+                &mut inv,
+                pattern.as_faer(),
+                amd::Control::default(),
+                MemStack::new(&mut mem),
+            )
+            .map_err(|e| SolveError::Analysis(format!("{e:?}")))?;
+            fwd
+        }
+    };
+    Ok(supernodal_tree::postorder_permutation(
+        pattern,
+        &fill_reducing,
+    ))
+}
+
+/// The symbolic Cholesky factorization of `pattern` in the permutation `perm` (`perm[new] =
+/// old`). Even the identity goes through a custom permutation: with
+/// `SymmetricOrdering::Identity` faer's numeric phase transposes A instead of extracting the
+/// `Side` triangle, so the simplicial path would read both triangles of our storage and
+/// compute garbage.
 fn symbolic_analysis(
     pattern: &SparsityPattern,
     settings: &DirectSettings,
-    ordering: Ordering,
+    perm: &[usize],
 ) -> Result<SymbolicCholesky<usize>, SolveError> {
-    // Identity goes through a custom identity permutation: with `SymmetricOrdering::Identity`
-    // faer's numeric phase transposes A instead of extracting the `Side` triangle, so the
-    // simplicial path would read both triangles of our storage and compute garbage.
-    // METIS's order is composed with a postorder of its elimination tree, so every subtree
-    // is a contiguous range of supernodes (the subtree-parallel LLᵀ needs it; fill and flops
-    // are unchanged). faer's AMD is checked below.
-    let custom: Vec<usize> = match ordering {
-        Ordering::Identity => (0..pattern.dim()).collect(),
-        Ordering::Metis => {
-            supernodal_tree::postorder_permutation(pattern, &nested_dissection(pattern)?)
-        }
-        Ordering::Amd | Ordering::Auto => Vec::new(),
-    };
-    let inverse = inverse_permutation(&custom);
-    let faer_ordering = match ordering {
-        Ordering::Amd | Ordering::Auto => SymmetricOrdering::Amd,
-        Ordering::Identity | Ordering::Metis => SymmetricOrdering::Custom(
-            faer::perm::PermRef::new_checked(&custom, &inverse, pattern.dim()),
-        ),
-    };
+    let inverse = inverse_permutation(perm);
     let threshold = match settings.supernodal {
         Supernodal::Auto => SupernodalThreshold::AUTO,
         Supernodal::Simplicial => SupernodalThreshold::FORCE_SIMPLICIAL,
@@ -257,29 +307,17 @@ fn symbolic_analysis(
         supernodal_flop_ratio_threshold: threshold,
         ..Default::default()
     };
-    let analyze = |ordering| {
-        factorize_symbolic_cholesky(pattern.as_faer(), faer::Side::Lower, ordering, params)
-            .map_err(|e| SolveError::Analysis(format!("{e:?}")))
-    };
-    let symbolic = analyze(faer_ordering)?;
-    if !matches!(ordering, Ordering::Amd | Ordering::Auto) {
-        return Ok(symbolic);
-    }
-    let (SymbolicCholeskyRaw::Supernodal(supernodal), Some(perm)) =
-        (symbolic.raw(), symbolic.perm())
-    else {
-        return Ok(symbolic);
-    };
-    if supernodal_tree::is_postordered(supernodal) {
-        return Ok(symbolic);
-    }
-    let post = supernodal_tree::postorder_permutation(pattern, perm.arrays().0);
-    let inverse = inverse_permutation(&post);
-    analyze(SymmetricOrdering::Custom(faer::perm::PermRef::new_checked(
-        &post,
-        &inverse,
-        pattern.dim(),
-    )))
+    factorize_symbolic_cholesky(
+        pattern.as_faer(),
+        faer::Side::Lower,
+        SymmetricOrdering::Custom(faer::perm::PermRef::new_checked(
+            perm,
+            &inverse,
+            pattern.dim(),
+        )),
+        params,
+    )
+    .map_err(|e| SolveError::Analysis(format!("{e:?}")))
 }
 
 /// `inv[perm[i]] = i`.
@@ -292,38 +330,14 @@ fn inverse_permutation(perm: &[usize]) -> Vec<usize> {
 }
 
 /// nnz(L) (diagonal included) and predicted flops from the exact column counts of L in the
-/// analysis's ordering: the elimination tree (Liu's algorithm with path compression), then
-/// each row's subtree (O(nnz(L)) time, O(n) memory). faer's supernodal storage would
-/// overcount: relaxed supernodes store explicit zeros and the upper part of diagonal blocks.
-/// These are the counts CHOLMOD reports (`lnz`, `fl`), so they compare across programs.
-pub fn factor_cost(pattern: &SparsityPattern, symbolic: &SymbolicCholesky<usize>) -> FactorCost {
-    let n = pattern.dim();
-    let identity: Vec<usize>;
-    let (fwd, inv) = match symbolic.perm() {
-        Some(p) => p.arrays(),
-        None => {
-            identity = (0..n).collect();
-            (&identity[..], &identity[..])
-        }
-    };
-    let (cp, ri) = (pattern.col_ptr(), pattern.row_idx());
-    // Entries of new column k above the diagonal, in the new order (= row k left of it).
-    let upper = |k: usize| ri[cp[fwd[k]]..cp[fwd[k] + 1]].iter().map(|&r| inv[r]);
-    const NONE: usize = usize::MAX;
+/// permutation `perm` (the elimination tree, then Gilbert–Ng–Peyton column counts, in
+/// O(nnz(A) α(n)) time). faer's supernodal storage would overcount: relaxed supernodes store
+/// explicit zeros and the upper part of diagonal blocks. These are the counts CHOLMOD reports
+/// (`lnz`, `fl`), so they compare across programs.
+pub fn factor_cost(pattern: &SparsityPattern, perm: &[usize]) -> FactorCost {
+    let (fwd, inv) = (perm, &inverse_permutation(perm)[..]);
     let parent = supernodal_tree::elimination_tree(pattern, fwd, inv);
-    let mut counts = vec![1usize; n];
-    let mut mark = vec![NONE; n];
-    for k in 0..n {
-        mark[k] = k;
-        for i in upper(k) {
-            let mut j = i;
-            while j < k && mark[j] != k {
-                counts[j] += 1;
-                mark[j] = k;
-                j = parent[j];
-            }
-        }
-    }
+    let counts = supernodal_tree::column_counts(pattern, fwd, inv, &parent);
     let mut cost = FactorCost::default();
     for c in counts {
         cost.add_column(c);
