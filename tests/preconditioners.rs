@@ -267,6 +267,23 @@ fn auto_prediction_prefers_cholesky_for_small_fill_and_cg_for_large() {
 }
 
 #[test]
+fn a_parallel_factorization_moves_autos_crossover_toward_cholesky() {
+    // The 48k-tet ball of solver_scaling (METIS: nnz(L) 10.7 M, 8.66e9 flops, nnz(A) about
+    // 1.1 M): on one thread the rule predicts CG + AMG cheaper; with the factorization on two
+    // threads, Cholesky (measured at 5c6955b: 1.06 s against 1.33 s per step).
+    let one = AutoPrediction::new(10_728_963, 8.66e9, 1_100_000);
+    assert!(!one.direct(), "{one:?}");
+    let two = one.with_factor_threads(2);
+    assert!(two.direct(), "{two:?}");
+    assert!((one.direct_seconds / two.direct_seconds - 1.8).abs() < 1e-12);
+    assert_eq!(two.iterative_seconds, one.iterative_seconds);
+    assert_eq!(one.with_factor_threads(1), one);
+    // The 211k box stays on CG + AMG however many threads factor it.
+    let big = AutoPrediction::new(94_090_410, 2.04e11, 5_000_000).with_factor_threads(2);
+    assert!(!big.direct(), "{big:?}");
+}
+
+#[test]
 fn auto_chooses_cg_with_amg_on_a_large_box_from_the_analysis_alone() {
     // 96k tets: predicted Cholesky 4.4e10 flops against CG's O(nnz(A)) work (measured with
     // `--example auto_calibrate`: 2.5 s vs 0.78 s per Newton iteration).

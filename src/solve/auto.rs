@@ -5,7 +5,10 @@
 //! AMG's like n (a fixed number of V-cycles of O(nnz(A)) work), so large meshes go to CG.
 //! The rule compares predicted seconds per Newton iteration:
 //! - Cholesky: `factor_flops / DIRECT_FLOPS_PER_SECOND` (dense supernodal kernels) plus two
-//!   triangular solves (`4 nnz(L)` flops);
+//!   triangular solves (`4 nnz(L)` flops), divided by the factorization's parallel speed-up
+//!   when it will run on more than one thread (`DIRECT_PARALLEL_EFFICIENCY`: without it the
+//!   rule, calibrated on one thread, sent the 48k ball to CG + AMG at 1.40 s per step where
+//!   two-thread Cholesky took 1.06 s);
 //! - CG with AMG: mat-vecs of `2 nnz(A)` flops at `SPARSE_FLOPS_PER_SECOND`: the setup
 //!   amortized over the hierarchy's reuse (one build of `AMG_BUILD_MATVECS` per
 //!   `rebuild_every` setups, value-only refreshes of `AMG_REFRESH_MATVECS` in between) plus
@@ -26,7 +29,7 @@
 
 use std::sync::Arc;
 
-use super::faer_common::{OrderingChoice, SymbolicAnalysis};
+use super::faer_common::{OrderingChoice, SymbolicAnalysis, factor_threads};
 use super::{
     AmgSettings, CgSettings, CgSolver, CholeskySolver, FactorReport, LinearSolver, Preconditioner,
     SolveError, SolveReport, SolverSettings, SolverStats,
@@ -35,6 +38,11 @@ use crate::sparse::{SparsityPattern, SymmetricMatrix};
 
 /// Flops per second of faer's supernodal factorization (one thread, 3D FEM systems).
 pub const DIRECT_FLOPS_PER_SECOND: f64 = 1.5e10;
+/// Speed-up of a parallel factorization per thread beyond the first. The subtree-scheduled
+/// factorization ran 1.78–1.89× faster on two threads than on one on the 49k box and the 83k
+/// ball (`results/cholmod`, 5c6955b); CG with AMG gains little from threads (1.07× on the
+/// 49k box's step, step_49k) and is left at one. Only two-thread runs back the value.
+pub const DIRECT_PARALLEL_EFFICIENCY: f64 = 0.8;
 /// Flops per second of a sparse mat-vec (`2 nnz(A)` flops).
 pub const SPARSE_FLOPS_PER_SECOND: f64 = 2.6e9;
 /// Mat-vec equivalents of a full AMG build (strength, aggregation, prolongators, Galerkin).
@@ -86,6 +94,14 @@ impl AutoPrediction {
             direct_seconds: direct,
             iterative_seconds: iterative,
         }
+    }
+
+    /// The prediction when the factorization runs on `threads` threads (see
+    /// [`DIRECT_PARALLEL_EFFICIENCY`]); one thread leaves it unchanged.
+    pub fn with_factor_threads(mut self, threads: usize) -> Self {
+        let extra = threads.saturating_sub(1) as f64;
+        self.direct_seconds /= 1.0 + DIRECT_PARALLEL_EFFICIENCY * extra;
+        self
     }
 
     /// Whether the direct solver is predicted to be cheaper.
@@ -148,7 +164,8 @@ impl LinearSolver for AutoSolver {
             choice.cost.flops,
             pattern.nnz(),
             self.settings.cg.amg.rebuild_every,
-        );
+        )
+        .with_factor_threads(factor_threads(&self.settings.direct, choice.cost.flops));
         let solver: Box<dyn LinearSolver> = if prediction.direct() {
             let analysis = SymbolicAnalysis::from_choice(pattern, &self.settings.direct, choice)?;
             let mut s = CholeskySolver::new(self.settings.direct);

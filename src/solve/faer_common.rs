@@ -122,6 +122,16 @@ impl SymbolicAnalysis {
 /// 56k-tet armadillo. `cargo bench --bench ordering` measures both sides of the rule.
 pub const PARALLEL_MIN_FLOPS: f64 = 5.0e9;
 
+/// The threads a numeric factorization of `flops` runs on: rayon's current pool when the
+/// settings allow it and the flops reach `parallel_min_flops`, else one.
+pub fn factor_threads(settings: &DirectSettings, flops: f64) -> usize {
+    let threads = rayon::current_num_threads();
+    match settings.parallelism {
+        Parallelism::Rayon if flops >= settings.parallel_min_flops && threads > 1 => threads,
+        _ => 1,
+    }
+}
+
 impl FaerFactor {
     /// Orders and symbolically factors `pattern` (read as its lower triangle) and allocates
     /// the value and scratch storage. With `Ordering::Auto` both AMD and nested dissection
@@ -151,14 +161,10 @@ impl FaerFactor {
             ordering,
             cost,
         } = analysis;
-        let par = match settings.parallelism {
-            Parallelism::Rayon
-                if cost.flops >= settings.parallel_min_flops
-                    && rayon::current_num_threads() > 1 =>
-            {
-                Par::rayon(0)
-            }
-            _ => Par::Seq,
+        let par = if factor_threads(settings, cost.flops) > 1 {
+            Par::rayon(0)
+        } else {
+            Par::Seq
         };
         let tree = match (kind, settings.scheduler, symbolic.raw()) {
             (
