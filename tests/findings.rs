@@ -3,7 +3,9 @@
 
 use std::collections::BTreeMap;
 
-use softbench::study::findings::{Better, compute};
+use softbench::study::StudyKind;
+use softbench::study::compute_findings;
+use softbench::study::findings::Better;
 use softbench::study::table::Table;
 
 fn table(header: &[&str], rows: &[&[&str]]) -> Table {
@@ -78,7 +80,7 @@ fn a_trajectory_study_ranks_cost_and_drift_and_warns_about_failures_and_damping(
         "beam".to_owned(),
         "Rayleigh alpha = 0.1 1/s, beta = 0 s".to_owned(),
     );
-    let f = compute(&runs, &[], &damped);
+    let f = compute_findings(StudyKind::Trajectory, &runs, &[], &damped);
     assert_eq!(f.rankings.len(), 2);
     let cost = &f.rankings[0];
     assert!(cost.metric.starts_with("cost per simulated second"));
@@ -188,7 +190,7 @@ fn a_work_precision_study_ranks_error_at_equal_cost_and_flags_an_order_above_the
         ],
     );
     let params = vec!["run.dt".to_owned()];
-    let f = compute(&runs, &params, &BTreeMap::new());
+    let f = compute_findings(StudyKind::WorkPrecision, &runs, &params, &BTreeMap::new());
     let eq = f
         .rankings
         .iter()

@@ -620,6 +620,16 @@ fn list() -> anyhow::Result<ExitCode> {
             }
         }
     }
+    writeln!(out, "study kinds (study = ...):")?;
+    for kind in study::kinds() {
+        writeln!(out, "  {:26} {}", kind.name, kind.description)?;
+    }
+    writeln!(
+        out,
+        "  {:26} one of the kinds above ([sweep] kind) over one grid key, its metrics plotted \
+         against it",
+        "sweep"
+    )?;
     for (title, folder) in [
         ("scenes (experiments/scenes)", "experiments/scenes"),
         ("studies (experiments)", "experiments"),
@@ -923,7 +933,7 @@ fn render_folder(args: &RenderArgs) -> anyhow::Result<ExitCode> {
         .into());
     }
     let _lock = lock_folder(&args.dir, "render", false)?;
-    let pictures = study::pictures::draw_folder(&args.dir, coloring)
+    let pictures = study::redraw_pictures(&args.dir, coloring)
         .with_context(|| format!("cannot draw the pictures of {}", args.dir.display()))?;
     if pictures.is_empty() {
         console::err(&format!(

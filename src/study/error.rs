@@ -43,3 +43,27 @@ pub enum ResultsError {
     #[error("{path}: {message}")]
     Malformed { path: PathBuf, message: String },
 }
+
+/// Why a study stopped before finishing.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    #[error("{path}: cannot write: {error}")]
+    Io {
+        path: PathBuf,
+        error: std::io::Error,
+    },
+    #[error(transparent)]
+    Results(#[from] ResultsError),
+    /// Another process is writing the study's folder.
+    #[error(transparent)]
+    Lock(#[from] crate::lock::LockError),
+    /// A run could not even start (its scene failed to build), or a reference failed.
+    #[error("{0}")]
+    Run(String),
+}
+
+/// The error for a failed write of `path`.
+pub(super) fn io_error(path: &std::path::Path) -> impl FnOnce(std::io::Error) -> RunError + use<> {
+    let path = path.to_owned();
+    move |error| RunError::Io { path, error }
+}

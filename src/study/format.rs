@@ -72,6 +72,13 @@ pub fn now_utc() -> String {
     utc(s)
 }
 
+/// Seconds since the Unix epoch.
+pub fn epoch_seconds() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

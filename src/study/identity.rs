@@ -1,7 +1,7 @@
 //! Run identity: ids safe as file names, values as they appear in ids and tables, and the
 //! hashes that decide whether a finished run can be reused.
 
-use super::config::{StudyFile, StudyKind};
+use super::config::QuickSettings;
 use crate::scene::{RunConfig, SceneConfig};
 use toml::Value;
 
@@ -42,21 +42,20 @@ pub fn fnv1a(bytes: &[u8]) -> u64 {
     })
 }
 
+/// The hash of a resolved run: its scene, its kind and the kind's settings table, `[quick]`
+/// when it applies, and the softbench version.
 pub(super) fn run_hash(
     config: &SceneConfig,
-    file: &StudyFile,
-    kind: StudyKind,
-    quick: bool,
+    kind: &str,
+    settings: serde_json::Value,
+    quick: Option<&QuickSettings>,
 ) -> String {
-    let settings = (super::kinds::spec(kind).settings_json)(file);
-    let quick_settings = if quick {
-        serde_json::to_value(&file.quick).unwrap_or_default()
-    } else {
-        serde_json::Value::Null
-    };
+    let quick_settings = quick.map_or(serde_json::Value::Null, |q| {
+        serde_json::to_value(q).unwrap_or_default()
+    });
     let document = serde_json::json!({
         "version": env!("CARGO_PKG_VERSION"),
-        "kind": kind.name(),
+        "kind": kind,
         "scene": config,
         "settings": settings,
         "quick": quick_settings,

@@ -1,120 +1,276 @@
-//! What the rest of the study code asks of a study kind: each kind's module
-//! (`trajectory.rs`, `work_precision.rs`, `stability.rs`) declares its
-//! [`KindSpec`] (its `runs.csv` columns, the report's summary columns and paragraphs, a
-//! sweep's default metrics, the progress line, what it hashes, how loading adapts its runs,
-//! what its runs share and how one is measured); `kinds.rs` picks one per
-//! [`super::StudyKind`].
+//! What the generic study code asks of a study kind. Each kind is one file (`trajectory.rs`,
+//! `work_precision.rs`, `stability.rs`) with a type implementing [`Kind`]: its `runs.csv`
+//! columns, how it checks and adapts its runs, how one run is measured, what its rows'
+//! verdicts are, its charts, its report paragraphs and its quick table. `kinds.rs` lists them.
+//!
+//! Dependencies point one way: this trait sees the study's vocabulary (files, rows, tables,
+//! references, chart helpers) and nothing that orchestrates studies, and the orchestrators
+//! (load, runner, shared work, merge, report, plots) see kinds only through this trait.
 
+use super::charts::{Emit, SceneRows};
 use super::config::{StudyFile, WorkPrecisionSettings};
 use super::context::Context;
 use super::error::StudyError;
+use super::findings::Ranking;
 use super::grid::Axis;
 use super::measured::Measured;
-use super::plots::{Emit, SceneRows};
+use super::pictures::PictureRows;
+use super::reference::Reference;
 use super::spec::{RunSpec, Study};
 use super::table::Table;
 use crate::parallel::Parallelism;
 use crate::plot::PlotError;
+use crate::run::OutcomeKind;
 use crate::scene::SceneConfig;
 
-/// A study kind's columns, summaries, settings and measurement.
-pub(super) struct KindSpec {
+/// A study kind: what one run measures and how its results are shown. Methods with a
+/// default are the plain case (no settings table, no references, no charts of its own).
+pub(super) trait Kind: Sync {
+    /// The kind's name in study files (`study = "..."`, `[sweep] kind = "..."`).
+    fn name(&self) -> &'static str;
+
+    /// One line for `softbench list`: what a run of this kind measures.
+    fn description(&self) -> &'static str;
+
+    /// The tables a minimal study of this kind adds to `name`, `study` and `scenes`: its
+    /// settings table and the grid it needs. `tests/study_kinds.rs` runs every registered kind
+    /// from it, and the docs show it.
+    fn example(&self) -> &'static str;
+
     /// The measured columns of `runs.csv` (after the identity and parameter columns).
-    pub columns: &'static [&'static str],
+    fn columns(&self) -> &'static [&'static str];
+
     /// The report's summary table columns (those present in runs.csv are shown).
-    pub summary_columns: &'static [&'static str],
+    fn summary_columns(&self) -> &'static [&'static str];
+
     /// The metrics a sweep plots when the study names none.
-    pub sweep_metrics: &'static [&'static str],
+    fn sweep_metrics(&self) -> &'static [&'static str];
+
     /// What the progress line adds after a finished run's outcome (", error 1e-3").
-    pub progress: fn(&Measured) -> Option<String>,
+    fn progress(&self, _: &Measured) -> Option<String> {
+        None
+    }
+
     /// The kind's settings table as hashed into every run's hash (null when it has none).
-    pub settings_json: fn(&StudyFile) -> serde_json::Value,
+    fn settings_json(&self, _: &StudyFile) -> serde_json::Value {
+        serde_json::Value::Null
+    }
+
     /// What `--quick` does to the kind's runs, for the report's quick-mode notice.
-    pub quick_notice: &'static str,
-    /// The report's paragraphs on the kind's settings and every cap that can decide a result.
-    pub report_settings: fn(&mut String, &StudyFile),
+    fn quick_notice(&self) -> &'static str;
+
+    /// Checks of the kind's settings table (`bad` makes the error for a key).
+    fn check(
+        &self,
+        _: &StudyFile,
+        _: &Context,
+        _: &dyn Fn(&str, String) -> StudyError,
+    ) -> Result<(), StudyError> {
+        Ok(())
+    }
+
+    /// Checks of the kind's `[quick]` settings, whether or not `--quick` is given.
+    fn check_quick(&self, _: &StudyFile, _: &Context) -> Result<(), StudyError> {
+        Ok(())
+    }
+
+    /// `[quick]` applied to the kind's own settings table. Called for every registered kind
+    /// in quick mode, whatever the study's kind, since meta.json records every table as
+    /// resolved.
+    fn quick_table(&self, _: &mut StudyFile, _: &Context) -> Result<(), StudyError> {
+        Ok(())
+    }
+
+    /// In quick mode, what the kind drops from each method's axes.
+    fn quick_axes(&self, _: &StudyFile, _: &mut [Vec<Axis>]) {}
+
+    /// Adapt one run's resolved scene to the kind (`quick` applies `[quick]`); `axes` are the
+    /// grid axes, for error lines.
+    fn configure(
+        &self,
+        _ctx: &Context,
+        _file: &StudyFile,
+        _config: &mut SceneConfig,
+        _axes: &[Axis],
+        _quick: bool,
+    ) -> Result<(), StudyError> {
+        Ok(())
+    }
+
+    /// Roughly how many steps one run takes (its trials together, for a stability search):
+    /// the cost estimate that balances `--shard` (only ratios between runs matter).
+    fn estimated_steps(&self, _: &StudyFile, config: &SceneConfig) -> f64 {
+        config.run.steps as f64
+    }
+
+    /// Whether the runs need the highest mode of each scene before they start.
+    fn needs_omega(&self, _: &StudyFile) -> bool {
+        false
+    }
+
+    /// The settings of the kind's reference solutions, if the study computes any.
+    fn reference_settings(&self, _: &StudyFile) -> Option<WorkPrecisionSettings> {
+        None
+    }
+
+    /// The reference step for the physics of a run (asked only when
+    /// [`Kind::reference_settings`] gives settings).
+    fn reference_dt(&self, _: &Study, w: &WorkPrecisionSettings, _: &RunSpec) -> f64 {
+        w.horizon / 4000.0
+    }
+
+    /// Whether the runs go on without a reference that failed (else the study stops).
+    fn reference_optional(&self) -> bool {
+        false
+    }
+
+    /// Measure one run with what the runs share.
+    fn measure(
+        &self,
+        study: &Study,
+        spec: &RunSpec,
+        inputs: &RunInputs,
+        parallelism: Parallelism,
+    ) -> Result<Measured, String>;
+
+    /// How a row of `runs.csv` ended: the word the report and the progress show, and whether
+    /// the run answered its question. By default the `outcome` column, clean when
+    /// `completed`.
+    fn verdict<'a>(&self, runs: &'a Table, row: &'a [String]) -> Verdict<'a> {
+        let outcome = runs.get(row, "outcome").unwrap_or_default();
+        Verdict {
+            word: outcome,
+            clean: outcome == OutcomeKind::Completed.name(),
+        }
+    }
+
+    /// Whether a clean row still deserves a line under the report's "Runs that did not
+    /// finish cleanly" (an unscored error, a non-monotone limit).
+    fn flagged(&self, _: &Table, _: &[String]) -> bool {
+        false
+    }
+
+    /// Whether a row's `outcome` is how its series file ends (a stability row's is how its
+    /// first unstable trial ended, while its series is the trial it reports).
+    fn outcome_ends_series(&self) -> bool {
+        true
+    }
+
+    /// The kind's rankings of one scene's runs, in the order the findings list them
+    /// (`damped`: how the scene is damped, if it is).
+    fn rankings(&self, _: &SceneRows, _damped: Option<&str>) -> Vec<Ranking> {
+        Vec::new()
+    }
+
+    /// Warnings the kind's own measurements call for over the whole table (an observed order
+    /// above theory).
+    fn table_warnings(&self, _: &Table) -> Vec<String> {
+        Vec::new()
+    }
+
+    /// Whether a row's error is within its reference's own accuracy (not scored).
+    fn unscored(&self, _: &Table, _: &[String]) -> bool {
+        false
+    }
+
+    /// Whether a row stopped before its horizon, which the findings warn about. By default
+    /// any outcome but `completed`.
+    fn stopped_early(&self, runs: &Table, row: &[String]) -> bool {
+        let outcome = runs.get(row, "outcome").unwrap_or_default();
+        !outcome.is_empty() && outcome != OutcomeKind::Completed.name()
+    }
+
+    /// For a sweep that plots `metric`: a sentence for the chart's caption and a reference
+    /// column drawn as a line of its own.
+    fn sweep_line(&self, _metric: &str) -> SweepLine {
+        SweepLine::default()
+    }
+
+    /// The report's notes on the units of the kind's own columns among `shown`.
+    fn unit_notes(&self, _runs: &Table, _shown: &dyn Fn(&str) -> bool) -> Vec<String> {
+        Vec::new()
+    }
+
+    /// What the report adds after the settings paragraph and every cap that can decide a
+    /// result.
+    fn report_settings(&self, _: &mut String, _: &StudyFile) {}
+
     /// What the report adds after the references, before the runs (a work-precision study's
     /// observed orders).
-    pub report_findings: fn(&mut String, &Table),
-    /// Checks of the kind's settings table (`bad` makes the error for a key).
-    pub check: Check,
-    /// Checks of the kind's `[quick]` settings, whether or not `--quick` is given.
-    pub check_quick: fn(&StudyFile, &Context) -> Result<(), StudyError>,
-    /// In quick mode, what the kind drops from each method's axes.
-    pub quick_axes: fn(&StudyFile, &mut [Vec<Axis>]),
-    /// Adapt one run's resolved scene to the kind (`quick` applies `[quick]`).
-    pub configure: Configure,
-    /// Roughly how many steps one run takes (its trials together, for a stability search): the
-    /// cost estimate that balances `--shard` (only ratios between runs matter).
-    pub estimated_steps: fn(&StudyFile, &SceneConfig) -> f64,
-    /// Whether the runs need the highest mode of each scene before they start.
-    pub needs_omega: fn(&StudyFile) -> bool,
-    /// How the kind's reference solutions are computed, if it has any.
-    pub references: Option<References>,
-    /// Measure one run with what the runs share.
-    pub measure: fn(&Study, &RunSpec, &Shared, Parallelism) -> Result<Measured, String>,
+    fn report_findings(&self, _: &mut String, _: &Table) {}
+
     /// The kind's own charts of one scene (before the time histories and phases).
-    pub scene_charts: fn(&SceneRows, &mut Emit) -> Result<(), PlotError>,
+    fn scene_charts(&self, _: &SceneRows, _: &mut Emit) -> Result<(), PlotError> {
+        Ok(())
+    }
+
     /// The caption of the energy chart over time, if the kind draws time histories.
-    pub energy_caption: Option<&'static str>,
+    fn energy_caption(&self) -> Option<&'static str> {
+        None
+    }
+
     /// Whether time histories get one chart per time step (when the scene has several).
-    pub by_time_step: bool,
+    fn by_time_step(&self) -> bool {
+        false
+    }
+
     /// Whether the phase chart shows only each line's run at its smallest dt.
-    pub phases_at_smallest_dt: bool,
+    fn phases_at_smallest_dt(&self) -> bool {
+        false
+    }
+
     /// Which runs the pictures of the bodies show.
-    pub picture_rows: super::pictures::PictureRows,
-    /// The columns whose first number labels a phase bar with its dt.
-    pub phase_dt_columns: &'static [&'static str],
+    fn picture_rows(&self) -> PictureRows {
+        PictureRows::All
+    }
+
+    /// The columns that hold a run's time step, in order of preference: the first present
+    /// labels phase bars and time histories with their dt.
+    fn dt_columns(&self) -> &'static [&'static str] {
+        &["dt"]
+    }
 }
 
-/// Checks a settings table: the study, its text (for lines), and `bad`, which makes the error
-/// for a key.
-pub(super) type Check =
-    fn(&StudyFile, &Context, &dyn Fn(&str, String) -> StudyError) -> Result<(), StudyError>;
-
-/// Adapts a run's resolved scene: the study, its scene config, the grid axes (for error
-/// lines) and whether `[quick]` applies.
-pub(super) type Configure =
-    fn(&Context, &StudyFile, &mut SceneConfig, &[Axis], bool) -> Result<(), StudyError>;
-
-/// A kind's reference solutions.
-pub(super) struct References {
-    /// Their settings, if the study computes any.
-    pub settings: fn(&StudyFile) -> Option<WorkPrecisionSettings>,
-    /// The reference step for the physics of a run.
-    pub dt: fn(&Study, &WorkPrecisionSettings, &RunSpec) -> f64,
-    /// Whether the runs go on without a reference that failed (else the study stops).
-    pub optional: bool,
+/// What a sweep's chart of one metric adds (see [`Kind::sweep_line`]).
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct SweepLine {
+    /// Appended to the caption (starts with a space).
+    pub note: &'static str,
+    /// A column drawn against the parameter as its own line, and the line's label.
+    pub reference: Option<(&'static str, &'static str)>,
 }
 
-/// What a run gets from what the runs share: its scene's highest mode and its reference
-/// (the stability kind's, which is public).
-pub(super) use super::stability::Shared;
+/// How a row ended, as its kind reads it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct Verdict<'a> {
+    /// The word shown (an outcome, or a stability verdict).
+    pub word: &'a str,
+    /// Whether the run answered its question.
+    pub clean: bool,
+}
+
+/// What one run gets from the work the runs share: its scene's highest mode and its
+/// reference solution.
+pub(super) struct RunInputs<'a> {
+    pub omega: Option<f64>,
+    pub reference: Option<&'a Reference>,
+}
+
+/// The runs of `table` whose verdict is not clean, with their verdict word.
+pub(super) fn not_ok(kind: &dyn Kind, table: &Table) -> Vec<(String, String)> {
+    table
+        .rows
+        .iter()
+        .filter_map(|row| {
+            let verdict = kind.verdict(table, row);
+            (!verdict.clean).then(|| (row[0].clone(), verdict.word.to_owned()))
+        })
+        .collect()
+}
 
 /// A measured number, shortened for a progress line.
 pub(super) fn number(m: &Measured, name: &str) -> Option<String> {
     m.get(name)
         .and_then(|s| s.parse::<f64>().ok())
         .map(super::format::short)
-}
-
-/// For kinds without a settings table, a `[quick]` table or findings: nothing to hash, check
-/// or write.
-pub(super) fn no_settings(_: &StudyFile) -> serde_json::Value {
-    serde_json::Value::Null
-}
-pub(super) fn no_report(_: &mut String, _: &StudyFile) {}
-pub(super) fn no_findings(_: &mut String, _: &Table) {}
-pub(super) fn no_quick_check(_: &StudyFile, _: &Context) -> Result<(), StudyError> {
-    Ok(())
-}
-pub(super) fn keep_axes(_: &StudyFile, _: &mut [Vec<Axis>]) {}
-pub(super) fn run_steps(_: &StudyFile, config: &SceneConfig) -> f64 {
-    config.run.steps as f64
-}
-pub(super) fn no_omega(_: &StudyFile) -> bool {
-    false
-}
-pub(super) fn no_charts(_: &SceneRows, _: &mut Emit) -> Result<(), PlotError> {
-    Ok(())
 }

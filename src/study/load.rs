@@ -6,7 +6,6 @@ use super::context::Context;
 use super::error::StudyError;
 use super::grid::{Axis, grid_axes, method_entries, product};
 use super::identity::{physics_hash, run_hash, sanitize, value_text};
-use super::settings::check_settings;
 use super::spec::{RunSpec, Study};
 use crate::data::DataPaths;
 use crate::integrate::Method;
@@ -44,20 +43,21 @@ pub fn load(path: &Path, quick: bool) -> Result<Study, StudyError> {
     let ctx = Context { path, text: &text };
     let kind = check_settings(&file, &ctx)?;
     let mut file = file;
-    let spec = super::kinds::spec(kind);
-    (spec.check_quick)(&file, &ctx)?;
+    let measured_by = super::kinds::of(kind);
+    measured_by.check_quick(&file, &ctx)?;
     if quick {
-        // The kinds' tables as `[quick]` resolves them, whatever the kind (meta.json records
-        // both tables as resolved).
-        super::stability::quick_table(&mut file, &ctx)?;
-        super::work_precision::quick_table(&mut file);
+        // Every kind's table as `[quick]` resolves it, whatever the study's kind (meta.json
+        // records every table as resolved).
+        for k in super::kinds::KINDS {
+            k.quick_table(&mut file, &ctx)?;
+        }
     }
     let file = file;
     let scenes = scene_sources(&file, &ctx)?;
     let axes = grid_axes(&file, &ctx)?;
     let mut method_axes = method_entries(&file, &ctx, &axes)?;
     if quick {
-        (spec.quick_axes)(&file, &mut method_axes);
+        measured_by.quick_axes(&file, &mut method_axes);
     }
     let mut parameters: Vec<String> = Vec::new();
     let mut distinct: HashMap<String, BTreeSet<String>> = HashMap::new();
@@ -128,7 +128,12 @@ pub fn load(path: &Path, quick: bool) -> Result<Study, StudyError> {
                     });
                 }
                 let (method, linear_solver, loaded) = run;
-                let hash = run_hash(&loaded.config, &file, kind, quick);
+                let hash = run_hash(
+                    &loaded.config,
+                    kind.name(),
+                    measured_by.settings_json(&file),
+                    quick.then_some(&file.quick),
+                );
                 // The same run twice (an entry repeated) is run once; two different runs
                 // under one id would overwrite each other's series, so that is an error.
                 if !seen.insert(id.clone()) {
@@ -150,6 +155,7 @@ pub fn load(path: &Path, quick: bool) -> Result<Study, StudyError> {
                     .map(|p| combo.iter().find(|(k, _)| k == p).map(|(_, v)| v.clone()))
                     .collect();
                 let physics = physics_hash(&loaded.config);
+                let estimated_steps = measured_by.estimated_steps(&file, &loaded.config);
                 runs.push(RunSpec {
                     id,
                     scene: source.name.clone(),
@@ -160,6 +166,7 @@ pub fn load(path: &Path, quick: bool) -> Result<Study, StudyError> {
                     hash,
                     physics,
                     dofs: 0,
+                    estimated_steps,
                 });
             }
         }
@@ -169,6 +176,7 @@ pub fn load(path: &Path, quick: bool) -> Result<Study, StudyError> {
         path: path.to_owned(),
         file,
         kind,
+        kind_columns: measured_by.columns(),
         quick,
         text: text.clone(),
         parameters,
@@ -299,7 +307,7 @@ fn resolve_run(
         }
     };
     let mut config = config;
-    (super::kinds::spec(kind).configure)(ctx, file, &mut config, axes, quick)?;
+    super::kinds::of(kind).configure(ctx, file, &mut config, axes, quick)?;
     let method = config.integrator.method;
     if method.is_explicit() {
         // An explicit method runs once whatever the implicit-only settings are.
@@ -381,4 +389,74 @@ fn check_scenes_build(
         }
     }
     Ok(())
+}
+
+/// The measured kind, after checking the kind's settings are present and sane.
+fn check_settings(file: &StudyFile, ctx: &Context) -> Result<StudyKind, StudyError> {
+    super::settings::check_name(&file.name).map_err(|m| ctx.invalid(0, "name", m))?;
+    // The sweep's own table (its kind, parameter and metrics) is about the sweep, not a kind,
+    // so it is checked here; the measured kind then checks its own table.
+    let kind = match (&file.study, &file.sweep) {
+        (StudyKind::Sweep, Some(sweep)) => {
+            if sweep.kind == StudyKind::Sweep {
+                return Err(ctx.invalid(
+                    0,
+                    "sweep.kind",
+                    "must be trajectory, work-precision or stability",
+                ));
+            }
+            if !file.grid.contains_key(&sweep.parameter)
+                && !file
+                    .methods
+                    .iter()
+                    .any(|m| m.get_ref().contains_key(&sweep.parameter))
+            {
+                return Err(StudyError::Invalid {
+                    path: ctx.path.to_owned(),
+                    line: ctx.line_of_key("parameter"),
+                    key: "sweep.parameter".into(),
+                    message: format!(
+                        "`{}` is not a key of [grid]; the swept parameter must be one",
+                        sweep.parameter
+                    ),
+                });
+            }
+            let columns = super::kinds::of(sweep.kind).columns();
+            if let Some(unknown) = sweep
+                .metrics
+                .iter()
+                .find(|m| !columns.contains(&m.as_str()))
+            {
+                return Err(StudyError::Invalid {
+                    path: ctx.path.to_owned(),
+                    line: ctx.line_of_key("metrics"),
+                    key: "sweep.metrics".into(),
+                    message: crate::names::unknown_name_message(
+                        &format!("{} metric", sweep.kind.name()),
+                        unknown,
+                        columns,
+                    ),
+                });
+            }
+            sweep.kind
+        }
+        (StudyKind::Sweep, None) => {
+            return Err(ctx.invalid(
+                0,
+                "sweep",
+                "a sweep study needs a [sweep] table with `kind` and `parameter`",
+            ));
+        }
+        (kind, _) => *kind,
+    };
+    let line = |key: &str| ctx.line_of_key(key);
+    let bad = |key: &str, message: String| StudyError::Invalid {
+        path: ctx.path.to_owned(),
+        line: line(key.rsplit('.').next().unwrap_or(key)),
+        key: key.to_owned(),
+        message,
+    };
+    super::kinds::of(kind).check(file, ctx, &bad)?;
+    super::settings::check_quick(file, &bad)?;
+    Ok(kind)
 }

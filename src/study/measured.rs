@@ -3,11 +3,10 @@
 
 use super::format::cell;
 use super::spec::RunSpec;
-use super::table::Table;
 use crate::data::DataPaths;
 use crate::integrate::State;
 use crate::parallel::Parallelism;
-use crate::run::{self, Observer, Outcome, OutcomeKind, RunSummary, Sample};
+use crate::run::{self, Observer, Outcome, RunSummary, Sample};
 use crate::scene::{self, RunConfig, Scene};
 
 /// The result of one run.
@@ -43,18 +42,6 @@ impl Measured {
             .iter()
             .find(|(n, _)| *n == name)
             .map(|(_, v)| v.as_str())
-    }
-}
-
-/// Stability verdicts that answer the question (a limit, or stable up to the ceiling).
-pub const ANSWERED_STABILITY: [&str; 2] = ["limit-found", "stable-to-ceiling"];
-
-/// Whether a row of `runs.csv` ended as it should: a stability row with a limit or stable to
-/// its ceiling, any other row `completed`.
-pub fn is_clean(table: &Table, row: &[String]) -> bool {
-    match table.get(row, "stability") {
-        Some(verdict) => ANSWERED_STABILITY.contains(&verdict),
-        None => table.get(row, "outcome") == Some(OutcomeKind::Completed.name()),
     }
 }
 
@@ -274,4 +261,15 @@ pub fn run_rows(
     };
     let (summary, _, snapshots) = run_observed(scene, run, surface, &mut keep);
     (summary, rows, snapshots)
+}
+
+/// The highest mode of a scene at rest: `omega_max` and the explicit limit `2 / omega_max`.
+pub fn highest_mode_at_rest(scene: &mut Scene) -> Result<crate::model::HighestMode, String> {
+    let q = scene.initial.q.clone();
+    crate::model::highest_mode(
+        &mut scene.model,
+        &q,
+        &crate::model::SpectrumSettings::default(),
+    )
+    .map_err(|e| e.to_string())
 }

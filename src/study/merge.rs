@@ -4,13 +4,15 @@
 //! and says which runs are missing. It reads the shards' outputs and rewrites only the
 //! study-level files, so merging again gives the same files.
 
+use super::error::RunError;
 use super::format::utc;
+use super::kind::not_ok;
 use super::machine::Machine;
 use super::meta::Meta;
 use super::progress::Progress;
-use super::runner::{RunError, earlier_rows, header, is_done, not_ok};
+use super::rows::{earlier_rows, header, is_done};
 use super::shard_record::ShardRecord;
-use super::shared::{Shared, Source};
+use super::shared::{SharedWork, Source};
 use super::shared_store::SharedStore;
 use super::spec::{RunSpec, Study};
 use super::table::Table;
@@ -119,7 +121,7 @@ pub(super) fn merge_study(
     // The references the shards stored, for the report.
     let store = SharedStore::new(dir);
     let all: Vec<&RunSpec> = study.runs.iter().collect();
-    let shared = Shared::prepare(
+    let shared = SharedWork::prepare(
         study,
         &all,
         Source::ReadOnly(&store),
@@ -182,6 +184,6 @@ pub(super) fn merge_study(
         total: study.runs.len(),
         missing: meta.missing.clone(),
         shards: records,
-        not_ok: not_ok(&table),
+        not_ok: not_ok(super::kinds::of(study.kind), &table),
     })
 }

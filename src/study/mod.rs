@@ -6,6 +6,7 @@
 //! measured by its own module ([`trajectory`], [`work_precision`], [`stability`]); [`redraw`]
 //! draws the plots again from the CSVs.
 
+mod charts;
 pub mod config;
 mod context;
 mod error;
@@ -23,7 +24,9 @@ mod meta;
 pub mod pictures;
 pub mod plots;
 mod progress;
+mod reference;
 mod report;
+mod rows;
 mod runner;
 mod settings;
 pub mod shard;
@@ -37,6 +40,7 @@ pub mod trajectory;
 pub mod work_precision;
 
 pub use config::{StudyFile, StudyKind};
+pub use error::RunError;
 pub use error::{ResultsError, StudyError};
 pub use identity::{fnv1a, value_text};
 pub use load::load;
@@ -44,10 +48,38 @@ pub use machine::Machine;
 pub use measured::Measured;
 pub use merge::{MergeError, Merged, merge};
 pub use meta::{Meta, StudyMeta};
-pub use runner::{MergeOutcome, RunError, RunOptions, StudyRun, matches, run};
+pub use report::compute_findings;
+pub use runner::{MergeOutcome, RunOptions, StudyRun, matches, run};
 pub use shard::Shard;
 pub use shard_record::ShardRecord;
 pub use spec::{RunSpec, Study};
+
+/// A registered study kind, as `softbench list` and the docs show it.
+#[derive(Clone, Copy, Debug)]
+pub struct KindInfo {
+    /// The name in study files (`study = "..."`).
+    pub name: &'static str,
+    /// One line: what a run of this kind measures.
+    pub description: &'static str,
+    /// Its `runs.csv` columns after the identity and parameter columns.
+    pub columns: &'static [&'static str],
+    /// The tables a minimal study of this kind adds (its settings table and grid).
+    pub example: &'static str,
+}
+
+/// Every registered study kind, in registry order. (A `sweep` study runs one of these over a
+/// parameter.)
+pub fn kinds() -> Vec<KindInfo> {
+    kinds::KINDS
+        .iter()
+        .map(|k| KindInfo {
+            name: k.name(),
+            description: k.description(),
+            columns: k.columns(),
+            example: k.example(),
+        })
+        .collect()
+}
 
 /// Redraw the plots of a results folder from its `runs.csv`, series files and `meta.json`.
 pub fn redraw(dir: &std::path::Path) -> Result<Vec<plots::Plot>, RedrawError> {
@@ -74,6 +106,31 @@ pub fn redraw(dir: &std::path::Path) -> Result<Vec<plots::Plot>, RedrawError> {
     Ok(plots)
 }
 
+/// [`pictures::draw`] for a study's results folder, reading its `runs.csv` and `meta.json` (for the
+/// swept parameters that label the runs).
+pub fn redraw_pictures(
+    dir: &std::path::Path,
+    coloring: crate::render::Coloring,
+) -> Result<Vec<charts::Plot>, RedrawError> {
+    let meta_path = dir.join("meta.json");
+    let text = std::fs::read_to_string(&meta_path).map_err(|error| ResultsError::Io {
+        path: meta_path.clone(),
+        error,
+    })?;
+    let meta: Meta = serde_json::from_str(&text).map_err(|e| ResultsError::Malformed {
+        path: meta_path.clone(),
+        message: e.to_string(),
+    })?;
+    let runs_path = dir.join("runs.csv");
+    let runs = table::Table::read(&runs_path)?.ok_or_else(|| ResultsError::Io {
+        path: runs_path.clone(),
+        error: std::io::Error::from(std::io::ErrorKind::NotFound),
+    })?;
+    let which = kinds::of(meta.study.kind).picture_rows();
+    pictures::draw(dir, &runs, &meta.study.parameters, which, coloring)
+        .map_err(|e| RedrawError::Plot(crate::plot::PlotError::Draw(e.to_string())))
+}
+
 /// Count columns newer than some studies' tables: a table without them was written by an
 /// earlier softbench, not cut short, and its plots are drawn without them.
 const NEWER_COLUMNS: [&str; 7] = [
@@ -97,7 +154,7 @@ fn check_runs_table(
         path: path.to_owned(),
         message,
     };
-    let kind_columns = kinds::spec(study.kind).columns;
+    let kind_columns = kinds::of(study.kind).columns();
     let required = [
         "run_id",
         "scene",

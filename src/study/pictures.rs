@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use super::plots::{Plot, label, least_accurate_per_line, scenes, slug};
+use super::charts::{Plot, label, least_accurate_per_line, scenes, slug};
 use super::table::Table;
 use crate::render::{self, Coloring, RenderError, RunPictures, Snapshots};
 
@@ -105,27 +105,4 @@ pub fn draw(
         });
     }
     Ok(out)
-}
-
-/// [`draw`] for a study's results folder, reading its `runs.csv` and `meta.json` (for the
-/// swept parameters that label the runs).
-pub fn draw_folder(dir: &Path, coloring: Coloring) -> Result<Vec<Plot>, super::RedrawError> {
-    let meta_path = dir.join("meta.json");
-    let text = std::fs::read_to_string(&meta_path).map_err(|error| super::ResultsError::Io {
-        path: meta_path.clone(),
-        error,
-    })?;
-    let meta: super::Meta =
-        serde_json::from_str(&text).map_err(|e| super::ResultsError::Malformed {
-            path: meta_path.clone(),
-            message: e.to_string(),
-        })?;
-    let runs_path = dir.join("runs.csv");
-    let runs = Table::read(&runs_path)?.ok_or_else(|| super::ResultsError::Io {
-        path: runs_path.clone(),
-        error: std::io::Error::from(std::io::ErrorKind::NotFound),
-    })?;
-    let which = super::kinds::spec(meta.study.kind).picture_rows;
-    draw(dir, &runs, &meta.study.parameters, which, coloring)
-        .map_err(|e| super::RedrawError::Plot(crate::plot::PlotError::Draw(e.to_string())))
 }

@@ -2,23 +2,15 @@
 //! can redraw them: energy and Newton iterations over time, work-precision, largest stable
 //! dt against 2/omega_max, time per step by phase, and sweep metrics against the parameter.
 
+pub use super::charts::Plot;
+use super::charts::{SceneRows, label, scenes, slug, smallest_dt_rows};
 use super::config::StudyKind;
+use super::kind::Kind;
 use super::meta::StudyMeta;
 use super::table::Table;
-use crate::plot::{
-    self, Bar, BarChart, Chart, LineChart, PlotError, ReferenceLine, Series, StackedBarChart,
-};
+use crate::plot::{self, Chart, LineChart, PlotError, Series, StackedBarChart};
 use std::collections::BTreeMap;
 use std::path::Path;
-
-/// A drawn plot: `<stem>.png` and `<stem>.svg` in the results folder.
-#[derive(Clone, Debug)]
-pub struct Plot {
-    pub stem: String,
-    pub title: String,
-    /// One sentence on what it shows and how to read it.
-    pub caption: String,
-}
 
 /// Draw every plot of the study into `dir`.
 pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>, PlotError> {
@@ -38,16 +30,13 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
     };
     // A sweep draws its metrics against the swept parameter whatever its kind: this is about
     // the sweep itself, not a kind, so it stays here.
+    let kind = super::kinds::of(study.kind);
     if study.study == StudyKind::Sweep {
         for metric in sweep_metrics(study) {
-            for chart in sweep_charts(study, runs, &metric) {
+            let line = kind.sweep_line(&metric);
+            for chart in sweep_charts(study, runs, &metric, line.reference) {
                 let stem = format!("sweep-{}", slug(&metric));
-                let note = if metric == "max_stable_dt" {
-                    " A line at the top is stable at the largest step judged (the ceiling, \
-                     horizon / min_steps)."
-                } else {
-                    ""
-                };
+                let note = line.note;
                 emit(
                     stem,
                     &format!(
@@ -58,12 +47,10 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
                 )?;
             }
         }
-        let which = super::kinds::spec(study.kind).picture_rows;
-        plots.extend(pictures(dir, runs, params, which)?);
+        plots.extend(pictures(dir, runs, params, kind.picture_rows())?);
         remove_stale(dir, &plots);
         return Ok(plots);
     }
-    let kind = super::kinds::spec(study.kind);
     for scene in &scenes {
         let rows: Vec<&Vec<String>> = runs
             .rows
@@ -78,11 +65,11 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
             params,
             rows: &rows,
         };
-        (kind.scene_charts)(&of_scene, &mut emit)?;
+        kind.scene_charts(&of_scene, &mut emit)?;
         // Time histories, if the kind draws them.
-        if let Some(caption) = kind.energy_caption {
-            for (suffix, group) in by_time_step(kind.by_time_step, runs, &rows) {
-                let (series, common) = load_series(dir, runs, params, &group);
+        if let Some(caption) = kind.energy_caption() {
+            for (suffix, group) in by_time_step(kind.by_time_step(), runs, &rows) {
+                let (series, common) = load_series(dir, kind, runs, params, &group);
                 let mut title = match suffix.strip_prefix('-') {
                     Some(dt) => format!("{scene}, {dt}"),
                     None => scene.clone(),
@@ -104,7 +91,7 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
                 }
             }
         }
-        let phase_rows: Vec<&Vec<String>> = if kind.phases_at_smallest_dt {
+        let phase_rows: Vec<&Vec<String>> = if kind.phases_at_smallest_dt() {
             smallest_dt_rows(runs, params, &rows)
         } else {
             rows.clone()
@@ -115,14 +102,14 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
              factorization, solves, contact QPs, everything else).",
             Chart::Stacked(phase_chart(
                 scene,
-                kind.phase_dt_columns,
+                kind.dt_columns(),
                 runs,
                 params,
                 &phase_rows,
             )),
         )?;
     }
-    plots.extend(pictures(dir, runs, params, kind.picture_rows)?);
+    plots.extend(pictures(dir, runs, params, kind.picture_rows())?);
     remove_stale(dir, &plots);
     Ok(plots)
 }
@@ -142,82 +129,6 @@ fn pictures(
         crate::render::Coloring::VolumeRatio,
     )
     .map_err(|e| PlotError::Draw(e.to_string()))
-}
-
-/// One scene's rows of `runs.csv`, for the charts a kind draws of it.
-pub(super) struct SceneRows<'a> {
-    pub scene: &'a str,
-    /// The scene's name as it appears in file stems.
-    pub slug: &'a str,
-    pub runs: &'a Table,
-    /// The swept parameters' columns, which distinguish runs of one method in labels.
-    pub params: &'a [String],
-    pub rows: &'a [&'a Vec<String>],
-}
-
-/// Draws a chart: its file stem, its caption, the chart.
-pub(super) type Emit<'e> = dyn FnMut(String, &str, Chart) -> Result<(), PlotError> + 'e;
-
-/// Parameters that set a run's accuracy: the points along one work-precision line (the step,
-/// an adaptive tolerance, a Newton tolerance, a local solver's iterations or substeps).
-const ACCURACY_KNOBS: [&str; 7] = [
-    "run.dt",
-    "integrator.adaptive.tolerance",
-    "integrator.newton.tolerance",
-    "integrator.vbd.iterations",
-    "integrator.projective_dynamics.iterations",
-    "integrator.xpbd.substeps",
-    "integrator.xpbd.iterations",
-];
-
-/// Where a run sits along its work-precision line: larger for smaller steps and tolerances
-/// and for more iterations or substeps (the sum of their logs, so a row's knobs combine).
-fn accuracy_rank(runs: &Table, row: &[String]) -> f64 {
-    ACCURACY_KNOBS
-        .iter()
-        .filter_map(|k| Some((*k, runs.number(row, k).filter(|v| *v > 0.0)?)))
-        .map(|(k, v)| {
-            if k.ends_with("iterations") || k.ends_with("substeps") {
-                v.ln()
-            } else {
-                -v.ln()
-            }
-        })
-        .sum()
-}
-
-/// One run per work-precision line (its label without the accuracy knobs): the completed run
-/// of lowest accuracy (largest dt, then [`accuracy_rank`]), or the lowest-accuracy run when
-/// none completed; in the order of `rows`.
-pub(super) fn least_accurate_per_line<'a>(
-    runs: &Table,
-    params: &[String],
-    rows: &[&'a Vec<String>],
-) -> Vec<&'a Vec<String>> {
-    // Larger is shown first: completed, then less accurate.
-    let preference = |r: &[String]| {
-        let dt = runs
-            .number(r, "dt")
-            .filter(|v| *v > 0.0)
-            .map_or(0.0, f64::ln);
-        let completed = runs.get(r, "outcome") == Some("completed");
-        (completed, dt - accuracy_rank(runs, r))
-    };
-    let mut best: BTreeMap<String, &'a Vec<String>> = BTreeMap::new();
-    for r in rows {
-        let key = label(runs, params, r, &ACCURACY_KNOBS);
-        let better = best.get(&key).is_none_or(|b| {
-            let ((rc, ra), (bc, ba)) = (preference(r), preference(b));
-            rc.cmp(&bc).then(ra.total_cmp(&ba)).is_gt()
-        });
-        if better {
-            best.insert(key, r);
-        }
-    }
-    rows.iter()
-        .copied()
-        .filter(|r| best.values().any(|b| std::ptr::eq(*b, *r)))
-        .collect()
 }
 
 /// The stem prefixes of every file the plots and pictures of a study write. Only such files
@@ -255,208 +166,6 @@ fn remove_stale(dir: &Path, drawn: &[Plot]) {
     }
 }
 
-/// Scenes in order of first appearance.
-pub(super) fn scenes(runs: &Table) -> Vec<String> {
-    let mut seen = Vec::new();
-    for r in &runs.rows {
-        if let Some(s) = runs.get(r, "scene")
-            && !seen.iter().any(|x: &String| x == s)
-        {
-            seen.push(s.to_owned());
-        }
-    }
-    seen
-}
-
-pub(super) fn slug(s: &str) -> String {
-    s.chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || c == '-' {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect()
-}
-
-/// "method / solver" plus any other swept parameter except `skip`.
-pub(super) fn label(runs: &Table, params: &[String], row: &[String], skip: &[&str]) -> String {
-    let mut label = runs.get(row, "method").unwrap_or("?").to_owned();
-    if let Some(solver) = runs
-        .get(row, "linear_solver")
-        .filter(|s| *s != "-" && !s.is_empty())
-    {
-        label.push_str(" / ");
-        label.push_str(solver);
-    }
-    for name in params.iter().filter(|p| !skip.contains(&p.as_str())) {
-        if let Some(value) = runs.get(row, name).filter(|v| !v.is_empty()) {
-            let short = name.rsplit('.').next().unwrap_or(name);
-            label.push_str(&format!(" {short}={value}"));
-        }
-    }
-    label
-}
-
-pub(super) fn stable_dt_chart(
-    scene: &str,
-    runs: &Table,
-    params: &[String],
-    rows: &[&Vec<String>],
-) -> BarChart {
-    // Each physics (a swept stiffness, say) has its own 2/omega_max: every bar carries its
-    // own as a tick, and one reference line is drawn only when they all agree.
-    let theories: Vec<f64> = rows
-        .iter()
-        .filter_map(|r| runs.number(r, "dt_theory"))
-        .collect();
-    let theory = theories
-        .first()
-        .copied()
-        .filter(|t| theories.iter().all(|u| (u / t - 1.0).abs() < 1e-9));
-    let per_bar = theory.is_none() && !theories.is_empty();
-    BarChart {
-        title: format!("Largest stable time step: {scene}"),
-        y_label: "largest stable dt (s)".into(),
-        y_log: true,
-        bars: rows
-            .iter()
-            .map(|r| {
-                let value = runs.number(r, "max_stable_dt");
-                let verdict = runs.get(r, "stability").unwrap_or_default();
-                let mut label = label(runs, params, r, &[]);
-                if verdict == "stable-to-ceiling" {
-                    // The bar is the ceiling of the search, not a limit that was found.
-                    label.push_str(" (>= ceiling)");
-                }
-                if runs
-                    .get(r, "non_monotone_dt")
-                    .is_some_and(|v| !v.is_empty())
-                {
-                    label.push_str(" (non-monotone)");
-                }
-                let note = match verdict {
-                    "unstable-at-every-dt" => Some(match runs.number(r, "energy_growth_rate") {
-                        Some(rate) => format!(
-                            "unstable at every dt (energy e-folds at {}/s)",
-                            super::format::short(rate)
-                        ),
-                        None => "unstable at every dt".into(),
-                    }),
-                    _ if value.is_none() => Some(format!(
-                        "no stable dt in range ({})",
-                        runs.get(r, "outcome").unwrap_or("?")
-                    )),
-                    _ => None,
-                };
-                Bar {
-                    label,
-                    value,
-                    marker: if per_bar {
-                        runs.number(r, "dt_theory")
-                    } else {
-                        None
-                    },
-                    note,
-                }
-            })
-            .collect(),
-        marker_label: per_bar.then(|| "2/omega_max of the bar's physics".to_owned()),
-        reference: theory.map(|t| ReferenceLine {
-            label: format!("2/omega_max = {} s", super::format::short(t)),
-            value: t,
-        }),
-    }
-}
-
-/// Cost per simulated second against the error at the largest stable step: one point per
-/// method, the headline of a stability study.
-pub(super) fn cost_error_chart(
-    scene: &str,
-    runs: &Table,
-    params: &[String],
-    rows: &[&Vec<String>],
-) -> Option<LineChart> {
-    let series: Vec<Series> = rows
-        .iter()
-        .filter_map(|r| {
-            let error = runs.number(r, "error_at_stable_dt")?;
-            let cost = runs.number(r, "cost_per_simulated_second")?;
-            let mut label = label(runs, params, r, &[]);
-            if let Some(dt) = runs.number(r, "max_stable_dt") {
-                label.push_str(&format!(" dt={}", super::format::short(dt)));
-            }
-            if runs.get(r, "error_scored") == Some("no") {
-                label.push_str(" (error within reference accuracy)");
-            }
-            Some(Series {
-                label,
-                points: vec![(error, cost)],
-                ended: false,
-            })
-        })
-        .collect();
-    (!series.is_empty()).then(|| LineChart {
-        title: format!("Cost against error at the largest stable step: {scene}"),
-        x_label: "relative L2 position error at the largest stable dt".into(),
-        y_label: "wall seconds per simulated second".into(),
-        x_log: true,
-        y_log: true,
-        series,
-    })
-}
-
-pub(super) fn work_precision_chart(
-    scene: &str,
-    runs: &Table,
-    params: &[String],
-    rows: &[&Vec<String>],
-    x: &str,
-    x_label: &str,
-) -> LineChart {
-    // Points carry their accuracy rank, so a line runs from the cheapest setting to the most
-    // accurate one whatever the noise in its x (wall times on a busy machine).
-    let mut lines: BTreeMap<String, Vec<(f64, f64, f64)>> = BTreeMap::new();
-    for r in rows {
-        let Some(error) = runs.number(r, "error") else {
-            continue;
-        };
-        let xv = if x == "cost" {
-            runs.number(r, "force_evaluations")
-                .zip(runs.number(r, "hessian_evaluations"))
-                .map(|(f, h)| f + h)
-        } else {
-            runs.number(r, x)
-        };
-        if let Some(xv) = xv {
-            lines
-                .entry(label(runs, params, r, &ACCURACY_KNOBS))
-                .or_default()
-                .push((accuracy_rank(runs, r), xv, error));
-        }
-    }
-    LineChart {
-        title: format!("Work-precision, error against {x_label}: {scene}"),
-        x_label: x_label.into(),
-        y_label: "relative position error".into(),
-        x_log: true,
-        y_log: true,
-        series: lines
-            .into_iter()
-            .map(|(label, mut points)| {
-                points.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
-                let points = points.into_iter().map(|(_, x, e)| (x, e)).collect();
-                Series {
-                    label,
-                    points,
-                    ended: false,
-                }
-            })
-            .collect(),
-    }
-}
-
 /// A run's series file, with its label.
 struct RunSeries {
     label: String,
@@ -471,6 +180,7 @@ struct RunSeries {
 /// (for the title), so legends do not repeat a constant.
 fn load_series(
     dir: &Path,
+    kind: &dyn Kind,
     runs: &Table,
     params: &[String],
     rows: &[&Vec<String>],
@@ -489,11 +199,12 @@ fn load_series(
             .find(|v| !v.is_empty() && *v != "-")
             .map(str::to_owned)
     };
-    let dt_column = if runs.column("dt").is_some() {
-        "dt"
-    } else {
-        "max_stable_dt"
-    };
+    let dt_column = kind
+        .dt_columns()
+        .iter()
+        .copied()
+        .find(|c| runs.column(c).is_some())
+        .unwrap_or("dt");
     let varying: Vec<String> = params
         .iter()
         .filter(|p| varies(p) && p.as_str() != "run.dt")
@@ -540,7 +251,7 @@ fn load_series(
             {
                 label.push_str(&format!(" dt={}", super::format::short(dt)));
             }
-            let ended = runs.column("stability").is_none()
+            let ended = kind.outcome_ends_series()
                 && runs
                     .get(r, "outcome")
                     .is_some_and(|o| o != crate::run::OutcomeKind::Completed.name());
@@ -677,29 +388,6 @@ fn by_time_step<'a>(
         .collect()
 }
 
-/// For work-precision: each line's run at its smallest dt.
-fn smallest_dt_rows<'a>(
-    runs: &Table,
-    params: &[String],
-    rows: &[&'a Vec<String>],
-) -> Vec<&'a Vec<String>> {
-    let mut best: BTreeMap<String, &'a Vec<String>> = BTreeMap::new();
-    for r in rows {
-        let key = label(runs, params, r, &ACCURACY_KNOBS);
-        let dt = runs.number(r, "dt").unwrap_or(f64::INFINITY);
-        if best
-            .get(&key)
-            .is_none_or(|b| runs.number(b, "dt").unwrap_or(f64::INFINITY) > dt)
-        {
-            best.insert(key, r);
-        }
-    }
-    rows.iter()
-        .copied()
-        .filter(|r| best.values().any(|b| std::ptr::eq(*b, *r)))
-        .collect()
-}
-
 fn phase_chart(
     scene: &str,
     dt_columns: &[&str],
@@ -763,14 +451,21 @@ pub fn sweep_metrics(study: &StudyMeta) -> Vec<String> {
     if !study.sweep_metrics.is_empty() {
         return study.sweep_metrics.clone();
     }
-    super::kinds::spec(study.kind)
-        .sweep_metrics
+    super::kinds::of(study.kind)
+        .sweep_metrics()
         .iter()
         .map(|m| (*m).to_owned())
         .collect()
 }
 
-fn sweep_charts(study: &StudyMeta, runs: &Table, metric: &str) -> Vec<LineChart> {
+/// The charts of `metric` against the swept parameter, one line per method, with the
+/// `reference` column (and its label) as a line of its own when the kind draws one.
+fn sweep_charts(
+    study: &StudyMeta,
+    runs: &Table,
+    metric: &str,
+    reference: Option<(&str, &str)>,
+) -> Vec<LineChart> {
     let Some(parameter) = study.sweep_parameter.as_deref() else {
         return Vec::new();
     };
@@ -787,8 +482,8 @@ fn sweep_charts(study: &StudyMeta, runs: &Table, metric: &str) -> Vec<LineChart>
             key = format!("{}: {key}", runs.get(r, "scene").unwrap_or_default());
         }
         lines.entry(key).or_default().push((x, y));
-        if metric == "max_stable_dt"
-            && let Some(t) = runs.number(r, "dt_theory")
+        if let Some((column, _)) = reference
+            && let Some(t) = runs.number(r, column)
             && !theory.iter().any(|p| p.0 == x)
         {
             theory.push((x, t));
@@ -810,7 +505,7 @@ fn sweep_charts(study: &StudyMeta, runs: &Table, metric: &str) -> Vec<LineChart>
     if !theory.is_empty() {
         theory.sort_by(|a, b| a.0.total_cmp(&b.0));
         series.push(Series {
-            label: "2/omega_max (explicit limit)".into(),
+            label: reference.map_or_else(String::new, |(_, label)| label.to_owned()),
             points: theory,
             ended: false,
         });
@@ -837,7 +532,9 @@ fn sweep_charts(study: &StudyMeta, runs: &Table, metric: &str) -> Vec<LineChart>
 fn unit_label(metric: &str) -> String {
     let last = metric.rsplit('.').next().unwrap_or(metric);
     match last {
-        "max_stable_dt" | "dt_theory" | "dt" | "horizon" => format!("{metric} (s)"),
+        m if m == "dt" || m.ends_with("_dt") || m.starts_with("dt_") || m == "horizon" => {
+            format!("{metric} (s)")
+        }
         "youngs_modulus" | "mu" | "lambda" | "c" | "d" => format!("{metric} (Pa)"),
         "density" => format!("{metric} (kg/m^3)"),
         "stiffness" => format!("{metric} (N/m)"),

@@ -1,13 +1,15 @@
 //! `report.md`: what was run, on what, a summary table, the plots, and one line per run that
 //! did not end well.
 
+use super::charts::{Plot, SceneRows, scenes, slug};
 use super::config::StudyKind;
+use super::findings::Findings;
 use super::format::short;
+use super::kind::Kind;
 use super::meta::Meta;
-use super::plots::Plot;
+use super::reference::Reference;
 use super::spec::Study;
 use super::table::Table;
-use super::work_precision::Reference;
 use crate::io::write_atomic;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -66,13 +68,13 @@ fn render(
         let _ = writeln!(
             out,
             "**Quick mode** (`--quick`): {}; these numbers are a smoke test, not results.\n",
-            super::kinds::spec(s.kind).quick_notice
+            super::kinds::of(s.kind).quick_notice()
         );
     }
     let damped = damped_scenes(study);
     super::findings::write(
         &mut out,
-        &super::findings::compute(runs, &s.parameters, &damped),
+        &compute_findings(s.kind, runs, &s.parameters, &damped),
     );
     let m = &meta.machine;
     let _ = writeln!(
@@ -92,7 +94,7 @@ fn render(
         meta.wall_seconds.map_or("-".into(), |w| format!("{w:.1}")),
     );
     shards_paragraph(&mut out, meta, study.runs.len());
-    (super::kinds::spec(s.kind).report_settings)(&mut out, &study.file);
+    super::kinds::of(s.kind).report_settings(&mut out, &study.file);
     if !references.is_empty() || !failed_references.is_empty() {
         let _ = writeln!(out, "References:\n");
         for (scene, message) in failed_references.values() {
@@ -128,14 +130,14 @@ fn render(
         }
         let _ = writeln!(out);
     }
-    (super::kinds::spec(s.kind).report_findings)(&mut out, runs);
+    super::kinds::of(s.kind).report_findings(&mut out, runs);
 
     let _ = writeln!(out, "## Runs\n");
     let mut columns: Vec<&str> = vec!["scene", "method", "linear_solver"];
     columns.extend(s.parameters.iter().map(String::as_str));
     columns.extend(
-        super::kinds::spec(s.kind)
-            .summary_columns
+        super::kinds::of(s.kind)
+            .summary_columns()
             .iter()
             .copied()
             .filter(|c| runs.column(c).is_some()),
@@ -155,7 +157,11 @@ fn render(
             .collect();
         let _ = writeln!(out, "| {} |", cells.join(" | "));
     }
-    let _ = writeln!(out, "\n{}\n", units_note(runs, &columns));
+    let _ = writeln!(
+        out,
+        "\n{}\n",
+        units_note(super::kinds::of(s.kind), runs, &columns)
+    );
 
     let _ = writeln!(out, "## Plots\n");
     for p in plots {
@@ -168,22 +174,16 @@ fn render(
 
     let _ = writeln!(out, "## Runs that did not finish cleanly\n");
     let mut any = false;
+    let kind = super::kinds::of(s.kind);
     for row in &runs.rows {
-        let outcome = runs.get(row, "outcome").unwrap_or_default();
-        let verdict = runs.get(row, "stability");
+        let verdict = kind.verdict(runs, row);
         let message = runs.get(row, "message").unwrap_or_default();
-        let bad = !super::measured::is_clean(runs, row);
-        let completed = outcome == crate::run::OutcomeKind::Completed.name();
-        let unscored = runs.get(row, "scored") == Some("no") && completed;
         let unconverged = runs
             .number(row, "newton_unconverged_steps")
             .is_some_and(|n| n > 0.0);
-        let non_monotone = runs
-            .get(row, "non_monotone_dt")
-            .is_some_and(|v| !v.is_empty());
-        if bad || unscored || unconverged || non_monotone {
+        if !verdict.clean || kind.flagged(runs, row) || unconverged {
             any = true;
-            let what = verdict.unwrap_or(outcome);
+            let what = verdict.word;
             let mut detail = message.to_owned();
             if unconverged {
                 let _ = write!(
@@ -290,7 +290,7 @@ pub(super) fn damped_scenes_of<'a>(
 
 /// The units line under the runs table: only for the columns it shows, and saying why a
 /// momentum column is empty when it is.
-fn units_note(runs: &Table, columns: &[&str]) -> String {
+fn units_note(kind: &dyn Kind, runs: &Table, columns: &[&str]) -> String {
     let shown = |c: &str| columns.contains(&c);
     let mut parts = vec!["time steps and times in s".to_owned()];
     if shown("energy_drift_max") || shown("energy_drift_final") {
@@ -298,22 +298,7 @@ fn units_note(runs: &Table, columns: &[&str]) -> String {
             "energy drifts relative to the initial internal energy plus the work of gravity".into(),
         );
     }
-    if shown("momentum_drift") {
-        let all_empty = runs
-            .rows
-            .iter()
-            .all(|r| runs.get(r, "momentum_drift").is_none_or(str::is_empty));
-        parts.push(if all_empty {
-            "momentum drift in kg m/s, empty in every row here because no scene conserves \
-             momentum (fixed vertices, obstacles or drags act on the body)"
-                .into()
-        } else {
-            "momentum drift in kg m/s (empty where the scene does not conserve momentum)".into()
-        });
-    }
-    if shown("error") || shown("error_at_stable_dt") {
-        parts.push("errors relative to the reference's displacement".into());
-    }
+    parts.extend(kind.unit_notes(runs, &shown));
     format!("Units: {}.", parts.join("; "))
 }
 
@@ -347,7 +332,7 @@ pub fn refresh_findings(dir: &Path, meta: &Meta, runs: &Table) -> std::io::Resul
     let mut findings = String::new();
     super::findings::write(
         &mut findings,
-        &super::findings::compute(runs, &meta.study.parameters, &damped),
+        &compute_findings(meta.study.kind, runs, &meta.study.parameters, &damped),
     );
     let updated = replace_findings(&text, &findings);
     write_atomic(&path, |w| w.write_all(updated.as_bytes()))?;
@@ -373,6 +358,77 @@ fn replace_findings(report: &str, findings: &str) -> String {
         Some(i) => format!("{}{findings}{}", &report[..i + 1], &report[i + 1..]),
         None => format!("{report}\n{findings}"),
     }
+}
+
+/// The findings of `runs`, a table of a study of `kind` (a sweep's inner kind): per scene, the
+/// kind's rankings; then the warnings. `damped` names the scenes with damping (and how), whose
+/// energy loss is the damping's as much as the method's.
+pub fn compute_findings(
+    kind: StudyKind,
+    runs: &Table,
+    params: &[String],
+    damped: &BTreeMap<String, String>,
+) -> Findings {
+    let kind = super::kinds::of(kind);
+    let mut f = Findings::default();
+    for scene in scenes(runs) {
+        let rows: Vec<&Vec<String>> = runs
+            .rows
+            .iter()
+            .filter(|r| runs.get(r, "scene") == Some(&scene))
+            .collect();
+        let slug = slug(&scene);
+        let of_scene = SceneRows {
+            scene: &scene,
+            slug: &slug,
+            runs,
+            params,
+            rows: &rows,
+        };
+        let how = damped.get(&scene);
+        f.rankings
+            .extend(kind.rankings(&of_scene, how.map(String::as_str)));
+        if let Some(how) = how
+            && runs.column("energy_drift_max").is_some()
+        {
+            f.warnings.push(format!(
+                "{scene} is damped ({how}): its energy drift includes the energy damping \
+                 removes, so it measures the damping as much as the method."
+            ));
+        }
+    }
+    f.warnings.extend(kind.table_warnings(runs));
+    // Per-run warnings.
+    for r in &runs.rows {
+        let id = &r[0];
+        if kind.unscored(runs, r) {
+            f.warnings.push(format!(
+                "`{id}`: its error is at the reference's noise floor (not scored): the \
+                 reference is not accurate enough to measure it."
+            ));
+        }
+        if let Some(n) = runs
+            .number(r, "newton_unconverged_steps")
+            .filter(|n| *n > 0.0)
+        {
+            f.warnings.push(format!(
+                "`{id}`: Newton stopped unconverged at its cap ({} iterations, required: {}) \
+                 in {n} steps.",
+                runs.get(r, "newton_max_iterations").unwrap_or("?"),
+                runs.get(r, "newton_required").unwrap_or("?"),
+            ));
+        }
+        if kind.stopped_early(runs, r) {
+            let outcome = runs.get(r, "outcome").unwrap_or_default();
+            let at = runs
+                .number(r, "final_time")
+                .map(|t| format!(" (stopped at t = {} s)", short(t)))
+                .unwrap_or_default();
+            f.warnings
+                .push(format!("`{id}`: did not reach its horizon: {outcome}{at}."));
+        }
+    }
+    f
 }
 
 #[cfg(test)]

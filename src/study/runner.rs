@@ -2,17 +2,19 @@
 //! reference solutions), run the rest (in parallel with `jobs`), and write every output
 //! atomically as soon as it exists, so an interrupted study resumes where it stopped.
 
-use super::config::StudyKind;
-use super::format::now_utc;
+use super::error::{RunError, io_error as io};
+use super::format::{epoch_seconds, now_utc};
 use super::identity::value_text;
+use super::kind::{Kind, not_ok};
 use super::machine::Machine;
-use super::measured::{Measured, is_clean};
+use super::measured::Measured;
 use super::meta::Meta;
 use super::progress::Progress;
 use super::report;
+use super::rows::{earlier_rows, header, is_done, ordered, shard_folder};
 use super::shard::Shard;
 use super::shard_record::ShardRecord;
-use super::shared::{Shared, Source};
+use super::shared::{SharedWork, Source};
 use super::shared_store::SharedStore;
 use super::spec::{RunSpec, Study};
 use super::table::Table;
@@ -45,24 +47,6 @@ pub struct RunOptions {
     pub shard: Option<Shard>,
 }
 
-/// Why a study stopped before finishing.
-#[derive(Debug, thiserror::Error)]
-pub enum RunError {
-    #[error("{path}: cannot write: {error}")]
-    Io {
-        path: PathBuf,
-        error: std::io::Error,
-    },
-    #[error(transparent)]
-    Results(#[from] super::error::ResultsError),
-    /// Another process is writing the study's folder.
-    #[error(transparent)]
-    Lock(#[from] crate::lock::LockError),
-    /// A run could not even start (its scene failed to build), or a reference failed.
-    #[error("{0}")]
-    Run(String),
-}
-
 /// What a study invocation did.
 #[derive(Clone, Debug)]
 pub struct StudyRun {
@@ -89,21 +73,6 @@ pub enum MergeOutcome {
     Merged(super::merge::Merged),
     /// Another process (e.g. another shard merging) holds the study folder.
     Busy(String),
-}
-
-/// The identity columns of every `runs.csv`.
-const IDENTITY: [&str; 4] = ["run_id", "scene", "method", "linear_solver"];
-
-/// The header of the study's `runs.csv`.
-pub fn header(study: &Study) -> Vec<String> {
-    let kind_columns = super::kinds::spec(study.kind).columns;
-    IDENTITY
-        .iter()
-        .map(|s| (*s).to_owned())
-        .chain(study.parameter_columns().into_iter().map(|(_, c)| c))
-        .chain(kind_columns.iter().map(|s| (*s).to_owned()))
-        .chain(["message".to_owned(), "config_hash".to_owned()])
-        .collect()
 }
 
 /// Whether a run id matches `--only`.
@@ -156,6 +125,7 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
     let started_epoch = epoch_seconds();
     let clock = std::time::Instant::now();
     let header = header(study);
+    let kind = super::kinds::of(study.kind);
 
     // The runs this invocation is for.
     let (assigned, estimated_cost) = match options.shard {
@@ -253,7 +223,7 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
         None => Source::Local,
         Some(_) => Source::Stored(&store),
     };
-    let shared = Shared::prepare(
+    let shared = SharedWork::prepare(
         study,
         &pending,
         source,
@@ -316,7 +286,7 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
             ran: done_now,
             reused,
             skipped,
-            not_ok: not_ok(&table),
+            not_ok: not_ok(kind, &table),
             interrupted: Some(signal),
             merged: None,
         });
@@ -343,7 +313,7 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
             ran: pending.len(),
             reused,
             skipped,
-            not_ok: not_ok(&table),
+            not_ok: not_ok(kind, &table),
             interrupted: None,
             merged,
         });
@@ -377,96 +347,10 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
         ran: pending.len(),
         reused,
         skipped,
-        not_ok: not_ok(&table),
+        not_ok: not_ok(kind, &table),
         interrupted: None,
         merged: None,
     })
-}
-
-/// The error for a failed write of `path`.
-fn io(path: &Path) -> impl FnOnce(std::io::Error) -> RunError + use<> {
-    let path = path.to_owned();
-    move |error| RunError::Io { path, error }
-}
-
-/// Seconds since the Unix epoch.
-pub(super) fn epoch_seconds() -> u64 {
-    std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.as_secs())
-}
-
-/// The folder of one shard: `<study>/shards/K-of-N`.
-pub(super) fn shard_folder(dir: &Path, shard: Shard) -> PathBuf {
-    dir.join("shards").join(shard.folder_name())
-}
-
-/// Whether `spec` has a row of the same configuration and its series file.
-pub(super) fn is_done(dir: &Path, spec: &RunSpec, rows: &HashMap<String, Vec<String>>) -> bool {
-    rows.get(&spec.id)
-        .is_some_and(|row| row.last() == Some(&spec.hash))
-        && dir.join("series").join(format!("{}.csv", spec.id)).exists()
-}
-
-/// The rows of earlier invocations by run id: the study's `runs.csv` and every shard's table
-/// (whatever N), rows with the current header only; where sources disagree, a row of the
-/// run's current configuration wins.
-pub(super) fn earlier_rows(
-    study: &Study,
-    dir: &Path,
-    header: &[String],
-) -> Result<HashMap<String, Vec<String>>, RunError> {
-    let hashes: HashMap<&str, &str> = study
-        .runs
-        .iter()
-        .map(|r| (r.id.as_str(), r.hash.as_str()))
-        .collect();
-    let mut tables = vec![dir.join("runs.csv")];
-    tables.extend(
-        ShardRecord::folders(dir)
-            .map_err(io(&dir.join("shards")))?
-            .into_iter()
-            .map(|(_, folder)| folder.join("runs.csv")),
-    );
-    let mut rows: HashMap<String, Vec<String>> = HashMap::new();
-    for path in tables {
-        let Some(table) = Table::read(&path)? else {
-            continue;
-        };
-        // Rows are reused only when the columns are the same.
-        if table.header != header {
-            continue;
-        }
-        for row in table.rows {
-            if row.len() != header.len() {
-                continue;
-            }
-            let current = hashes.get(row[0].as_str()) == row.last().map(String::as_str).as_ref();
-            let has_current = rows.get(&row[0]).is_some_and(|r| {
-                hashes.get(r[0].as_str()) == r.last().map(String::as_str).as_ref()
-            });
-            if current || !has_current {
-                rows.insert(row[0].clone(), row);
-            }
-        }
-    }
-    Ok(rows)
-}
-
-/// The runs of `table` whose status is not ok, with what they ended as.
-pub(super) fn not_ok(table: &Table) -> Vec<(String, String)> {
-    table
-        .rows
-        .iter()
-        .filter(|row| !is_clean(table, row))
-        .map(|row| {
-            let what = table
-                .get(row, "stability")
-                .or_else(|| table.get(row, "outcome"))
-                .unwrap_or_default();
-            (row[0].clone(), what.to_owned())
-        })
-        .collect()
 }
 
 /// Why [`execute`] stopped early.
@@ -482,7 +366,7 @@ enum Stop {
 fn execute(
     study: &Study,
     pending: &[&RunSpec],
-    shared: &Shared,
+    shared: &SharedWork,
     parallelism: Parallelism,
     jobs: usize,
     progress: &Progress,
@@ -503,7 +387,7 @@ fn execute(
                     let i = next.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
                     let Some(spec) = pending.get(i) else { break };
                     progress.start(&spec.id);
-                    let result = (super::kinds::spec(study.kind).measure)(
+                    let result = super::kinds::of(study.kind).measure(
                         study,
                         spec,
                         &shared.of(spec),
@@ -535,7 +419,7 @@ fn execute(
                         "{} {}: {}",
                         progress.position(),
                         spec.id,
-                        summary_line(study.kind, &m)
+                        summary_line(super::kinds::of(study.kind), &m)
                     ));
                     progress.inc();
                 }),
@@ -552,8 +436,8 @@ fn execute(
 }
 
 /// One line per finished run.
-fn summary_line(kind: StudyKind, m: &Measured) -> String {
-    let extra = (super::kinds::spec(kind).progress)(m);
+fn summary_line(kind: &dyn Kind, m: &Measured) -> String {
+    let extra = kind.progress(m);
     format!("{}{}", m.outcome, extra.unwrap_or_default())
 }
 
@@ -624,15 +508,4 @@ fn record(
         })
         .collect();
     Ok(row)
-}
-
-/// The rows present, in the study's run order.
-fn ordered(study: &Study, header: &[String], rows: &HashMap<String, Vec<String>>) -> Table {
-    let mut table = Table::new(header.to_vec());
-    table.rows = study
-        .runs
-        .iter()
-        .filter_map(|r| rows.get(&r.id).cloned())
-        .collect();
-    table
 }

@@ -1,7 +1,7 @@
-//! Checking a study's kind and its settings tables before anything runs.
+//! Checks of a study's settings that every kind shares: its name (a folder name), the
+//! `[quick]` table and the ranges of a `reference` table.
 
-use super::config::{StudyFile, StudyKind};
-use super::context::Context;
+use super::config::StudyFile;
 use super::error::StudyError;
 
 /// Longest study name: it is a folder name, and run ids and file names are built from it.
@@ -34,76 +34,6 @@ pub fn check_name(name: &str) -> Result<(), String> {
         ));
     }
     Ok(())
-}
-
-/// The measured kind, after checking the kind's settings are present and sane.
-pub(super) fn check_settings(file: &StudyFile, ctx: &Context) -> Result<StudyKind, StudyError> {
-    check_name(&file.name).map_err(|m| ctx.invalid(0, "name", m))?;
-    // The sweep's own table (its kind, parameter and metrics) is about the sweep, not a kind,
-    // so it is checked here; the measured kind then checks its own table.
-    let kind = match (&file.study, &file.sweep) {
-        (StudyKind::Sweep, Some(sweep)) => {
-            if sweep.kind == StudyKind::Sweep {
-                return Err(ctx.invalid(
-                    0,
-                    "sweep.kind",
-                    "must be trajectory, work-precision or stability",
-                ));
-            }
-            if !file.grid.contains_key(&sweep.parameter)
-                && !file
-                    .methods
-                    .iter()
-                    .any(|m| m.get_ref().contains_key(&sweep.parameter))
-            {
-                return Err(StudyError::Invalid {
-                    path: ctx.path.to_owned(),
-                    line: ctx.line_of_key("parameter"),
-                    key: "sweep.parameter".into(),
-                    message: format!(
-                        "`{}` is not a key of [grid]; the swept parameter must be one",
-                        sweep.parameter
-                    ),
-                });
-            }
-            let columns = super::kinds::spec(sweep.kind).columns;
-            if let Some(unknown) = sweep
-                .metrics
-                .iter()
-                .find(|m| !columns.contains(&m.as_str()))
-            {
-                return Err(StudyError::Invalid {
-                    path: ctx.path.to_owned(),
-                    line: ctx.line_of_key("metrics"),
-                    key: "sweep.metrics".into(),
-                    message: crate::names::unknown_name_message(
-                        &format!("{} metric", sweep.kind.name()),
-                        unknown,
-                        columns,
-                    ),
-                });
-            }
-            sweep.kind
-        }
-        (StudyKind::Sweep, None) => {
-            return Err(ctx.invalid(
-                0,
-                "sweep",
-                "a sweep study needs a [sweep] table with `kind` and `parameter`",
-            ));
-        }
-        (kind, _) => *kind,
-    };
-    let line = |key: &str| ctx.line_of_key(key);
-    let bad = |key: &str, message: String| StudyError::Invalid {
-        path: ctx.path.to_owned(),
-        line: line(key.rsplit('.').next().unwrap_or(key)),
-        key: key.to_owned(),
-        message,
-    };
-    (super::kinds::spec(kind).check)(file, ctx, &bad)?;
-    check_quick(file, &bad)?;
-    Ok(kind)
 }
 
 /// The `[<table>.reference]` settings' ranges.
@@ -150,7 +80,7 @@ pub(super) fn check_reference(
 pub const MIN_RELATIVE_PRECISION: f64 = 1e-9;
 
 /// `[quick]`, checked whether or not `--quick` is given, so a study file is valid or not.
-fn check_quick(
+pub(super) fn check_quick(
     file: &StudyFile,
     bad: &dyn Fn(&str, String) -> StudyError,
 ) -> Result<(), StudyError> {

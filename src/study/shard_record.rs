@@ -87,7 +87,7 @@ impl ShardRecord {
     ) {
         self.status = status.to_owned();
         self.finished = Some(now_utc());
-        self.finished_epoch = Some(super::runner::epoch_seconds());
+        self.finished_epoch = Some(super::format::epoch_seconds());
         self.wall_seconds = Some(elapsed.as_secs_f64());
         self.ran = ran;
         self.reused = reused;

@@ -9,11 +9,12 @@
 //! study, a resumed one and every shard.
 
 use super::config::WorkPrecisionSettings;
+use super::error::RunError;
+use super::kind::RunInputs;
 use super::progress::Progress;
-use super::runner::RunError;
+use super::reference::{self, Reference, StoredReference, reference_key};
 use super::shared_store::{SharedStore, bits, from_bits};
 use super::spec::{RunSpec, Study};
-use super::work_precision::{self, Reference, StoredReference};
 use crate::integrate::Method;
 use crate::parallel::Parallelism;
 use std::collections::{BTreeMap, HashMap};
@@ -35,11 +36,11 @@ pub(super) enum Source<'a> {
 }
 
 /// What runs share.
-pub(super) struct Shared {
+pub(super) struct SharedWork {
     /// Highest mode by physics (`None` where it could not be computed).
     pub omega: HashMap<u64, Option<f64>>,
     /// Reference solution by physics (and dt, with `same_dt`: see
-    /// [`work_precision::reference_key`]), with its label.
+    /// [`reference_key`]), with its label.
     pub references: BTreeMap<u64, (String, Reference)>,
     /// References that failed (stability studies go on without them): scene and message.
     pub failed_references: BTreeMap<u64, (String, String)>,
@@ -47,7 +48,7 @@ pub(super) struct Shared {
     settings: Option<WorkPrecisionSettings>,
 }
 
-impl Shared {
+impl SharedWork {
     /// What the `runs` need, from `source`.
     pub(super) fn prepare(
         study: &Study,
@@ -57,7 +58,7 @@ impl Shared {
         jobs: usize,
         progress: &Progress,
     ) -> Result<Self, RunError> {
-        let kind = super::kinds::spec(study.kind);
+        let kind = super::kinds::of(study.kind);
         // The first run of the study with each physics the runs need, in grid order.
         let mut templates: Vec<&RunSpec> = Vec::new();
         for spec in &study.runs {
@@ -75,14 +76,14 @@ impl Shared {
         };
         let mut omega = HashMap::new();
         // (A stability study's reference also picks its method from omega_max.)
-        if (kind.needs_omega)(&study.file) {
+        if kind.needs_omega(&study.file) {
             for spec in &templates {
                 let task = format!("highest mode of {}", spec.scene);
                 let compute = || {
                     progress.start(&task);
                     let value = super::measured::build(spec, parallelism)
                         .map_err(|e| e.to_string())
-                        .and_then(|mut scene| super::stability::explicit_limit(&mut scene))
+                        .and_then(|mut scene| super::measured::highest_mode_at_rest(&mut scene))
                         .map(|m| m.omega)
                         .ok();
                     progress.finish(&task);
@@ -112,12 +113,11 @@ impl Shared {
         }
         let mut references = BTreeMap::new();
         let mut failed_references = BTreeMap::new();
-        let references_of = kind.references.as_ref();
-        let settings = references_of.and_then(|r| (r.settings)(&study.file));
-        if let (Some(w), Some(references_of)) = (settings.as_ref(), references_of) {
+        let settings = kind.reference_settings(&study.file);
+        if let Some(w) = settings.as_ref() {
             // One reference per physics (and dt, with `same_dt`): the first run of the study
             // with each key the runs need, `jobs` of them at a time (each is independent).
-            let key = |s: &RunSpec| work_precision::reference_key(w, s);
+            let key = |s: &RunSpec| reference_key(w, s);
             let mut templates: Vec<&RunSpec> = Vec::new();
             for spec in &study.runs {
                 if runs.iter().any(|r| key(r) == key(spec))
@@ -127,7 +127,7 @@ impl Shared {
                 }
             }
             let compute = |spec: &RunSpec| -> Result<Option<Solved>, RunError> {
-                let dt = (references_of.dt)(study, w, spec);
+                let dt = kind.reference_dt(study, w, spec);
                 let method = w.reference.method.unwrap_or_else(|| {
                     // Same dt: the converged backward Euler step. Otherwise RK4 where it is
                     // stable at dt (its limit is 2.83 / omega_max), else the second-order
@@ -156,7 +156,7 @@ impl Shared {
                 let solve = || {
                     solved_here.set(true);
                     progress.start(&task);
-                    let result = work_precision::reference(spec, w, method, dt, parallelism);
+                    let result = reference::reference(spec, w, method, dt, parallelism);
                     progress.finish(&task);
                     result
                 };
@@ -209,7 +209,7 @@ impl Shared {
                     Ok(r) => r,
                     // A kind that goes on without its reference (stability) leaves the errors
                     // that need it empty, and the report says why.
-                    Err(m) if references_of.optional => {
+                    Err(m) if kind.reference_optional() => {
                         progress.line(&format!(
                             "reference for {} failed, so error_at_stable_dt is left empty: {m}",
                             spec.scene
@@ -256,12 +256,12 @@ impl Shared {
     }
 
     /// What one run gets.
-    pub(super) fn of(&self, spec: &RunSpec) -> super::kind::Shared<'_> {
+    pub(super) fn of(&self, spec: &RunSpec) -> RunInputs<'_> {
         let key = self
             .settings
             .as_ref()
-            .map_or(spec.physics, |w| work_precision::reference_key(w, spec));
-        super::kind::Shared {
+            .map_or(spec.physics, |w| reference_key(w, spec));
+        RunInputs {
             omega: self.omega.get(&spec.physics).copied().flatten(),
             reference: self.references.get(&key).map(|(_, r)| r),
         }

@@ -4,7 +4,7 @@
 //! computes it, the others wait for the lock and read what it stored. Numbers are stored as
 //! their f64 bits, so every shard uses exactly what the first one computed.
 
-use super::runner::RunError;
+use super::error::RunError;
 use crate::io::write_atomic;
 use crate::lock::{FolderLock, Holder, Wait};
 use serde::Serialize;

@@ -16,6 +16,8 @@ pub struct Study {
     pub file: StudyFile,
     /// What each run measures (a sweep's inner kind).
     pub kind: StudyKind,
+    /// That kind's measured columns of `runs.csv` (after the identity and parameter columns).
+    pub kind_columns: &'static [&'static str],
     /// Whether `--quick` shortened it.
     pub quick: bool,
     /// The study file as written.
@@ -48,6 +50,9 @@ pub struct RunSpec {
     pub physics: u64,
     /// Free degrees of freedom of the built scene (for the cost estimate that balances shards).
     pub dofs: usize,
+    /// Roughly how many steps the run takes (a stability search's trials together), as its
+    /// kind estimates it: the cost estimate that balances shards (only ratios matter).
+    pub estimated_steps: f64,
 }
 
 impl Study {
@@ -57,9 +62,7 @@ impl Study {
         self.parameters
             .iter()
             .enumerate()
-            .filter(|(_, p)| {
-                !(p.as_str() == "run.dt" && super::kinds::spec(self.kind).columns.contains(&"dt"))
-            })
+            .filter(|(_, p)| !(p.as_str() == "run.dt" && self.kind_columns.contains(&"dt")))
             .map(|(i, p)| (i, p.clone()))
             .collect()
     }

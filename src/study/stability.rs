@@ -16,26 +16,26 @@
 //! `no-stable-dt-in-range` (otherwise no trial was stable). The `outcome` column is how the
 //! first unstable trial ended.
 
+use super::charts::{Emit, SceneRows, label};
 use super::config::{StabilitySettings, StudyFile, WorkPrecisionSettings};
 use super::context::Context;
 use super::error::StudyError;
+use super::findings::{self, Better, Ranking};
 use super::format::{cell, short};
-use super::kind::{KindSpec, References, keep_axes, no_findings, number};
+use super::grid::Axis;
+use super::kind::{Kind, RunInputs, SweepLine, Verdict, number};
 use super::measured::{
     Measured, build, cap_cells, outcome_of, picture_surface, run_observed, summary_cells,
 };
-use super::plots::{self, Emit, SceneRows};
 use super::settings::MIN_RELATIVE_PRECISION;
-use super::spec::RunSpec;
-use super::spec::Study;
+use super::spec::{RunSpec, Study};
 use super::table::Table;
-use super::work_precision::Reference;
 use crate::integrate::State;
-use crate::model::{HighestMode, Model, SpectrumSettings, highest_mode};
+use crate::model::Model;
 use crate::parallel::Parallelism;
-use crate::plot::{Chart, PlotError};
+use crate::plot::{Bar, BarChart, Chart, LineChart, PlotError, ReferenceLine, Series};
 use crate::run::{Observer, Outcome, OutcomeKind, RunSummary, Sample};
-use crate::scene::{RunConfig, Scene};
+use crate::scene::{RunConfig, SceneConfig};
 use std::fmt::Write;
 
 /// Columns of a stability study's `runs.csv` after the run's identity.
@@ -88,25 +88,50 @@ pub const COLUMNS: &[&str] = &[
     "internal_dt_max",
 ];
 
-/// What the rest of the study code asks of a stability study.
-pub(super) const SPEC: KindSpec = KindSpec {
-    columns: COLUMNS,
-    summary_columns: &[
-        "stability",
-        "max_stable_dt",
-        "outcome",
-        "first_unstable_dt",
-        "stable_over_theory",
-        "cost_per_simulated_second",
-        "evaluations_per_simulated_second",
-        "error_at_stable_dt",
-        "non_monotone_dt",
-        "energy_growth_rate",
-        "newton_unconverged_steps",
-        "trials",
-    ],
-    sweep_metrics: &["max_stable_dt", "newton_iterations_per_step"],
-    progress: |m| {
+/// A stability study: each run's largest stable time step, by bisection.
+pub(super) struct Stability;
+
+impl Kind for Stability {
+    fn name(&self) -> &'static str {
+        "stability"
+    }
+
+    fn description(&self) -> &'static str {
+        "each run's largest stable time step over a horizon, by bisection, and its cost and \
+         error there"
+    }
+
+    fn example(&self) -> &'static str {
+        "[grid]\n\"integrator.method\" = [\"symplectic-euler\", \"backward-euler\"]\n\n\
+         [stability]\ndt_min = 1e-4\ndt_max = 0.005\nhorizon = 0.1\nerror_samples = 0\n"
+    }
+
+    fn columns(&self) -> &'static [&'static str] {
+        COLUMNS
+    }
+
+    fn summary_columns(&self) -> &'static [&'static str] {
+        &[
+            "stability",
+            "max_stable_dt",
+            "outcome",
+            "first_unstable_dt",
+            "stable_over_theory",
+            "cost_per_simulated_second",
+            "evaluations_per_simulated_second",
+            "error_at_stable_dt",
+            "non_monotone_dt",
+            "energy_growth_rate",
+            "newton_unconverged_steps",
+            "trials",
+        ]
+    }
+
+    fn sweep_metrics(&self) -> &'static [&'static str] {
+        &["max_stable_dt", "newton_iterations_per_step"]
+    }
+
+    fn progress(&self, m: &Measured) -> Option<String> {
         Some(format!(
             ", {}{}",
             m.get("stability").unwrap_or_default(),
@@ -114,16 +139,42 @@ pub(super) const SPEC: KindSpec = KindSpec {
                 .map(|dt| format!(" at dt {dt} s"))
                 .unwrap_or_default()
         ))
-    },
-    settings_json: |file| serde_json::to_value(&file.stability).unwrap_or_default(),
-    quick_notice: "the same horizon and criterion, but only the larger steps are judged and \
-                   the bisection is coarser (a verdict at a step is the full study's)",
-    report_settings,
-    report_findings: no_findings,
-    check,
-    check_quick,
-    quick_axes: keep_axes,
-    configure: |_, file, config, _, _| {
+    }
+
+    fn settings_json(&self, file: &StudyFile) -> serde_json::Value {
+        serde_json::to_value(&file.stability).unwrap_or_default()
+    }
+
+    fn quick_notice(&self) -> &'static str {
+        "the same horizon and criterion, but only the larger steps are judged and the \
+         bisection is coarser (a verdict at a step is the full study's)"
+    }
+
+    fn check(
+        &self,
+        file: &StudyFile,
+        ctx: &Context,
+        bad: &dyn Fn(&str, String) -> StudyError,
+    ) -> Result<(), StudyError> {
+        check(file, ctx, bad)
+    }
+
+    fn check_quick(&self, file: &StudyFile, ctx: &Context) -> Result<(), StudyError> {
+        check_quick(file, ctx)
+    }
+
+    fn quick_table(&self, file: &mut StudyFile, ctx: &Context) -> Result<(), StudyError> {
+        quick_table(file, ctx)
+    }
+
+    fn configure(
+        &self,
+        _: &Context,
+        file: &StudyFile,
+        config: &mut SceneConfig,
+        _: &[Axis],
+        _: bool,
+    ) -> Result<(), StudyError> {
         // It judges methods, so by default an unconverged Newton solve fails the step instead
         // of being accepted.
         if file
@@ -134,42 +185,156 @@ pub(super) const SPEC: KindSpec = KindSpec {
             config.integrator.newton.require_convergence = true;
         }
         Ok(())
-    },
-    // About a dozen trials (widening, bisection, probes), each covering the horizon at a step
-    // near the first one tried.
-    estimated_steps: |file, _| {
+    }
+
+    /// About a dozen trials (widening, bisection, probes), each covering the horizon at a
+    /// step near the first one tried.
+    fn estimated_steps(&self, file: &StudyFile, _: &SceneConfig) -> f64 {
         file.stability.as_ref().map_or(1.0, |s| {
             12.0 * (s.horizon / s.dt_max).clamp(s.min_steps as f64, s.max_steps as f64)
         })
-    },
-    // The search starts from the explicit limit, and the reference picks its method from it.
-    needs_omega: |_| true,
-    references: Some(References {
-        settings: reference_settings,
-        dt: reference_dt,
-        // It still judges stability without its reference: the errors at the largest stable
-        // steps are left empty, and the report says why.
-        optional: true,
-    }),
-    measure: |study, spec, shared, parallelism| {
+    }
+
+    /// The search starts from the explicit limit, and the reference picks its method from it.
+    fn needs_omega(&self, _: &StudyFile) -> bool {
+        true
+    }
+
+    fn reference_settings(&self, file: &StudyFile) -> Option<WorkPrecisionSettings> {
+        reference_settings(file)
+    }
+
+    fn reference_dt(&self, study: &Study, w: &WorkPrecisionSettings, spec: &RunSpec) -> f64 {
+        reference_dt(study, w, spec)
+    }
+
+    /// It still judges stability without its reference: the errors at the largest stable
+    /// steps are left empty, and the report says why.
+    fn reference_optional(&self) -> bool {
+        true
+    }
+
+    fn measure(
+        &self,
+        study: &Study,
+        spec: &RunSpec,
+        inputs: &RunInputs,
+        parallelism: Parallelism,
+    ) -> Result<Measured, String> {
         let settings = study.file.stability.as_ref().expect("checked at load");
-        measure(spec, settings, shared, parallelism)
-    },
-    scene_charts,
-    energy_caption: Some(
-        "Energy balance over time of each method's trial at its largest stable dt (or its \
-         failing trial): |E(t) - E(0) - work done| over the energy budget the blow-up check uses \
-         (log scale).",
-    ),
-    by_time_step: false,
-    picture_rows: super::pictures::PictureRows::All,
-    phases_at_smallest_dt: false,
-    phase_dt_columns: &["max_stable_dt", "dt"],
-};
+        measure(spec, settings, inputs, parallelism)
+    }
+
+    /// The `stability` column: clean when it answers the question (a limit, or stable up to
+    /// the ceiling).
+    fn verdict<'a>(&self, runs: &'a Table, row: &'a [String]) -> Verdict<'a> {
+        let word = runs.get(row, "stability").unwrap_or_default();
+        Verdict {
+            word,
+            clean: ANSWERED.contains(&word),
+        }
+    }
+
+    /// A limit below which a smaller step failed is listed, though it was found.
+    fn flagged(&self, runs: &Table, row: &[String]) -> bool {
+        runs.get(row, "non_monotone_dt")
+            .is_some_and(|v| !v.is_empty())
+    }
+
+    /// A row's outcome is how its first unstable trial ended; its series is the trial it
+    /// reports.
+    fn outcome_ends_series(&self) -> bool {
+        false
+    }
+
+    fn report_settings(&self, out: &mut String, file: &StudyFile) {
+        report_settings(out, file);
+    }
+
+    fn scene_charts(&self, s: &SceneRows, emit: &mut Emit) -> Result<(), PlotError> {
+        scene_charts(s, emit)
+    }
+
+    /// The largest stable dt, and the cost per simulated second there.
+    fn rankings(&self, s: &SceneRows, _: Option<&str>) -> Vec<Ranking> {
+        let runs = s.runs;
+        let has = |c: &str| runs.column(c).is_some();
+        let mut out = Vec::new();
+        if has("max_stable_dt") {
+            out.extend(findings::ranking(
+                s,
+                "largest stable dt (s)".into(),
+                Better::Larger,
+                &|r| {
+                    runs.number(r, "max_stable_dt").ok_or_else(|| {
+                        runs.get(r, "stability")
+                            .unwrap_or("no limit found")
+                            .to_owned()
+                    })
+                },
+            ));
+        }
+        if has("cost_per_simulated_second") {
+            out.extend(findings::ranking(
+                s,
+                "cost per simulated second at the largest stable dt (wall s / simulated s)".into(),
+                Better::Smaller,
+                &|r| {
+                    runs.number(r, "cost_per_simulated_second")
+                        .ok_or_else(|| "not measured".into())
+                },
+            ));
+        } else if has("wall_seconds") && has("final_time") {
+            out.extend(findings::cost_per_simulated_second(s));
+        }
+        out
+    }
+
+    fn unscored(&self, runs: &Table, row: &[String]) -> bool {
+        runs.get(row, "error_scored") == Some("no")
+    }
+
+    /// A row's outcome is its first unstable trial's, which is expected; only a trial cut by a
+    /// step cap is worth a warning.
+    fn stopped_early(&self, runs: &Table, row: &[String]) -> bool {
+        runs.get(row, "outcome") == Some(OutcomeKind::HorizonNotReached.name())
+    }
+
+    fn energy_caption(&self) -> Option<&'static str> {
+        Some(
+            "Energy balance over time of each method's trial at its largest stable dt (or its \
+             failing trial): |E(t) - E(0) - work done| over the energy budget the blow-up check \
+             uses (log scale).",
+        )
+    }
+
+    /// The largest stable dt against the parameter comes with the explicit limit.
+    fn sweep_line(&self, metric: &str) -> SweepLine {
+        if metric != "max_stable_dt" {
+            return SweepLine::default();
+        }
+        SweepLine {
+            note: " A line at the top is stable at the largest step judged (the ceiling, \
+                   horizon / min_steps).",
+            reference: Some(("dt_theory", "2/omega_max (explicit limit)")),
+        }
+    }
+
+    fn unit_notes(&self, _: &Table, shown: &dyn Fn(&str) -> bool) -> Vec<String> {
+        shown("error_at_stable_dt")
+            .then(|| "errors relative to the reference's displacement".to_owned())
+            .into_iter()
+            .collect()
+    }
+
+    fn dt_columns(&self) -> &'static [&'static str] {
+        &["max_stable_dt", "dt"]
+    }
+}
 
 /// Cost against error at the largest stable steps, and the largest stable step per method.
 fn scene_charts(s: &SceneRows, emit: &mut Emit) -> Result<(), PlotError> {
-    if let Some(chart) = plots::cost_error_chart(s.scene, s.runs, s.params, s.rows) {
+    if let Some(chart) = cost_error_chart(s.scene, s.runs, s.params, s.rows) {
         emit(
             format!("cost-error-{}", s.slug),
             "Wall seconds per simulated second against the relative L2 position error, both at \
@@ -183,7 +348,7 @@ fn scene_charts(s: &SceneRows, emit: &mut Emit) -> Result<(), PlotError> {
         "Largest stable time step per method (log scale); the line is the explicit limit \
          2/omega_max of the scene at rest. Bars marked >= ceiling were stable at the largest \
          step judged (horizon / min_steps).",
-        Chart::Bar(plots::stable_dt_chart(s.scene, s.runs, s.params, s.rows)),
+        Chart::Bar(stable_dt_chart(s.scene, s.runs, s.params, s.rows)),
     )
 }
 
@@ -287,9 +452,8 @@ fn check_quick(file: &StudyFile, ctx: &Context) -> Result<(), StudyError> {
     Ok(())
 }
 
-/// `[quick]` applied to the `[stability]` table (whatever the kind, as the table is written
-/// to meta.json as resolved).
-pub(super) fn quick_table(file: &mut StudyFile, ctx: &Context) -> Result<(), StudyError> {
+/// `[quick]` applied to the `[stability]` table.
+fn quick_table(file: &mut StudyFile, ctx: &Context) -> Result<(), StudyError> {
     if let Some(s) = file.stability.as_mut() {
         // Same horizon and criterion, fewer and larger steps judged: every quick trial is the
         // trial the full study would run at that step.
@@ -376,6 +540,9 @@ pub const VERDICTS: [&str; 4] = [
     "no-stable-dt-in-range",
 ];
 
+/// The verdicts that answer the question (a limit, or stable up to the ceiling).
+const ANSWERED: [&str; 2] = ["limit-found", "stable-to-ceiling"];
+
 /// Rows kept per trial in the series (the balance itself is checked at every step).
 const ROWS_PER_TRIAL: usize = 200;
 
@@ -403,12 +570,6 @@ impl Trial {
     fn stable(&self) -> bool {
         self.summary.outcome.is_completed()
     }
-}
-
-/// The highest mode of the scene at rest: `omega_max` and the explicit limit `2 / omega_max`.
-pub fn explicit_limit(scene: &mut Scene) -> Result<HighestMode, String> {
-    let q = scene.initial.q.clone();
-    highest_mode(&mut scene.model, &q, &SpectrumSettings::default()).map_err(|e| e.to_string())
 }
 
 /// Keeps the sampled rows and the positions at given times, interpolated between steps by
@@ -472,17 +633,11 @@ impl Observer for DenseOutput {
     }
 }
 
-/// Everything a stability run needs that runs share: the highest mode and the reference.
-pub struct Shared<'a> {
-    pub omega: Option<f64>,
-    pub reference: Option<&'a Reference>,
-}
-
 /// Find the largest stable dt of one run, and its cost and error there.
-pub fn measure(
+pub(super) fn measure(
     spec: &RunSpec,
     settings: &StabilitySettings,
-    shared: &Shared,
+    shared: &RunInputs,
     parallelism: Parallelism,
 ) -> Result<Measured, String> {
     let mut scene = build(spec, parallelism).map_err(|e| e.to_string())?;
@@ -786,4 +941,114 @@ fn trial_table(trials: &[Trial]) -> Table {
             })
             .collect(),
     }
+}
+
+/// The largest stable step per method, with 2/omega_max as a line (or a tick per bar when
+/// the physics differ).
+fn stable_dt_chart(
+    scene: &str,
+    runs: &Table,
+    params: &[String],
+    rows: &[&Vec<String>],
+) -> BarChart {
+    // Each physics (a swept stiffness, say) has its own 2/omega_max: every bar carries its
+    // own as a tick, and one reference line is drawn only when they all agree.
+    let theories: Vec<f64> = rows
+        .iter()
+        .filter_map(|r| runs.number(r, "dt_theory"))
+        .collect();
+    let theory = theories
+        .first()
+        .copied()
+        .filter(|t| theories.iter().all(|u| (u / t - 1.0).abs() < 1e-9));
+    let per_bar = theory.is_none() && !theories.is_empty();
+    BarChart {
+        title: format!("Largest stable time step: {scene}"),
+        y_label: "largest stable dt (s)".into(),
+        y_log: true,
+        bars: rows
+            .iter()
+            .map(|r| {
+                let value = runs.number(r, "max_stable_dt");
+                let verdict = runs.get(r, "stability").unwrap_or_default();
+                let mut label = label(runs, params, r, &[]);
+                if verdict == "stable-to-ceiling" {
+                    // The bar is the ceiling of the search, not a limit that was found.
+                    label.push_str(" (>= ceiling)");
+                }
+                if runs
+                    .get(r, "non_monotone_dt")
+                    .is_some_and(|v| !v.is_empty())
+                {
+                    label.push_str(" (non-monotone)");
+                }
+                let note = match verdict {
+                    "unstable-at-every-dt" => Some(match runs.number(r, "energy_growth_rate") {
+                        Some(rate) => format!(
+                            "unstable at every dt (energy e-folds at {}/s)",
+                            super::format::short(rate)
+                        ),
+                        None => "unstable at every dt".into(),
+                    }),
+                    _ if value.is_none() => Some(format!(
+                        "no stable dt in range ({})",
+                        runs.get(r, "outcome").unwrap_or("?")
+                    )),
+                    _ => None,
+                };
+                Bar {
+                    label,
+                    value,
+                    marker: if per_bar {
+                        runs.number(r, "dt_theory")
+                    } else {
+                        None
+                    },
+                    note,
+                }
+            })
+            .collect(),
+        marker_label: per_bar.then(|| "2/omega_max of the bar's physics".to_owned()),
+        reference: theory.map(|t| ReferenceLine {
+            label: format!("2/omega_max = {} s", super::format::short(t)),
+            value: t,
+        }),
+    }
+}
+
+/// Cost per simulated second against the error at the largest stable step: one point per
+/// method, the headline of a stability study.
+fn cost_error_chart(
+    scene: &str,
+    runs: &Table,
+    params: &[String],
+    rows: &[&Vec<String>],
+) -> Option<LineChart> {
+    let series: Vec<Series> = rows
+        .iter()
+        .filter_map(|r| {
+            let error = runs.number(r, "error_at_stable_dt")?;
+            let cost = runs.number(r, "cost_per_simulated_second")?;
+            let mut label = label(runs, params, r, &[]);
+            if let Some(dt) = runs.number(r, "max_stable_dt") {
+                label.push_str(&format!(" dt={}", super::format::short(dt)));
+            }
+            if runs.get(r, "error_scored") == Some("no") {
+                label.push_str(" (error within reference accuracy)");
+            }
+            Some(Series {
+                label,
+                points: vec![(error, cost)],
+                ended: false,
+            })
+        })
+        .collect();
+    (!series.is_empty()).then(|| LineChart {
+        title: format!("Cost against error at the largest stable step: {scene}"),
+        x_label: "relative L2 position error at the largest stable dt".into(),
+        y_label: "wall seconds per simulated second".into(),
+        x_log: true,
+        y_log: true,
+        series,
+    })
 }

@@ -1,17 +1,22 @@
 //! Trajectory runs: run the scene as configured and summarize energy and momentum drift,
 //! time per step and evaluation counts.
 
+use super::charts::SceneRows;
+use super::config::StudyFile;
+use super::context::Context;
+use super::error::StudyError;
+use super::findings::{self, Ranking};
 use super::format::cell;
-use super::kind::{
-    KindSpec, keep_axes, no_charts, no_findings, no_omega, no_quick_check, no_report, no_settings,
-    number, run_steps,
-};
+use super::grid::Axis;
+use super::kind::{Kind, RunInputs, number};
 use super::measured::{
     Measured, build, cap_cells, outcome_of, picture_surface, run_rows, summary_cells,
 };
-use super::spec::RunSpec;
+use super::spec::{RunSpec, Study};
+use super::table::Table;
 use crate::parallel::Parallelism;
 use crate::run::Sample;
+use crate::scene::SceneConfig;
 
 /// Columns of a trajectory study's `runs.csv` after the run's identity.
 pub const COLUMNS: &[&str] = &[
@@ -67,51 +72,120 @@ pub const COLUMNS: &[&str] = &[
     "peak_rss_mib",
 ];
 
-/// What the rest of the study code asks of a trajectory (and the runs of a sweep) study.
-pub(super) const SPEC: KindSpec = KindSpec {
-    columns: COLUMNS,
-    summary_columns: &[
-        "dt",
-        "outcome",
-        "energy_drift_max",
-        "energy_drift_final",
-        "momentum_drift",
-        "step_seconds_median",
-        "step_seconds_p95",
-        "newton_iterations_per_step",
-        "newton_unconverged_steps",
-    ],
-    sweep_metrics: &["energy_drift_max", "step_seconds_median"],
-    progress: |m| number(m, "energy_drift_max").map(|d| format!(", energy drift {d}")),
-    settings_json: no_settings,
-    quick_notice: "runs are shortened",
-    report_settings: no_report,
-    report_findings: no_findings,
-    check: |_, _, _| Ok(()),
-    check_quick: no_quick_check,
-    quick_axes: keep_axes,
-    configure: |_, file, config, _, quick| {
+/// A trajectory study (and the runs of a sweep of one): each run as configured.
+pub(super) struct Trajectory;
+
+impl Kind for Trajectory {
+    fn name(&self) -> &'static str {
+        "trajectory"
+    }
+
+    fn description(&self) -> &'static str {
+        "each run as configured: energy and momentum drift, time per step, evaluation counts"
+    }
+
+    fn example(&self) -> &'static str {
+        "[grid]\n\"integrator.method\" = [\"symplectic-euler\", \"backward-euler\"]\n"
+    }
+
+    fn columns(&self) -> &'static [&'static str] {
+        COLUMNS
+    }
+
+    fn summary_columns(&self) -> &'static [&'static str] {
+        &[
+            "dt",
+            "outcome",
+            "energy_drift_max",
+            "energy_drift_final",
+            "momentum_drift",
+            "step_seconds_median",
+            "step_seconds_p95",
+            "newton_iterations_per_step",
+            "newton_unconverged_steps",
+        ]
+    }
+
+    fn sweep_metrics(&self) -> &'static [&'static str] {
+        &["energy_drift_max", "step_seconds_median"]
+    }
+
+    fn progress(&self, m: &Measured) -> Option<String> {
+        number(m, "energy_drift_max").map(|d| format!(", energy drift {d}"))
+    }
+
+    fn quick_notice(&self) -> &'static str {
+        "runs are shortened"
+    }
+
+    fn configure(
+        &self,
+        _: &Context,
+        file: &StudyFile,
+        config: &mut SceneConfig,
+        _: &[Axis],
+        quick: bool,
+    ) -> Result<(), StudyError> {
         if quick {
             config.run.steps = config.run.steps.min(file.quick.steps.unwrap_or(20));
         }
         Ok(())
-    },
-    estimated_steps: run_steps,
-    needs_omega: no_omega,
-    references: None,
-    measure: |_, spec, _, parallelism| measure(spec, parallelism),
-    scene_charts: no_charts,
-    energy_caption: Some(
-        "Energy balance over time: |E(t) - E(0) - work done on the body| over the energy budget \
-         the blow-up check uses (the scene's energy scale plus the work put in), log scale.",
-    ),
-    // One chart per time step when the study sweeps it: a chart of every run would be
-    // unreadable.
-    by_time_step: true,
-    picture_rows: super::pictures::PictureRows::All,
-    phases_at_smallest_dt: false,
-    phase_dt_columns: &["dt"],
-};
+    }
+
+    fn measure(
+        &self,
+        _: &Study,
+        spec: &RunSpec,
+        _: &RunInputs,
+        parallelism: Parallelism,
+    ) -> Result<Measured, String> {
+        measure(spec, parallelism)
+    }
+
+    /// Cost per simulated second and energy drift.
+    fn rankings(&self, s: &SceneRows, damped: Option<&str>) -> Vec<Ranking> {
+        let has = |c: &str| s.runs.column(c).is_some();
+        let mut out = Vec::new();
+        if has("wall_seconds") && has("final_time") {
+            out.extend(findings::cost_per_simulated_second(s));
+        }
+        if has("energy_drift_max") {
+            out.extend(findings::energy_drift(s, damped));
+        }
+        out
+    }
+
+    fn unit_notes(&self, runs: &Table, shown: &dyn Fn(&str) -> bool) -> Vec<String> {
+        if !shown("momentum_drift") {
+            return Vec::new();
+        }
+        let all_empty = runs
+            .rows
+            .iter()
+            .all(|r| runs.get(r, "momentum_drift").is_none_or(str::is_empty));
+        vec![if all_empty {
+            "momentum drift in kg m/s, empty in every row here because no scene conserves \
+             momentum (fixed vertices, obstacles or drags act on the body)"
+                .into()
+        } else {
+            "momentum drift in kg m/s (empty where the scene does not conserve momentum)".into()
+        }]
+    }
+
+    fn energy_caption(&self) -> Option<&'static str> {
+        Some(
+            "Energy balance over time: |E(t) - E(0) - work done on the body| over the energy \
+             budget the blow-up check uses (the scene's energy scale plus the work put in), log \
+             scale.",
+        )
+    }
+
+    /// One chart per time step when the study sweeps it: a chart of every run would be
+    /// unreadable.
+    fn by_time_step(&self) -> bool {
+        true
+    }
+}
 
 /// Run one trajectory.
 pub fn measure(spec: &RunSpec, parallelism: Parallelism) -> Result<Measured, String> {

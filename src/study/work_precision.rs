@@ -9,27 +9,25 @@
 //! computed twice, at its step and at half of it; their difference is the reference's own
 //! accuracy, and errors below `floor_factor` times it are not scored.
 
+use super::charts::{ACCURACY_KNOBS, Emit, SceneRows, accuracy_rank, label};
 use super::config::{StudyFile, WorkPrecisionSettings};
 use super::context::Context;
 use super::error::StudyError;
+use super::findings::{self, Better, ORDER_EXCESS, Ranking};
 use super::format::{cell, short};
 use super::grid::Axis;
 use super::identity::float;
-use super::kind::{KindSpec, References, no_quick_check, number, run_steps};
-use super::measured::{
-    Measured, build, cap_cells, outcome_of, picture_surface, run_observed, summary_cells,
-};
-use super::plots::{self, Emit, SceneRows};
-use super::spec::RunSpec;
-use super::spec::Study;
+use super::kind::{Kind, RunInputs, number};
+use super::measured::{Measured, build, cap_cells, outcome_of, picture_surface, summary_cells};
+use super::pictures::PictureRows;
+use super::reference::{Reference, errors, sampled_run, stride};
+use super::spec::{RunSpec, Study};
 use super::table::Table;
-use crate::integrate::{Method, State};
-use crate::model::Model;
+use crate::integrate::Method;
 use crate::parallel::Parallelism;
-use crate::plot::{Chart, PlotError};
-use crate::run::{Energies, Observer, RunSummary, Sample};
+use crate::plot::{Chart, LineChart, PlotError, Series};
 use crate::scene::SceneConfig;
-use crate::scene::{RunConfig, Scene};
+use std::collections::BTreeMap;
 use std::fmt::Write;
 
 /// Columns of a work-precision study's `runs.csv` after the run's identity.
@@ -73,54 +71,195 @@ pub const COLUMNS: &[&str] = &[
 ];
 
 /// What the rest of the study code asks of a work-precision study.
-pub(super) const SPEC: KindSpec = KindSpec {
-    columns: COLUMNS,
-    summary_columns: &[
-        "dt",
-        "outcome",
-        "error",
-        "energy_error",
-        "wall_seconds",
-        "force_evaluations",
-        "hessian_evaluations",
-        "factorizations",
-        "linear_iterations",
-        "newton_unconverged_steps",
-    ],
-    sweep_metrics: &["error", "wall_seconds"],
-    progress: |m| number(m, "error").map(|e| format!(", error {e}")),
-    settings_json: |file| serde_json::to_value(&file.work_precision).unwrap_or_default(),
-    quick_notice: "the horizon and the dt ladders are shortened",
-    report_settings,
-    report_findings: orders,
-    check,
-    check_quick: no_quick_check,
-    quick_axes,
-    configure,
-    estimated_steps: run_steps,
-    needs_omega: |file| {
+/// A work-precision study: each run's error against a reference solution.
+pub(super) struct WorkPrecision;
+
+impl Kind for WorkPrecision {
+    fn name(&self) -> &'static str {
+        "work-precision"
+    }
+
+    fn description(&self) -> &'static str {
+        "each run's error against a converged reference solution, next to its time and cost"
+    }
+
+    fn example(&self) -> &'static str {
+        "[grid]\n\"integrator.method\" = [\"rk4\", \"backward-euler\"]\n\
+         \"run.dt\" = [0.002, 0.001]\n\n\
+         [work-precision]\nhorizon = 0.04\nsamples = 2\n"
+    }
+
+    fn columns(&self) -> &'static [&'static str] {
+        COLUMNS
+    }
+
+    fn summary_columns(&self) -> &'static [&'static str] {
+        &[
+            "dt",
+            "outcome",
+            "error",
+            "energy_error",
+            "wall_seconds",
+            "force_evaluations",
+            "hessian_evaluations",
+            "factorizations",
+            "linear_iterations",
+            "newton_unconverged_steps",
+        ]
+    }
+
+    fn sweep_metrics(&self) -> &'static [&'static str] {
+        &["error", "wall_seconds"]
+    }
+
+    fn progress(&self, m: &Measured) -> Option<String> {
+        number(m, "error").map(|e| format!(", error {e}"))
+    }
+
+    fn settings_json(&self, file: &StudyFile) -> serde_json::Value {
+        serde_json::to_value(&file.work_precision).unwrap_or_default()
+    }
+
+    fn quick_notice(&self) -> &'static str {
+        "the horizon and the dt ladders are shortened"
+    }
+
+    fn check(
+        &self,
+        file: &StudyFile,
+        ctx: &Context,
+        bad: &dyn Fn(&str, String) -> StudyError,
+    ) -> Result<(), StudyError> {
+        check(file, ctx, bad)
+    }
+
+    /// `[quick]` shortens the `[work-precision]` table's horizon.
+    fn quick_table(&self, file: &mut StudyFile, _: &Context) -> Result<(), StudyError> {
+        if let Some(w) = file.work_precision.as_mut() {
+            w.horizon = file.quick.horizon.unwrap_or(w.horizon);
+        }
+        Ok(())
+    }
+
+    fn quick_axes(&self, file: &StudyFile, method_axes: &mut [Vec<Axis>]) {
+        quick_axes(file, method_axes);
+    }
+
+    fn configure(
+        &self,
+        ctx: &Context,
+        file: &StudyFile,
+        config: &mut SceneConfig,
+        axes: &[Axis],
+        quick: bool,
+    ) -> Result<(), StudyError> {
+        configure(ctx, file, config, axes, quick)
+    }
+
+    fn needs_omega(&self, file: &StudyFile) -> bool {
         file.work_precision
             .as_ref()
             .is_some_and(|w| w.reference.method.is_none() && !w.reference.same_dt)
-    },
-    references: Some(References {
-        settings: |file| file.work_precision.clone(),
-        dt: reference_dt,
-        optional: false,
-    }),
-    measure: |study, spec, shared, parallelism| {
+    }
+
+    fn reference_settings(&self, file: &StudyFile) -> Option<WorkPrecisionSettings> {
+        file.work_precision.clone()
+    }
+
+    fn reference_dt(&self, study: &Study, w: &WorkPrecisionSettings, spec: &RunSpec) -> f64 {
+        reference_dt(study, w, spec)
+    }
+
+    fn measure(
+        &self,
+        study: &Study,
+        spec: &RunSpec,
+        inputs: &RunInputs,
+        parallelism: Parallelism,
+    ) -> Result<Measured, String> {
         let settings = study.file.work_precision.as_ref().expect("checked at load");
-        let reference = shared.reference.ok_or("no reference solution")?;
+        let reference = inputs.reference.ok_or("no reference solution")?;
         measure(spec, settings, reference, parallelism)
-    },
-    scene_charts,
-    // No time histories: its runs differ only in accuracy.
-    energy_caption: None,
-    by_time_step: false,
-    picture_rows: super::pictures::PictureRows::LeastAccuratePerLine,
-    phases_at_smallest_dt: true,
-    phase_dt_columns: &["dt"],
-};
+    }
+
+    /// An error within the reference's own accuracy is listed, though the run completed.
+    fn flagged(&self, runs: &Table, row: &[String]) -> bool {
+        runs.get(row, "scored") == Some("no")
+            && runs.get(row, "outcome") == Some(crate::run::OutcomeKind::Completed.name())
+    }
+
+    fn report_settings(&self, out: &mut String, file: &StudyFile) {
+        report_settings(out, file);
+    }
+
+    fn report_findings(&self, out: &mut String, runs: &Table) {
+        orders(out, runs);
+    }
+
+    fn scene_charts(&self, s: &SceneRows, emit: &mut Emit) -> Result<(), PlotError> {
+        scene_charts(s, emit)
+    }
+
+    /// Energy drift, and error at equal cost.
+    fn rankings(&self, s: &SceneRows, damped: Option<&str>) -> Vec<Ranking> {
+        let has = |c: &str| s.runs.column(c).is_some();
+        let mut out = Vec::new();
+        if has("wall_seconds") && has("final_time") {
+            out.extend(findings::cost_per_simulated_second(s));
+        }
+        if has("energy_drift_max") {
+            out.extend(findings::energy_drift(s, damped));
+        }
+        if has("error") && has("wall_seconds") {
+            out.extend(error_at_equal_cost(s.runs, s.params, s.scene, s.rows));
+        }
+        out
+    }
+
+    /// Observed orders more than [`ORDER_EXCESS`] above the method's formal order.
+    fn table_warnings(&self, runs: &Table) -> Vec<String> {
+        let mut out = Vec::new();
+        for (scene, line, order) in observed_orders(runs) {
+            let method = line.split(' ').next().unwrap_or_default();
+            if let Ok(m) = method.parse::<Method>() {
+                let theory = f64::from(m.order());
+                if order > theory + ORDER_EXCESS {
+                    out.push(format!(
+                        "{scene}, {line}: observed order {order:.2} is more than {ORDER_EXCESS} \
+                         above its formal order {theory}: its errors are not in the asymptotic \
+                         range (or are at the reference's noise), so this order is not a \
+                         measurement of the method."
+                    ));
+                }
+            }
+        }
+        out
+    }
+
+    fn unit_notes(&self, _: &Table, shown: &dyn Fn(&str) -> bool) -> Vec<String> {
+        shown("error")
+            .then(|| "errors relative to the reference's displacement".to_owned())
+            .into_iter()
+            .collect()
+    }
+
+    fn unscored(&self, runs: &Table, row: &[String]) -> bool {
+        runs.get(row, "scored") == Some("no")
+    }
+
+    /// No time histories: its runs differ only in accuracy.
+    fn energy_caption(&self) -> Option<&'static str> {
+        None
+    }
+
+    fn phases_at_smallest_dt(&self) -> bool {
+        true
+    }
+
+    fn picture_rows(&self) -> PictureRows {
+        PictureRows::LeastAccuratePerLine
+    }
+}
 
 /// Error against wall time, time per step, cost and dt (and local-solver iterations where
 /// there are any), one line per method.
@@ -161,7 +300,7 @@ fn scene_charts(s: &SceneRows, emit: &mut Emit) -> Result<(), PlotError> {
                 "Position error against the reference versus {x_label} (log-log), one line per \
                  method; unscored and failed runs are left out."
             ),
-            Chart::Line(plots::work_precision_chart(
+            Chart::Line(work_precision_chart(
                 s.scene, s.runs, s.params, s.rows, x, x_label,
             )),
         )?;
@@ -205,14 +344,6 @@ fn check(
         ));
     }
     Ok(())
-}
-
-/// `[quick]` shortens the `[work-precision]` table's horizon (whatever the kind, as the table
-/// is written to meta.json as resolved).
-pub(super) fn quick_table(file: &mut StudyFile) {
-    if let Some(w) = file.work_precision.as_mut() {
-        w.horizon = file.quick.horizon.unwrap_or(w.horizon);
-    }
 }
 
 /// Quick mode keeps the largest steps of each ladder (the global one and each method's own).
@@ -273,18 +404,6 @@ fn reference_dt(study: &Study, w: &WorkPrecisionSettings, spec: &RunSpec) -> f64
     })
 }
 
-/// Which reference a run is scored against: one per physics, or with `same_dt` one per
-/// physics and time step.
-pub(super) fn reference_key(w: &WorkPrecisionSettings, spec: &RunSpec) -> u64 {
-    if !w.reference.same_dt {
-        return spec.physics;
-    }
-    use std::hash::{Hash, Hasher};
-    let mut h = std::collections::hash_map::DefaultHasher::new();
-    (spec.physics, spec.loaded.config.run.dt.to_bits()).hash(&mut h);
-    h.finish()
-}
-
 /// A work-precision run's horizon and sample times must be whole numbers of its steps.
 fn check_step_fits(
     ctx: &Context,
@@ -315,243 +434,6 @@ fn check_step_fits(
 }
 
 /// The state at each sample time.
-#[derive(Clone, Debug)]
-struct Snapshots {
-    q: Vec<Vec<f64>>,
-    energies: Vec<Energies>,
-}
-
-/// A reference solution at the sample times, and how well it is resolved.
-#[derive(Clone, Debug)]
-pub struct Reference {
-    pub method: Method,
-    pub dt: f64,
-    /// Whether it runs at the runs' own dt (and `difference` is the one from a second
-    /// reference at a tighter Newton tolerance, not at half the step).
-    pub same_dt: bool,
-    snapshots: Snapshots,
-    rest: Vec<f64>,
-    /// Position error of the reference at `dt` against the one at `dt / 2`.
-    pub difference: f64,
-    pub energy_difference: f64,
-    /// Wall time of both reference runs (s).
-    pub wall_seconds: f64,
-    /// The sample times (s).
-    times: Vec<f64>,
-    /// Errors below `floor_factor * difference` are not scored.
-    floor_factor: f64,
-}
-
-impl Reference {
-    /// The sample times (s): `horizon k / samples`, k = 1..samples.
-    pub fn times(&self) -> &[f64] {
-        &self.times
-    }
-
-    /// Errors below this factor times `difference` are not scored.
-    pub fn floor_factor(&self) -> f64 {
-        self.floor_factor
-    }
-
-    /// Errors at or below this are within the reference's own accuracy.
-    pub fn floor(&self) -> f64 {
-        self.floor_factor * self.difference
-    }
-
-    /// Relative L2 position error over all sample times:
-    /// `sqrt(sum_k |x_k - x_ref(t_k)|^2) / sqrt(sum_k |x_ref(t_k) - X|^2)` with X the rest
-    /// positions, so it is relative to how far the body moves. `None` unless `positions`
-    /// holds every sample time.
-    pub fn relative_l2_error(&self, positions: &[Vec<f64>]) -> Option<f64> {
-        let reference = &self.snapshots.q;
-        if positions.len() != reference.len() || reference.is_empty() {
-            return None;
-        }
-        let squared =
-            |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>();
-        let error: f64 = positions
-            .iter()
-            .zip(reference)
-            .map(|(x, r)| squared(x, r))
-            .sum();
-        let motion: f64 = reference.iter().map(|r| squared(r, &self.rest)).sum();
-        Some(error.sqrt() / motion.sqrt().max(f64::MIN_POSITIVE))
-    }
-}
-
-/// Records rows, and the state and energies every `stride` steps.
-struct SampleObserver {
-    stride: usize,
-    rows: Vec<Sample>,
-    snapshots: Snapshots,
-}
-
-impl Observer for SampleObserver {
-    fn sample(&mut self, sample: &Sample) -> std::io::Result<()> {
-        self.rows.push(sample.clone());
-        Ok(())
-    }
-
-    fn after_step(&mut self, step: usize, _: &Model, state: &State) -> std::io::Result<()> {
-        if step > 0 && step.is_multiple_of(self.stride) {
-            self.snapshots.q.push(state.q.clone());
-        }
-        Ok(())
-    }
-}
-
-/// Run `scene` and keep the state at every multiple of `stride` steps (and, with a
-/// `surface`, the snapshots its pictures are drawn from).
-fn sampled_run(
-    scene: &mut Scene,
-    run: &RunConfig,
-    stride: usize,
-    surface: Option<crate::render::Surface>,
-) -> (
-    RunSummary,
-    Vec<Sample>,
-    Snapshots,
-    Option<crate::render::Snapshots>,
-) {
-    let mut observer = SampleObserver {
-        stride,
-        rows: Vec::new(),
-        snapshots: Snapshots {
-            q: Vec::new(),
-            energies: Vec::new(),
-        },
-    };
-    let (summary, _, pictures) = run_observed(scene, run, surface, &mut observer);
-    // Rows exist at every sample time (sample_every divides the stride): their energies are
-    // the sample energies.
-    observer.snapshots.energies = observer
-        .rows
-        .iter()
-        .filter(|r| r.step > 0 && r.step % stride == 0)
-        .map(|r| Energies {
-            kinetic: r.kinetic,
-            elastic: r.elastic,
-            springs: r.springs,
-            gravity: r.gravity,
-            external: r.external,
-        })
-        .collect();
-    (summary, observer.rows, observer.snapshots, pictures)
-}
-
-/// Largest relative position error and energy error of `run` against `reference` over the
-/// sample times both reached; `None` if `run` reached none.
-fn errors(run: &Snapshots, reference: &Snapshots, rest: &[f64]) -> Option<(f64, f64)> {
-    let n = run.q.len().min(reference.q.len());
-    if n == 0 || run.q.len() < reference.q.len() {
-        return None;
-    }
-    let energy_scale = reference
-        .energies
-        .iter()
-        .map(Energies::internal)
-        .fold(0.0f64, f64::max)
-        .max(f64::MIN_POSITIVE);
-    let distance = |a: &[f64], b: &[f64]| {
-        a.iter()
-            .zip(b)
-            .map(|(x, y)| (x - y) * (x - y))
-            .sum::<f64>()
-            .sqrt()
-    };
-    // Relative to the largest displacement of the reference, so an early sample time with
-    // a tiny displacement does not dominate.
-    let displacement = reference
-        .q
-        .iter()
-        .map(|r| distance(r, rest))
-        .fold(0.0f64, f64::max)
-        .max(f64::MIN_POSITIVE);
-    let mut position = 0.0f64;
-    let mut energy = 0.0f64;
-    for k in 0..n {
-        position = position.max(distance(&run.q[k], &reference.q[k]) / displacement);
-        if let (Some(e), Some(er)) = (run.energies.get(k), reference.energies.get(k)) {
-            energy = energy.max((e.total() - er.total()).abs() / energy_scale);
-        }
-    }
-    Some((position, energy))
-}
-
-/// Steps between sample times at `dt`.
-fn stride(settings: &WorkPrecisionSettings, dt: f64) -> usize {
-    ((settings.horizon / settings.samples as f64 / dt).round() as usize).max(1)
-}
-
-/// Compute the reference for the physics of `template` (any run of it): `method` at `dt` and
-/// at `dt / 2`, or with `same_dt` twice at `dt`, the second at a 100× tighter Newton
-/// tolerance (and always with the Cholesky solver, so the linear solves are exact).
-pub fn reference(
-    template: &RunSpec,
-    settings: &WorkPrecisionSettings,
-    method: Method,
-    dt: f64,
-    parallelism: Parallelism,
-) -> Result<Reference, String> {
-    let same_dt = settings.reference.same_dt;
-    let solve = |dt: f64, tolerance: f64| -> Result<(Snapshots, f64, Vec<f64>), String> {
-        let mut spec = template.clone();
-        let integrator = &mut spec.loaded.config.integrator;
-        integrator.method = method;
-        integrator.newton.tolerance = tolerance;
-        integrator.newton.max_iterations = integrator.newton.max_iterations.max(50);
-        if same_dt {
-            integrator.newton.require_convergence = true;
-            integrator.linear_solver = crate::solve::LinearSolverKind::cholesky();
-        }
-        let mut scene = build(&spec, parallelism).map_err(|e| e.to_string())?;
-        let stride = stride(settings, dt);
-        let run = RunConfig {
-            dt,
-            steps: stride * settings.samples,
-            sample_every: stride,
-            energy_limit: 0.0,
-        };
-        let (summary, _, snapshots, _) = sampled_run(&mut scene, &run, stride, None);
-        if !summary.outcome.is_completed() {
-            let (status, message) = outcome_of(&summary.outcome);
-            return Err(format!(
-                "the reference ({} at dt = {dt:e} s) {status}: {message}; choose another \
-                 [work-precision.reference] method or dt",
-                method.name()
-            ));
-        }
-        Ok((
-            snapshots,
-            summary.totals.times.total,
-            scene.initial.q.clone(),
-        ))
-    };
-    let tolerance = settings.reference.newton_tolerance;
-    let (coarse, t1, rest) = solve(dt, tolerance)?;
-    let (fine, t2, _) = if same_dt {
-        solve(dt, tolerance / 100.0)?
-    } else {
-        solve(dt / 2.0, tolerance)?
-    };
-    let (difference, energy_difference) =
-        errors(&coarse, &fine, &rest).ok_or("the reference reached no sample time")?;
-    Ok(Reference {
-        method,
-        dt: if same_dt { dt } else { dt / 2.0 },
-        same_dt,
-        snapshots: fine,
-        rest,
-        difference,
-        energy_difference,
-        wall_seconds: t1 + t2,
-        times: (1..=settings.samples)
-            .map(|k| settings.horizon * k as f64 / settings.samples as f64)
-            .collect(),
-        floor_factor: settings.reference.floor_factor,
-    })
-}
-
 /// Run one work-precision run and score it against `reference`.
 pub fn measure(
     spec: &RunSpec,
@@ -625,7 +507,7 @@ fn report_settings(out: &mut String, file: &StudyFile) {
 /// log(dt) between its two smallest scored time steps.
 fn orders(out: &mut String, runs: &Table) {
     let mut text = String::new();
-    for (scene, method, order) in super::findings::observed_orders(runs) {
+    for (scene, method, order) in observed_orders(runs) {
         let _ = writeln!(text, "| {scene} | {method} | {order:.2} |");
     }
     if !text.is_empty() {
@@ -637,81 +519,165 @@ fn orders(out: &mut String, runs: &Table) {
     }
 }
 
-/// A [`Reference`] as the shards of a study store it (`shared/`): every number as its f64
-/// bits, so a shard that reads it scores its runs exactly as the shard that computed it.
-#[derive(serde::Serialize, serde::Deserialize)]
-pub(super) struct StoredReference {
-    method: String,
-    dt: u64,
-    q: Vec<Vec<u64>>,
-    /// Kinetic, elastic, springs, gravity, external.
-    energies: Vec<[u64; 5]>,
-    rest: Vec<u64>,
-    difference: u64,
-    energy_difference: u64,
-    wall_seconds: u64,
-    times: Vec<u64>,
-    floor_factor: u64,
-    #[serde(default)]
-    same_dt: bool,
-}
-
-impl Reference {
-    /// The reference as stored.
-    pub(super) fn stored(&self) -> StoredReference {
-        use super::shared_store::bits;
-        let all = |v: &[f64]| v.iter().map(|x| bits(*x)).collect::<Vec<u64>>();
-        StoredReference {
-            method: self.method.name().to_owned(),
-            dt: bits(self.dt),
-            q: self.snapshots.q.iter().map(|q| all(q)).collect(),
-            energies: self
-                .snapshots
-                .energies
-                .iter()
-                .map(|e| [e.kinetic, e.elastic, e.springs, e.gravity, e.external].map(bits))
-                .collect(),
-            rest: all(&self.rest),
-            difference: bits(self.difference),
-            energy_difference: bits(self.energy_difference),
-            wall_seconds: bits(self.wall_seconds),
-            times: all(&self.times),
-            floor_factor: bits(self.floor_factor),
-            same_dt: self.same_dt,
+/// Error against `x` (a column, or `cost`: force + Hessian evaluations), one line per
+/// method from its cheapest setting to its most accurate.
+fn work_precision_chart(
+    scene: &str,
+    runs: &Table,
+    params: &[String],
+    rows: &[&Vec<String>],
+    x: &str,
+    x_label: &str,
+) -> LineChart {
+    // Points carry their accuracy rank, so a line runs from the cheapest setting to the most
+    // accurate one whatever the noise in its x (wall times on a busy machine).
+    let mut lines: BTreeMap<String, Vec<(f64, f64, f64)>> = BTreeMap::new();
+    for r in rows {
+        let Some(error) = runs.number(r, "error") else {
+            continue;
+        };
+        let xv = if x == "cost" {
+            runs.number(r, "force_evaluations")
+                .zip(runs.number(r, "hessian_evaluations"))
+                .map(|(f, h)| f + h)
+        } else {
+            runs.number(r, x)
+        };
+        if let Some(xv) = xv {
+            lines
+                .entry(label(runs, params, r, &ACCURACY_KNOBS))
+                .or_default()
+                .push((accuracy_rank(runs, r), xv, error));
         }
     }
-
-    /// The reference a shard stored (an error names a method this build does not know).
-    pub(super) fn from_stored(s: &StoredReference) -> Result<Self, String> {
-        use super::shared_store::from_bits;
-        let all = |v: &[u64]| v.iter().map(|b| from_bits(*b)).collect::<Vec<f64>>();
-        Ok(Reference {
-            method: Method::from_name(&s.method).map_err(|e| e.to_string())?,
-            dt: from_bits(s.dt),
-            snapshots: Snapshots {
-                q: s.q.iter().map(|q| all(q)).collect(),
-                energies: s
-                    .energies
-                    .iter()
-                    .map(|e| {
-                        let [kinetic, elastic, springs, gravity, external] = e.map(from_bits);
-                        Energies {
-                            kinetic,
-                            elastic,
-                            springs,
-                            gravity,
-                            external,
-                        }
-                    })
-                    .collect(),
-            },
-            rest: all(&s.rest),
-            difference: from_bits(s.difference),
-            energy_difference: from_bits(s.energy_difference),
-            wall_seconds: from_bits(s.wall_seconds),
-            times: all(&s.times),
-            floor_factor: from_bits(s.floor_factor),
-            same_dt: s.same_dt,
-        })
+    LineChart {
+        title: format!("Work-precision, error against {x_label}: {scene}"),
+        x_label: x_label.into(),
+        y_label: "relative position error".into(),
+        x_log: true,
+        y_log: true,
+        series: lines
+            .into_iter()
+            .map(|(label, mut points)| {
+                points.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
+                let points = points.into_iter().map(|(_, x, e)| (x, e)).collect();
+                Series {
+                    label,
+                    points,
+                    ended: false,
+                }
+            })
+            .collect(),
     }
+}
+
+/// The observed order of each (scene, method, solver) line of a work-precision study: the
+/// slope of log error against log dt between the two smallest steps with a scored error.
+/// Adaptive methods (dt is only their output interval) are left out.
+pub(super) fn observed_orders(runs: &Table) -> Vec<(String, String, f64)> {
+    let mut lines: BTreeMap<(String, String), Vec<(f64, f64)>> = BTreeMap::new();
+    for r in &runs.rows {
+        let method = runs.get(r, "method").unwrap_or_default();
+        if method.starts_with("adaptive-") || method == "dopri5" {
+            continue;
+        }
+        if let (Some(dt), Some(e)) = (runs.number(r, "dt"), runs.number(r, "error")) {
+            let solver = runs.get(r, "linear_solver").unwrap_or_default();
+            let name = if solver.is_empty() || solver == "-" {
+                method.to_owned()
+            } else {
+                format!("{method} {solver}")
+            };
+            let scene = runs.get(r, "scene").unwrap_or_default().to_owned();
+            lines.entry((scene, name)).or_default().push((dt, e));
+        }
+    }
+    let mut out = Vec::new();
+    for ((scene, method), mut points) in lines {
+        if points.len() < 2 {
+            continue;
+        }
+        points.sort_by(|a, b| a.0.total_cmp(&b.0));
+        // Points at one dt differ by another knob (iterations, a tolerance): no order in dt.
+        if points.windows(2).any(|w| w[0].0 == w[1].0) {
+            continue;
+        }
+        let ((d1, e1), (d2, e2)) = (points[0], points[1]);
+        out.push((scene, method, (e2 / e1).ln() / (d2 / d1).ln()));
+    }
+    out
+}
+
+/// Error at equal cost in one scene: every method line's log error interpolated (in log cost)
+/// at one cost inside all lines' cost ranges, the geometric middle of their overlap.
+fn error_at_equal_cost(
+    runs: &Table,
+    params: &[String],
+    scene: &str,
+    rows: &[&Vec<String>],
+) -> Option<Ranking> {
+    let knobs: Vec<String> = params
+        .iter()
+        .filter(|p| !matches!(p.as_str(), "run.dt" | "integrator.adaptive.tolerance"))
+        .cloned()
+        .collect();
+    let mut lines: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
+    let mut left_out = Vec::new();
+    for r in rows {
+        let name = findings::label(runs, &knobs, r);
+        match (runs.number(r, "wall_seconds"), runs.number(r, "error")) {
+            (Some(c), Some(e)) if c > 0.0 && e > 0.0 && findings::completed(runs, r) => {
+                lines.entry(name).or_default().push((c, e))
+            }
+            _ => {
+                lines.entry(name).or_default();
+            }
+        }
+    }
+    let mut ranges = Vec::new();
+    for (name, pts) in &mut lines {
+        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        if pts.len() < 2 {
+            left_out.push((name.clone(), "fewer than two scored runs".to_owned()));
+        } else {
+            ranges.push((pts[0].0, pts[pts.len() - 1].0));
+        }
+    }
+    let lo = ranges.iter().map(|r| r.0).fold(f64::NEG_INFINITY, f64::max);
+    let hi = ranges.iter().map(|r| r.1).fold(f64::INFINITY, f64::min);
+    if ranges.len() < 2 || lo > hi {
+        return None;
+    }
+    let cost = (lo * hi).sqrt();
+    let mut ranked = Vec::new();
+    for (name, pts) in &lines {
+        if pts.len() < 2 {
+            continue;
+        }
+        let Some(i) = pts
+            .windows(2)
+            .position(|w| w[0].0 <= cost && cost <= w[1].0)
+        else {
+            continue;
+        };
+        let ((c0, e0), (c1, e1)) = (pts[i], pts[i + 1]);
+        let s = if c1 > c0 {
+            (cost / c0).ln() / (c1 / c0).ln()
+        } else {
+            0.0
+        };
+        ranked.push((name.clone(), (e0.ln() + s * (e1.ln() - e0.ln())).exp()));
+    }
+    ranked.sort_by(|a, b| a.1.total_cmp(&b.1));
+    Some(Ranking {
+        scene: scene.to_owned(),
+        metric: format!(
+            "error at equal cost (interpolated in log-log at {} s of wall time, inside every \
+             line's measured range)",
+            short(cost)
+        ),
+        better: Better::Smaller,
+        ranked,
+        left_out,
+    })
 }

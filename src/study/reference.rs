@@ -1,0 +1,343 @@
+//! Reference solutions: a converged run of a scene's physics, stored at fixed sample times,
+//! that work-precision and stability runs are scored against, and the errors of a run
+//! against it.
+//!
+//! A reference is computed twice, at its step and at half of it (or, with `same_dt`, twice at
+//! the runs' own step, the second at a 100× tighter Newton tolerance); their difference is
+//! the reference's own accuracy, and errors below `floor_factor` times it are not scored.
+
+use super::config::WorkPrecisionSettings;
+use super::measured::{build, outcome_of, run_observed};
+use super::shared_store::{bits, from_bits};
+use super::spec::RunSpec;
+use crate::integrate::{Method, State};
+use crate::model::Model;
+use crate::parallel::Parallelism;
+use crate::run::{Energies, Observer, RunSummary, Sample};
+use crate::scene::{RunConfig, Scene};
+
+#[derive(Clone, Debug)]
+pub(super) struct Snapshots {
+    pub q: Vec<Vec<f64>>,
+    pub energies: Vec<Energies>,
+}
+
+/// A reference solution at the sample times, and how well it is resolved.
+#[derive(Clone, Debug)]
+pub struct Reference {
+    pub method: Method,
+    pub dt: f64,
+    /// Whether it runs at the runs' own dt (and `difference` is the one from a second
+    /// reference at a tighter Newton tolerance, not at half the step).
+    pub same_dt: bool,
+    pub(super) snapshots: Snapshots,
+    pub(super) rest: Vec<f64>,
+    /// Position error of the reference at `dt` against the one at `dt / 2`.
+    pub difference: f64,
+    pub energy_difference: f64,
+    /// Wall time of both reference runs (s).
+    pub wall_seconds: f64,
+    /// The sample times (s).
+    times: Vec<f64>,
+    /// Errors below `floor_factor * difference` are not scored.
+    floor_factor: f64,
+}
+
+impl Reference {
+    /// The sample times (s): `horizon k / samples`, k = 1..samples.
+    pub fn times(&self) -> &[f64] {
+        &self.times
+    }
+
+    /// Errors below this factor times `difference` are not scored.
+    pub fn floor_factor(&self) -> f64 {
+        self.floor_factor
+    }
+
+    /// Errors at or below this are within the reference's own accuracy.
+    pub fn floor(&self) -> f64 {
+        self.floor_factor * self.difference
+    }
+
+    /// Relative L2 position error over all sample times:
+    /// `sqrt(sum_k |x_k - x_ref(t_k)|^2) / sqrt(sum_k |x_ref(t_k) - X|^2)` with X the rest
+    /// positions, so it is relative to how far the body moves. `None` unless `positions`
+    /// holds every sample time.
+    pub fn relative_l2_error(&self, positions: &[Vec<f64>]) -> Option<f64> {
+        let reference = &self.snapshots.q;
+        if positions.len() != reference.len() || reference.is_empty() {
+            return None;
+        }
+        let squared =
+            |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>();
+        let error: f64 = positions
+            .iter()
+            .zip(reference)
+            .map(|(x, r)| squared(x, r))
+            .sum();
+        let motion: f64 = reference.iter().map(|r| squared(r, &self.rest)).sum();
+        Some(error.sqrt() / motion.sqrt().max(f64::MIN_POSITIVE))
+    }
+}
+
+/// Records rows, and the state and energies every `stride` steps.
+struct SampleObserver {
+    stride: usize,
+    rows: Vec<Sample>,
+    snapshots: Snapshots,
+}
+
+impl Observer for SampleObserver {
+    fn sample(&mut self, sample: &Sample) -> std::io::Result<()> {
+        self.rows.push(sample.clone());
+        Ok(())
+    }
+
+    fn after_step(&mut self, step: usize, _: &Model, state: &State) -> std::io::Result<()> {
+        if step > 0 && step.is_multiple_of(self.stride) {
+            self.snapshots.q.push(state.q.clone());
+        }
+        Ok(())
+    }
+}
+
+/// Run `scene` and keep the state at every multiple of `stride` steps (and, with a
+/// `surface`, the snapshots its pictures are drawn from).
+pub(super) fn sampled_run(
+    scene: &mut Scene,
+    run: &RunConfig,
+    stride: usize,
+    surface: Option<crate::render::Surface>,
+) -> (
+    RunSummary,
+    Vec<Sample>,
+    Snapshots,
+    Option<crate::render::Snapshots>,
+) {
+    let mut observer = SampleObserver {
+        stride,
+        rows: Vec::new(),
+        snapshots: Snapshots {
+            q: Vec::new(),
+            energies: Vec::new(),
+        },
+    };
+    let (summary, _, pictures) = run_observed(scene, run, surface, &mut observer);
+    // Rows exist at every sample time (sample_every divides the stride): their energies are
+    // the sample energies.
+    observer.snapshots.energies = observer
+        .rows
+        .iter()
+        .filter(|r| r.step > 0 && r.step % stride == 0)
+        .map(|r| Energies {
+            kinetic: r.kinetic,
+            elastic: r.elastic,
+            springs: r.springs,
+            gravity: r.gravity,
+            external: r.external,
+        })
+        .collect();
+    (summary, observer.rows, observer.snapshots, pictures)
+}
+
+/// Largest relative position error and energy error of `run` against `reference` over the
+/// sample times both reached; `None` if `run` reached none.
+pub(super) fn errors(run: &Snapshots, reference: &Snapshots, rest: &[f64]) -> Option<(f64, f64)> {
+    let n = run.q.len().min(reference.q.len());
+    if n == 0 || run.q.len() < reference.q.len() {
+        return None;
+    }
+    let energy_scale = reference
+        .energies
+        .iter()
+        .map(Energies::internal)
+        .fold(0.0f64, f64::max)
+        .max(f64::MIN_POSITIVE);
+    let distance = |a: &[f64], b: &[f64]| {
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| (x - y) * (x - y))
+            .sum::<f64>()
+            .sqrt()
+    };
+    // Relative to the largest displacement of the reference, so an early sample time with
+    // a tiny displacement does not dominate.
+    let displacement = reference
+        .q
+        .iter()
+        .map(|r| distance(r, rest))
+        .fold(0.0f64, f64::max)
+        .max(f64::MIN_POSITIVE);
+    let mut position = 0.0f64;
+    let mut energy = 0.0f64;
+    for k in 0..n {
+        position = position.max(distance(&run.q[k], &reference.q[k]) / displacement);
+        if let (Some(e), Some(er)) = (run.energies.get(k), reference.energies.get(k)) {
+            energy = energy.max((e.total() - er.total()).abs() / energy_scale);
+        }
+    }
+    Some((position, energy))
+}
+
+/// Steps between sample times at `dt`.
+pub(super) fn stride(settings: &WorkPrecisionSettings, dt: f64) -> usize {
+    ((settings.horizon / settings.samples as f64 / dt).round() as usize).max(1)
+}
+
+/// Compute the reference for the physics of `template` (any run of it): `method` at `dt` and
+/// at `dt / 2`, or with `same_dt` twice at `dt`, the second at a 100× tighter Newton
+/// tolerance (and always with the Cholesky solver, so the linear solves are exact).
+pub fn reference(
+    template: &RunSpec,
+    settings: &WorkPrecisionSettings,
+    method: Method,
+    dt: f64,
+    parallelism: Parallelism,
+) -> Result<Reference, String> {
+    let same_dt = settings.reference.same_dt;
+    let solve = |dt: f64, tolerance: f64| -> Result<(Snapshots, f64, Vec<f64>), String> {
+        let mut spec = template.clone();
+        let integrator = &mut spec.loaded.config.integrator;
+        integrator.method = method;
+        integrator.newton.tolerance = tolerance;
+        integrator.newton.max_iterations = integrator.newton.max_iterations.max(50);
+        if same_dt {
+            integrator.newton.require_convergence = true;
+            integrator.linear_solver = crate::solve::LinearSolverKind::cholesky();
+        }
+        let mut scene = build(&spec, parallelism).map_err(|e| e.to_string())?;
+        let stride = stride(settings, dt);
+        let run = RunConfig {
+            dt,
+            steps: stride * settings.samples,
+            sample_every: stride,
+            energy_limit: 0.0,
+        };
+        let (summary, _, snapshots, _) = sampled_run(&mut scene, &run, stride, None);
+        if !summary.outcome.is_completed() {
+            let (status, message) = outcome_of(&summary.outcome);
+            return Err(format!(
+                "the reference ({} at dt = {dt:e} s) {status}: {message}; choose another \
+                 [work-precision.reference] method or dt",
+                method.name()
+            ));
+        }
+        Ok((
+            snapshots,
+            summary.totals.times.total,
+            scene.initial.q.clone(),
+        ))
+    };
+    let tolerance = settings.reference.newton_tolerance;
+    let (coarse, t1, rest) = solve(dt, tolerance)?;
+    let (fine, t2, _) = if same_dt {
+        solve(dt, tolerance / 100.0)?
+    } else {
+        solve(dt / 2.0, tolerance)?
+    };
+    let (difference, energy_difference) =
+        errors(&coarse, &fine, &rest).ok_or("the reference reached no sample time")?;
+    Ok(Reference {
+        method,
+        dt: if same_dt { dt } else { dt / 2.0 },
+        same_dt,
+        snapshots: fine,
+        rest,
+        difference,
+        energy_difference,
+        wall_seconds: t1 + t2,
+        times: (1..=settings.samples)
+            .map(|k| settings.horizon * k as f64 / settings.samples as f64)
+            .collect(),
+        floor_factor: settings.reference.floor_factor,
+    })
+}
+
+/// Which reference a run is scored against: one per physics, or with `same_dt` one per
+/// physics and time step.
+pub(super) fn reference_key(w: &WorkPrecisionSettings, spec: &RunSpec) -> u64 {
+    if !w.reference.same_dt {
+        return spec.physics;
+    }
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    (spec.physics, spec.loaded.config.run.dt.to_bits()).hash(&mut h);
+    h.finish()
+}
+
+/// A [`Reference`] as the shards of a study store it (`shared/`): every number as its f64
+/// bits, so a shard that reads it scores its runs exactly as the shard that computed it.
+#[derive(serde::Serialize, serde::Deserialize)]
+pub(super) struct StoredReference {
+    method: String,
+    dt: u64,
+    q: Vec<Vec<u64>>,
+    /// Kinetic, elastic, springs, gravity, external.
+    energies: Vec<[u64; 5]>,
+    rest: Vec<u64>,
+    difference: u64,
+    energy_difference: u64,
+    wall_seconds: u64,
+    times: Vec<u64>,
+    floor_factor: u64,
+    #[serde(default)]
+    same_dt: bool,
+}
+
+impl Reference {
+    /// The reference as stored.
+    pub(super) fn stored(&self) -> StoredReference {
+        let all = |v: &[f64]| v.iter().map(|x| bits(*x)).collect::<Vec<u64>>();
+        StoredReference {
+            method: self.method.name().to_owned(),
+            dt: bits(self.dt),
+            q: self.snapshots.q.iter().map(|q| all(q)).collect(),
+            energies: self
+                .snapshots
+                .energies
+                .iter()
+                .map(|e| [e.kinetic, e.elastic, e.springs, e.gravity, e.external].map(bits))
+                .collect(),
+            rest: all(&self.rest),
+            difference: bits(self.difference),
+            energy_difference: bits(self.energy_difference),
+            wall_seconds: bits(self.wall_seconds),
+            times: all(&self.times),
+            floor_factor: bits(self.floor_factor),
+            same_dt: self.same_dt,
+        }
+    }
+
+    /// The reference a shard stored (an error names a method this build does not know).
+    pub(super) fn from_stored(s: &StoredReference) -> Result<Self, String> {
+        let all = |v: &[u64]| v.iter().map(|b| from_bits(*b)).collect::<Vec<f64>>();
+        Ok(Reference {
+            method: Method::from_name(&s.method).map_err(|e| e.to_string())?,
+            dt: from_bits(s.dt),
+            snapshots: Snapshots {
+                q: s.q.iter().map(|q| all(q)).collect(),
+                energies: s
+                    .energies
+                    .iter()
+                    .map(|e| {
+                        let [kinetic, elastic, springs, gravity, external] = e.map(from_bits);
+                        Energies {
+                            kinetic,
+                            elastic,
+                            springs,
+                            gravity,
+                            external,
+                        }
+                    })
+                    .collect(),
+            },
+            rest: all(&s.rest),
+            difference: from_bits(s.difference),
+            energy_difference: from_bits(s.energy_difference),
+            wall_seconds: from_bits(s.wall_seconds),
+            times: all(&s.times),
+            floor_factor: from_bits(s.floor_factor),
+            same_dt: s.same_dt,
+        })
+    }
+}
