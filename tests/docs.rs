@@ -531,3 +531,54 @@ fn the_link_checker_sees_links_and_anchors() {
     let got = anchors(page);
     assert!(got.contains("title") && got.contains("two-words") && got.len() == 2);
 }
+
+/// DESIGN.md's "Layout" section: the one map of the modules.
+fn design_layout() -> String {
+    let text = read(&root().join("DESIGN.md"));
+    let start = text
+        .find("\n## Layout")
+        .expect("DESIGN.md has a Layout section");
+    let end = text[start + 1..]
+        .find("\n## ")
+        .map_or(text.len(), |e| start + 1 + e);
+    text[start..end].to_string()
+}
+
+/// Whether `word` occurs in `text` with no identifier character on either side.
+fn has_word(text: &str, word: &str) -> bool {
+    let ident = |c: char| c.is_alphanumeric() || c == '_';
+    text.match_indices(word).any(|(at, _)| {
+        !text[..at].chars().next_back().is_some_and(ident)
+            && !text[at + word.len()..].chars().next().is_some_and(ident)
+    })
+}
+
+#[test]
+fn design_md_names_every_module_of_the_crate() {
+    let layout = design_layout();
+    let mut missing = Vec::new();
+    let mut stack = vec![root().join("src")];
+    let mut files = 0;
+    while let Some(dir) = stack.pop() {
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            let name = path.file_name().unwrap().to_string_lossy().to_string();
+            if path.is_dir() {
+                if !layout.contains(&format!("{name}/")) {
+                    missing.push(relative(&path) + "/");
+                }
+                stack.push(path);
+            } else if let Some(stem) = name.strip_suffix(".rs") {
+                files += 1;
+                if stem != "mod" && !has_word(&layout, stem) {
+                    missing.push(relative(&path));
+                }
+            }
+        }
+    }
+    assert!(files > 100, "only {files} source files found");
+    assert!(
+        missing.is_empty(),
+        "DESIGN.md's Layout section does not name {missing:?}: add each to the module map"
+    );
+}
