@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Print the README's solver-scaling table from a solver_scaling study's runs.csv: the median
+"""Print the solver-scaling table of results/README.md from a solver_scaling study's runs.csv: the median
 time per converged backward-Euler step of every solver on every scene, with the solver `auto`
 chose, and a mark on any run that did not complete.
 

@@ -6,23 +6,9 @@
 //! - [`integrate::Integrator`]: one time step of any method, with a [`integrate::StepReport`];
 //! - [`solve::LinearSolver`]: analyze a pattern once, factor per matrix, solve.
 //!
-//! The pieces, in pipeline order:
-//! - [`scene`]: scene files (TOML, `--set` overrides) built into a model and initial state;
-//! - [`mesh`]: tetrahedral meshes (readers, generators, surface extraction, quality report);
-//! - [`data`]: where data files are found (the scene's folder, then `SOFTBENCH_DATA`);
-//! - [`material`]: strain energy densities with closed-form stress and stress derivative;
-//! - [`fem`]: the linear tetrahedron (shape gradients, element energy, gradient, Hessian, mass);
-//! - [`model`]: elastic, spring and gravity potentials assembled over free DOFs, and the
-//!   highest natural frequency of the linearized model (the explicit step limit);
-//! - [`springs`]: mass-spring bodies (jello cube, jello sphere, springs along tet edges);
-//! - [`sparse`]: the symmetric sparse matrix and its pattern, built once and refilled in place;
-//! - [`solve`]: sparse Cholesky and LDLᵀ (faer), preconditioned CG, dense Cholesky;
-//! - [`integrate`]: explicit, adaptive and implicit integrators, and Newton's method;
-//! - [`contact`]: obstacles (signed distances) and four contact responses;
-//! - [`run`]: running a scene and measuring it (energies, momenta, blow-up detection);
-//! - [`io`]: writing results atomically;
-//! - [`plot`]: charts of the experiment runner (PNG and SVG);
-//! - [`export`]: frames for viewers (VTU + PVD, OBJ; skinned display meshes).
+//! The map of the modules (what each one holds and why the code is shaped as it is) is
+//! `DESIGN.md` at the root of the repository; how to use softbench (scene and study files, the
+//! command line, outputs) is `README.md` and the book under `docs/`.
 //!
 //! Conventions: SI units; f64 everywhere; stacked coordinates `q = [x0 y0 z0 x1 y1 z1 ...]`;
 //! `vec(F)` is column-major (`F[(0,0)], F[(1,0)], F[(2,0)], F[(0,1)], ...`), which is nalgebra's

@@ -324,14 +324,21 @@ pub trait NamedEnum: Copy + 'static {
 /// generates `ALL`, `name`, `description`, `facts`, `names`, parsing (`FromStr`, serde) with
 /// "did you mean", `Display`, the unknown-name error type and [`NamedEnum`] (for listing).
 ///
-/// ```ignore
-/// named_enum! {
+/// ```
+/// softbench::named_enum! {
 ///     /// The shape of an obstacle.
-///     pub enum ObstacleKind: "obstacle kind", UnknownObstacleKind {
+///     pub enum Shape: "shape", UnknownShape {
 ///         /// A half-space below a plane.
 ///         Plane = "plane", "a half-space below a plane (point, outward normal)",
+///         /// A ball.
+///         Sphere = "sphere", "a ball (center, radius)",
 ///     }
 /// }
+/// assert_eq!(Shape::ALL, &[Shape::Plane, Shape::Sphere]);
+/// assert_eq!("sphere".parse::<Shape>().unwrap(), Shape::Sphere);
+/// assert_eq!(Shape::Plane.description(), "a half-space below a plane (point, outward normal)");
+/// let unknown = "spehre".parse::<Shape>().unwrap_err().to_string();
+/// assert!(unknown.contains("sphere"), "{unknown}");
 /// ```
 #[macro_export]
 macro_rules! named_enum {

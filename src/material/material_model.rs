@@ -97,6 +97,7 @@ macro_rules! define_materials {
         ///     MaterialModel::StableNeoHookean(m) => total_energy(m, &fs),
         ///     MaterialModel::StVenantKirchhoff(m) => total_energy(m, &fs),
         ///     MaterialModel::Corotated(m) => total_energy(m, &fs),
+        ///     MaterialModel::ConstraintNeoHookean(m) => total_energy(m, &fs),
         /// };
         /// assert!(e.abs() < 1e-9);
         /// ```
