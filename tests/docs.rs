@@ -379,7 +379,9 @@ fn tables() -> BTreeMap<String, Vec<(String, Vec<String>)>> {
 
 #[test]
 fn the_registry_tables_list_exactly_the_registered_names() {
-    let registered: [(&str, Vec<&str>); 5] = [
+    let kinds: Vec<&str> = softbench::study::kinds().iter().map(|k| k.name).collect();
+    let registered: [(&str, Vec<&str>); 6] = [
+        ("study-kinds", kinds),
         ("methods", Method::names()),
         ("linear-solvers", LinearSolverKind::names()),
         ("materials", MaterialKind::names()),

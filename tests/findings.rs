@@ -3,7 +3,6 @@
 
 use std::collections::BTreeMap;
 
-use softbench::study::StudyKind;
 use softbench::study::compute_findings;
 use softbench::study::findings::Better;
 use softbench::study::table::Table;
@@ -80,7 +79,7 @@ fn a_trajectory_study_ranks_cost_and_drift_and_warns_about_failures_and_damping(
         "beam".to_owned(),
         "Rayleigh alpha = 0.1 1/s, beta = 0 s".to_owned(),
     );
-    let f = compute_findings(StudyKind::Trajectory, &runs, &[], &damped);
+    let f = compute_findings("trajectory", &runs, &[], &damped).unwrap();
     assert_eq!(f.rankings.len(), 2);
     let cost = &f.rankings[0];
     assert!(cost.metric.starts_with("cost per simulated second"));
@@ -190,7 +189,7 @@ fn a_work_precision_study_ranks_error_at_equal_cost_and_flags_an_order_above_the
         ],
     );
     let params = vec!["run.dt".to_owned()];
-    let f = compute_findings(StudyKind::WorkPrecision, &runs, &params, &BTreeMap::new());
+    let f = compute_findings("work-precision", &runs, &params, &BTreeMap::new()).unwrap();
     let eq = f
         .rankings
         .iter()

@@ -125,7 +125,7 @@ fn unknown_key() {
         "study = \"trajectory\"",
         "study = \"trajectory\"\nhorizon = 3",
     );
-    assert_rejected(&s, &["study.toml", "line 3", "unknown field `horizon`"]);
+    assert_rejected(&s, &["study.toml:3", "unknown field `horizon`", "quick"]);
 }
 
 #[test]
@@ -137,7 +137,15 @@ fn wrong_type() {
 #[test]
 fn unknown_study_kind() {
     let s = GOOD.replace("\"trajectory\"", "\"trajectories\"");
-    assert_rejected(&s, &["study.toml", "line 2", "trajectory"]);
+    assert_rejected(
+        &s,
+        &[
+            "study.toml:2",
+            "trajectories",
+            "did you mean `trajectory`?",
+            "sweep",
+        ],
+    );
 }
 
 #[test]

@@ -8,14 +8,14 @@
 //! (load, runner, shared work, merge, report, plots) see kinds only through this trait.
 
 use super::charts::{Emit, SceneRows};
-use super::config::{StudyFile, WorkPrecisionSettings};
+use super::config::StudyFile;
 use super::context::Context;
 use super::error::StudyError;
 use super::findings::Ranking;
 use super::grid::Axis;
 use super::measured::Measured;
 use super::pictures::PictureRows;
-use super::reference::Reference;
+use super::reference::{Reference, ScoringSettings};
 use super::spec::{RunSpec, Study};
 use super::table::Table;
 use crate::parallel::Parallelism;
@@ -51,9 +51,25 @@ pub(super) trait Kind: Sync {
         None
     }
 
+    /// The names its settings table may have at the top level of a study file, the first the
+    /// usual one (none: the kind has no table).
+    fn table_names(&self) -> &'static [&'static str] {
+        &[]
+    }
+
+    /// Its settings table parsed out of the study file's `text` (the rest of the file is
+    /// ignored here), with defaults filled in, as JSON; null when the file has none. Errors
+    /// name the line.
+    fn parse_table(&self, _text: &str) -> Result<serde_json::Value, toml::de::Error> {
+        Ok(serde_json::Value::Null)
+    }
+
     /// The kind's settings table as hashed into every run's hash (null when it has none).
-    fn settings_json(&self, _: &StudyFile) -> serde_json::Value {
-        serde_json::Value::Null
+    fn settings_json(&self, file: &StudyFile) -> serde_json::Value {
+        file.tables
+            .get(self.name())
+            .cloned()
+            .unwrap_or(serde_json::Value::Null)
     }
 
     /// What `--quick` does to the kind's runs, for the report's quick-mode notice.
@@ -109,13 +125,13 @@ pub(super) trait Kind: Sync {
     }
 
     /// The settings of the kind's reference solutions, if the study computes any.
-    fn reference_settings(&self, _: &StudyFile) -> Option<WorkPrecisionSettings> {
+    fn reference_settings(&self, _: &StudyFile) -> Option<ScoringSettings> {
         None
     }
 
     /// The reference step for the physics of a run (asked only when
     /// [`Kind::reference_settings`] gives settings).
-    fn reference_dt(&self, _: &Study, w: &WorkPrecisionSettings, _: &RunSpec) -> f64 {
+    fn reference_dt(&self, _: &Study, w: &ScoringSettings, _: &RunSpec) -> f64 {
         w.horizon / 4000.0
     }
 

@@ -1,7 +1,6 @@
 //! The study kinds: one line each. A new kind is its own file implementing
 //! [`Kind`](super::kind::Kind) plus one line here; `tests/study_kinds.rs` runs every kind listed.
 
-use super::config::StudyKind;
 use super::kind::Kind;
 use super::{stability, trajectory, work_precision};
 
@@ -12,16 +11,13 @@ pub(super) static KINDS: [&dyn Kind; 3] = [
     &stability::Stability,
 ];
 
-/// The kind that measures the runs of a study of `kind` (a sweep's runs are measured by its
-/// inner kind, which the caller passes; a sweep itself is measured as a trajectory).
-pub(super) fn of(kind: StudyKind) -> &'static dyn Kind {
-    let name = match kind {
-        StudyKind::Sweep => StudyKind::Trajectory.name(),
-        other => other.name(),
-    };
-    KINDS
-        .iter()
-        .copied()
-        .find(|k| k.name() == name)
-        .expect("every study kind but sweep is registered (tests/study_kinds.rs)")
+/// The registered kind named `name`, if there is one.
+pub(super) fn named(name: &str) -> Option<&'static dyn Kind> {
+    KINDS.iter().copied().find(|k| k.name() == name)
+}
+
+/// The registered kind named `name`: a study's kind, resolved when it was loaded (or, for a
+/// results folder, checked when its meta.json was read).
+pub(super) fn of(name: &str) -> &'static dyn Kind {
+    named(name).expect("a study's kind is checked against the registry when it is read")
 }

@@ -1,7 +1,7 @@
 //! Loading a study: parse the file, resolve its scenes, expand the grid into runs and check
 //! every run's scene before anything is run or written.
 
-use super::config::{METHOD_KEY, SOLVER_KEY, StudyFile, StudyKind, line_of};
+use super::config::{METHOD_KEY, SOLVER_KEY, STUDY_KEYS, SWEEP, StudyFile, line_of};
 use super::context::Context;
 use super::error::StudyError;
 use super::grid::{Axis, grid_axes, method_entries, product};
@@ -36,13 +36,22 @@ pub fn load(path: &Path, quick: bool) -> Result<Study, StudyError> {
         path: path.to_owned(),
         error,
     })?;
-    let file: StudyFile = toml::from_str(&text).map_err(|e| StudyError::Parse {
+    let parse_error = |e: toml::de::Error| StudyError::Parse {
         path: path.to_owned(),
         message: crate::quote::clip_source(e.to_string().trim_end()),
-    })?;
+    };
+    let mut file: StudyFile = toml::from_str(&text).map_err(parse_error)?;
     let ctx = Context { path, text: &text };
+    check_keys(&text, &ctx)?;
+    // Each kind with a table parses its own (whatever the study's kind: meta.json records
+    // every table as resolved).
+    for k in super::kinds::KINDS {
+        if !k.table_names().is_empty() {
+            let table = k.parse_table(&text).map_err(parse_error)?;
+            file.tables.insert(k.name(), table);
+        }
+    }
     let kind = check_settings(&file, &ctx)?;
-    let mut file = file;
     let measured_by = super::kinds::of(kind);
     measured_by.check_quick(&file, &ctx)?;
     if quick {
@@ -130,7 +139,7 @@ pub fn load(path: &Path, quick: bool) -> Result<Study, StudyError> {
                 let (method, linear_solver, loaded) = run;
                 let hash = run_hash(
                     &loaded.config,
-                    kind.name(),
+                    kind,
                     measured_by.settings_json(&file),
                     quick.then_some(&file.quick),
                 );
@@ -270,7 +279,7 @@ fn resolve_run(
     ctx: &Context,
     file: &StudyFile,
     quick: bool,
-    kind: StudyKind,
+    kind: &'static str,
     source: &SceneSource,
     combo: &[(String, Value)],
     axes: &[Axis],
@@ -391,63 +400,115 @@ fn check_scenes_build(
     Ok(())
 }
 
-/// The measured kind, after checking the kind's settings are present and sane.
-fn check_settings(file: &StudyFile, ctx: &Context) -> Result<StudyKind, StudyError> {
+/// Every top-level key of the study file is one of [`STUDY_KEYS`] or a registered kind's
+/// table (serde does not refuse the others, since the kinds' tables are not `StudyFile`'s).
+fn check_keys(text: &str, ctx: &Context) -> Result<(), StudyError> {
+    let top: toml::Table = toml::from_str(text).map_err(|e| StudyError::Parse {
+        path: ctx.path.to_owned(),
+        message: crate::quote::clip_source(e.to_string().trim_end()),
+    })?;
+    let mut valid: Vec<&str> = STUDY_KEYS.to_vec();
+    for k in super::kinds::KINDS {
+        valid.extend(k.table_names());
+    }
+    if let Some(unknown) = top.keys().find(|k| !valid.contains(&k.as_str())) {
+        let line = text
+            .lines()
+            .position(|l| {
+                let l = l.trim_start();
+                let name = l.trim_start_matches('[').trim_start_matches('"');
+                name.starts_with(unknown.as_str())
+                    && name[unknown.len()..]
+                        .trim_start_matches('"')
+                        .trim_start()
+                        .starts_with(['=', ']', '.'])
+            })
+            .map_or(1, |i| i + 1);
+        let hint = crate::names::closest(unknown, &valid)
+            .map_or(String::new(), |c| format!("; did you mean `{c}`?"));
+        return Err(StudyError::Invalid {
+            path: ctx.path.to_owned(),
+            line,
+            key: crate::quote::clip_message(unknown),
+            message: format!(
+                "unknown field `{}`{hint} (expected one of: {})",
+                crate::quote::clip_message(unknown),
+                valid.join(", ")
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// The registered kind that measures each run (a sweep's inner kind), after checking the
+/// study's kind names and that the kind's settings are present and sane.
+fn check_settings(file: &StudyFile, ctx: &Context) -> Result<&'static str, StudyError> {
     super::settings::check_name(&file.name).map_err(|m| ctx.invalid(0, "name", m))?;
+    let names: Vec<&str> = super::kinds::KINDS.iter().map(|k| k.name()).collect();
+    let unknown = |key: &str, line: usize, name: &str, valid: &[&str]| StudyError::Invalid {
+        path: ctx.path.to_owned(),
+        line,
+        key: key.to_owned(),
+        message: crate::names::unknown_name_message("study kind", name, valid),
+    };
+    let study = file.study.get_ref().as_str();
     // The sweep's own table (its kind, parameter and metrics) is about the sweep, not a kind,
     // so it is checked here; the measured kind then checks its own table.
-    let kind = match (&file.study, &file.sweep) {
-        (StudyKind::Sweep, Some(sweep)) => {
-            if sweep.kind == StudyKind::Sweep {
-                return Err(ctx.invalid(
-                    0,
-                    "sweep.kind",
-                    "must be trajectory, work-precision or stability",
-                ));
-            }
-            if !file.grid.contains_key(&sweep.parameter)
-                && !file
-                    .methods
-                    .iter()
-                    .any(|m| m.get_ref().contains_key(&sweep.parameter))
-            {
-                return Err(StudyError::Invalid {
-                    path: ctx.path.to_owned(),
-                    line: ctx.line_of_key("parameter"),
-                    key: "sweep.parameter".into(),
-                    message: format!(
-                        "`{}` is not a key of [grid]; the swept parameter must be one",
-                        sweep.parameter
-                    ),
-                });
-            }
-            let columns = super::kinds::of(sweep.kind).columns();
-            if let Some(unknown) = sweep
-                .metrics
-                .iter()
-                .find(|m| !columns.contains(&m.as_str()))
-            {
-                return Err(StudyError::Invalid {
-                    path: ctx.path.to_owned(),
-                    line: ctx.line_of_key("metrics"),
-                    key: "sweep.metrics".into(),
-                    message: crate::names::unknown_name_message(
-                        &format!("{} metric", sweep.kind.name()),
-                        unknown,
-                        columns,
-                    ),
-                });
-            }
-            sweep.kind
-        }
-        (StudyKind::Sweep, None) => {
+    let kind = if study == SWEEP {
+        let Some(sweep) = &file.sweep else {
             return Err(ctx.invalid(
                 0,
                 "sweep",
                 "a sweep study needs a [sweep] table with `kind` and `parameter`",
             ));
+        };
+        let kind = super::kinds::named(&sweep.kind)
+            .ok_or_else(|| unknown("sweep.kind", ctx.line_of_key("kind"), &sweep.kind, &names))?;
+        if !file.grid.contains_key(&sweep.parameter)
+            && !file
+                .methods
+                .iter()
+                .any(|m| m.get_ref().contains_key(&sweep.parameter))
+        {
+            return Err(StudyError::Invalid {
+                path: ctx.path.to_owned(),
+                line: ctx.line_of_key("parameter"),
+                key: "sweep.parameter".into(),
+                message: format!(
+                    "`{}` is not a key of [grid]; the swept parameter must be one",
+                    sweep.parameter
+                ),
+            });
         }
-        (kind, _) => *kind,
+        let columns = kind.columns();
+        if let Some(metric) = sweep
+            .metrics
+            .iter()
+            .find(|m| !columns.contains(&m.as_str()))
+        {
+            return Err(StudyError::Invalid {
+                path: ctx.path.to_owned(),
+                line: ctx.line_of_key("metrics"),
+                key: "sweep.metrics".into(),
+                message: crate::names::unknown_name_message(
+                    &format!("{} metric", kind.name()),
+                    metric,
+                    columns,
+                ),
+            });
+        }
+        kind
+    } else {
+        super::kinds::named(study).ok_or_else(|| {
+            let mut valid = names.clone();
+            valid.push(SWEEP);
+            unknown(
+                "study",
+                line_of(ctx.text, file.study.span().start),
+                study,
+                &valid,
+            )
+        })?
     };
     let line = |key: &str| ctx.line_of_key(key);
     let bad = |key: &str, message: String| StudyError::Invalid {
@@ -456,7 +517,7 @@ fn check_settings(file: &StudyFile, ctx: &Context) -> Result<StudyKind, StudyErr
         key: key.to_owned(),
         message,
     };
-    super::kinds::of(kind).check(file, ctx, &bad)?;
+    kind.check(file, ctx, &bad)?;
     super::settings::check_quick(file, &bad)?;
-    Ok(kind)
+    Ok(kind.name())
 }

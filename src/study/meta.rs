@@ -1,7 +1,6 @@
 //! `meta.json`: the study, the machine and build, when it ran, and every run's resolved
 //! configuration.
 
-use super::config::StudyKind;
 use super::format::now_utc;
 use super::machine::Machine;
 use super::spec::Study;
@@ -32,9 +31,10 @@ pub struct Meta {
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct StudyMeta {
     pub name: String,
-    pub kind: StudyKind,
-    /// The study file's `study` (differs from `kind` for sweeps).
-    pub study: StudyKind,
+    /// The registered kind that measured the runs.
+    pub kind: String,
+    /// The study file's `study` (`sweep` for a sweep, else `kind`).
+    pub study: String,
     pub description: Option<String>,
     pub file: PathBuf,
     pub quick: bool,
@@ -71,8 +71,8 @@ impl Meta {
         Self {
             study: StudyMeta {
                 name: study.file.name.clone(),
-                kind: study.kind,
-                study: study.file.study,
+                kind: study.kind.to_owned(),
+                study: study.file.study.get_ref().clone(),
                 description: study.file.description.clone(),
                 file: study.path.clone(),
                 quick: study.quick,
@@ -89,16 +89,21 @@ impl Meta {
             finished: elapsed.map(|_| now_utc()),
             wall_seconds: elapsed.map(|d| d.as_secs_f64()),
             command: std::env::args().collect(),
-            config: serde_json::json!({
-                "study_file": study.text,
-                "jobs": jobs,
-                "only": only,
-                "stability": study.file.stability,
-                "work_precision": study.file.work_precision,
-                "sweep": study.file.sweep,
-                "quick": study.quick.then_some(&study.file.quick),
-                "runs": runs,
-            }),
+            config: {
+                let mut config = serde_json::json!({
+                    "study_file": study.text,
+                    "jobs": jobs,
+                    "only": only,
+                    "sweep": study.file.sweep,
+                    "quick": study.quick.then_some(&study.file.quick),
+                    "runs": runs,
+                });
+                // Every kind's settings table as resolved, under its name with `_` for `-`.
+                for (kind, table) in &study.file.tables {
+                    config[kind.replace('-', "_")] = table.clone();
+                }
+                config
+            },
             shards: Vec::new(),
             missing: Vec::new(),
         }

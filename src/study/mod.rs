@@ -39,7 +39,7 @@ pub mod table;
 pub mod trajectory;
 pub mod work_precision;
 
-pub use config::{StudyFile, StudyKind};
+pub use config::{SWEEP, StudyFile};
 pub use error::RunError;
 pub use error::{ResultsError, StudyError};
 pub use identity::{fnv1a, value_text};
@@ -92,6 +92,7 @@ pub fn redraw(dir: &std::path::Path) -> Result<Vec<plots::Plot>, RedrawError> {
         path: meta_path.clone(),
         message: e.to_string(),
     })?;
+    check_kind(&meta, &meta_path)?;
     let runs_path = dir.join("runs.csv");
     let runs = table::Table::read(&runs_path)?.ok_or_else(|| ResultsError::Io {
         path: runs_path.clone(),
@@ -121,14 +122,27 @@ pub fn redraw_pictures(
         path: meta_path.clone(),
         message: e.to_string(),
     })?;
+    check_kind(&meta, &meta_path)?;
     let runs_path = dir.join("runs.csv");
     let runs = table::Table::read(&runs_path)?.ok_or_else(|| ResultsError::Io {
         path: runs_path.clone(),
         error: std::io::Error::from(std::io::ErrorKind::NotFound),
     })?;
-    let which = kinds::of(meta.study.kind).picture_rows();
+    let which = kinds::of(&meta.study.kind).picture_rows();
     pictures::draw(dir, &runs, &meta.study.parameters, which, coloring)
         .map_err(|e| RedrawError::Plot(crate::plot::PlotError::Draw(e.to_string())))
+}
+
+/// The kind a results folder's `meta.json` names is registered in this build.
+fn check_kind(meta: &Meta, path: &std::path::Path) -> Result<(), ResultsError> {
+    if kinds::named(&meta.study.kind).is_some() {
+        return Ok(());
+    }
+    let names: Vec<&str> = kinds::KINDS.iter().map(|k| k.name()).collect();
+    Err(ResultsError::Malformed {
+        path: path.to_owned(),
+        message: crate::names::unknown_name_message("study kind", &meta.study.kind, &names),
+    })
 }
 
 /// Count columns newer than some studies' tables: a table without them was written by an
@@ -154,7 +168,7 @@ fn check_runs_table(
         path: path.to_owned(),
         message,
     };
-    let kind_columns = kinds::of(study.kind).columns();
+    let kind_columns = kinds::of(&study.kind).columns();
     let required = [
         "run_id",
         "scene",
@@ -172,7 +186,7 @@ fn check_runs_table(
         return Err(malformed(format!(
             "line 1: the header has no `{missing}` column (a {} study's runs.csv has it); the \
              file is cut short or not softbench's: no plot was changed",
-            study.kind.name()
+            study.kind
         )));
     }
     if runs.rows.is_empty() {

@@ -4,7 +4,7 @@
 
 pub use super::charts::Plot;
 use super::charts::{SceneRows, label, scenes, slug, smallest_dt_rows};
-use super::config::StudyKind;
+use super::config::SWEEP;
 use super::kind::Kind;
 use super::meta::StudyMeta;
 use super::table::Table;
@@ -30,8 +30,8 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
     };
     // A sweep draws its metrics against the swept parameter whatever its kind: this is about
     // the sweep itself, not a kind, so it stays here.
-    let kind = super::kinds::of(study.kind);
-    if study.study == StudyKind::Sweep {
+    let kind = super::kinds::of(&study.kind);
+    if study.study == SWEEP {
         for metric in sweep_metrics(study) {
             let line = kind.sweep_line(&metric);
             for chart in sweep_charts(study, runs, &metric, line.reference) {
@@ -451,7 +451,7 @@ pub fn sweep_metrics(study: &StudyMeta) -> Vec<String> {
     if !study.sweep_metrics.is_empty() {
         return study.sweep_metrics.clone();
     }
-    super::kinds::of(study.kind)
+    super::kinds::of(&study.kind)
         .sweep_metrics()
         .iter()
         .map(|m| (*m).to_owned())

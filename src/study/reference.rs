@@ -6,7 +6,6 @@
 //! the runs' own step, the second at a 100× tighter Newton tolerance); their difference is
 //! the reference's own accuracy, and errors below `floor_factor` times it are not scored.
 
-use super::config::WorkPrecisionSettings;
 use super::measured::{build, outcome_of, run_observed};
 use super::shared_store::{bits, from_bits};
 use super::spec::RunSpec;
@@ -15,6 +14,70 @@ use crate::model::Model;
 use crate::parallel::Parallelism;
 use crate::run::{Energies, Observer, RunSummary, Sample};
 use crate::scene::{RunConfig, Scene};
+
+/// Where runs are scored against a reference and how it is computed: a work-precision study's
+/// settings table, and what a stability study's errors at its largest stable steps use.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ScoringSettings {
+    /// Simulated time of every run (s); must be a whole number of steps of every dt.
+    pub horizon: f64,
+    /// Newton must converge within its iteration cap, or the step fails as `solver-failed`.
+    /// Default true.
+    #[serde(default = "yes")]
+    pub require_newton_convergence: bool,
+    /// Errors are measured at `horizon k / samples`, k = 1..samples. Default 4.
+    #[serde(default = "default_samples")]
+    pub samples: usize,
+    #[serde(default)]
+    pub reference: ReferenceSettings,
+}
+
+fn default_samples() -> usize {
+    4
+}
+
+/// How the reference solution is computed.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ReferenceSettings {
+    /// The method. Default: RK4 when it is stable at the reference step (below 2.5/omega_max),
+    /// else implicit midpoint (second order, stable at any step); with `same_dt`, backward
+    /// Euler.
+    pub method: Option<Method>,
+    /// Work-precision only: the reference runs at each run's own dt, so a run's error is its
+    /// distance from the converged step it approximates (the iteration error of VBD,
+    /// projective dynamics, XPBD or a truncated Newton solve), not from the exact motion.
+    /// Its own accuracy is then its difference from a second reference at a Newton
+    /// tolerance 100× tighter. Default false.
+    pub same_dt: bool,
+    /// The reference step (s). Default: the smallest dt of the grid divided by `dt_factor`.
+    pub dt: Option<f64>,
+    /// Default 8.
+    pub dt_factor: f64,
+    /// Newton tolerance of an implicit reference. Default 1e-10.
+    pub newton_tolerance: f64,
+    /// Errors below this factor times the difference between the reference and a second one
+    /// at half its step are not scored. Default 2.
+    pub floor_factor: f64,
+}
+
+impl Default for ReferenceSettings {
+    fn default() -> Self {
+        Self {
+            method: None,
+            same_dt: false,
+            dt: None,
+            dt_factor: 8.0,
+            newton_tolerance: 1e-10,
+            floor_factor: 2.0,
+        }
+    }
+}
+
+fn yes() -> bool {
+    true
+}
 
 #[derive(Clone, Debug)]
 pub(super) struct Snapshots {
@@ -180,7 +243,7 @@ pub(super) fn errors(run: &Snapshots, reference: &Snapshots, rest: &[f64]) -> Op
 }
 
 /// Steps between sample times at `dt`.
-pub(super) fn stride(settings: &WorkPrecisionSettings, dt: f64) -> usize {
+pub(super) fn stride(settings: &ScoringSettings, dt: f64) -> usize {
     ((settings.horizon / settings.samples as f64 / dt).round() as usize).max(1)
 }
 
@@ -189,7 +252,7 @@ pub(super) fn stride(settings: &WorkPrecisionSettings, dt: f64) -> usize {
 /// tolerance (and always with the Cholesky solver, so the linear solves are exact).
 pub fn reference(
     template: &RunSpec,
-    settings: &WorkPrecisionSettings,
+    settings: &ScoringSettings,
     method: Method,
     dt: f64,
     parallelism: Parallelism,
@@ -255,7 +318,7 @@ pub fn reference(
 
 /// Which reference a run is scored against: one per physics, or with `same_dt` one per
 /// physics and time step.
-pub(super) fn reference_key(w: &WorkPrecisionSettings, spec: &RunSpec) -> u64 {
+pub(super) fn reference_key(w: &ScoringSettings, spec: &RunSpec) -> u64 {
     if !w.reference.same_dt {
         return spec.physics;
     }

@@ -2,7 +2,7 @@
 //! did not end well.
 
 use super::charts::{Plot, SceneRows, scenes, slug};
-use super::config::StudyKind;
+use super::config::SWEEP;
 use super::findings::Findings;
 use super::format::short;
 use super::kind::Kind;
@@ -51,14 +51,14 @@ fn render(
     } = references;
     let s = &meta.study;
     let mut out = String::new();
-    let kind = if s.study == StudyKind::Sweep {
+    let kind = if s.study == SWEEP {
         format!(
             "sweep of {} over `{}`",
-            s.kind.name(),
+            s.kind,
             s.sweep_parameter.as_deref().unwrap_or("?")
         )
     } else {
-        s.kind.name().to_owned()
+        s.kind.clone()
     };
     let _ = writeln!(out, "# {}: {kind} study\n", s.name);
     if let Some(d) = &s.description {
@@ -68,13 +68,13 @@ fn render(
         let _ = writeln!(
             out,
             "**Quick mode** (`--quick`): {}; these numbers are a smoke test, not results.\n",
-            super::kinds::of(s.kind).quick_notice()
+            super::kinds::of(&s.kind).quick_notice()
         );
     }
     let damped = damped_scenes(study);
     super::findings::write(
         &mut out,
-        &compute_findings(s.kind, runs, &s.parameters, &damped),
+        &compute_findings(&s.kind, runs, &s.parameters, &damped).unwrap_or_default(),
     );
     let m = &meta.machine;
     let _ = writeln!(
@@ -94,7 +94,7 @@ fn render(
         meta.wall_seconds.map_or("-".into(), |w| format!("{w:.1}")),
     );
     shards_paragraph(&mut out, meta, study.runs.len());
-    super::kinds::of(s.kind).report_settings(&mut out, &study.file);
+    super::kinds::of(&s.kind).report_settings(&mut out, &study.file);
     if !references.is_empty() || !failed_references.is_empty() {
         let _ = writeln!(out, "References:\n");
         for (scene, message) in failed_references.values() {
@@ -130,13 +130,13 @@ fn render(
         }
         let _ = writeln!(out);
     }
-    super::kinds::of(s.kind).report_findings(&mut out, runs);
+    super::kinds::of(&s.kind).report_findings(&mut out, runs);
 
     let _ = writeln!(out, "## Runs\n");
     let mut columns: Vec<&str> = vec!["scene", "method", "linear_solver"];
     columns.extend(s.parameters.iter().map(String::as_str));
     columns.extend(
-        super::kinds::of(s.kind)
+        super::kinds::of(&s.kind)
             .summary_columns()
             .iter()
             .copied()
@@ -160,7 +160,7 @@ fn render(
     let _ = writeln!(
         out,
         "\n{}\n",
-        units_note(super::kinds::of(s.kind), runs, &columns)
+        units_note(super::kinds::of(&s.kind), runs, &columns)
     );
 
     let _ = writeln!(out, "## Plots\n");
@@ -174,7 +174,7 @@ fn render(
 
     let _ = writeln!(out, "## Runs that did not finish cleanly\n");
     let mut any = false;
-    let kind = super::kinds::of(s.kind);
+    let kind = super::kinds::of(&s.kind);
     for row in &runs.rows {
         let verdict = kind.verdict(runs, row);
         let message = runs.get(row, "message").unwrap_or_default();
@@ -332,7 +332,8 @@ pub fn refresh_findings(dir: &Path, meta: &Meta, runs: &Table) -> std::io::Resul
     let mut findings = String::new();
     super::findings::write(
         &mut findings,
-        &compute_findings(meta.study.kind, runs, &meta.study.parameters, &damped),
+        &compute_findings(&meta.study.kind, runs, &meta.study.parameters, &damped)
+            .unwrap_or_default(),
     );
     let updated = replace_findings(&text, &findings);
     write_atomic(&path, |w| w.write_all(updated.as_bytes()))?;
@@ -360,16 +361,17 @@ fn replace_findings(report: &str, findings: &str) -> String {
     }
 }
 
-/// The findings of `runs`, a table of a study of `kind` (a sweep's inner kind): per scene, the
-/// kind's rankings; then the warnings. `damped` names the scenes with damping (and how), whose
-/// energy loss is the damping's as much as the method's.
+/// The findings of `runs`, a table of a study whose runs a registered `kind` measured (a
+/// sweep's inner kind): per scene, the kind's rankings; then the warnings. `damped` names the
+/// scenes with damping (and how), whose energy loss is the damping's as much as the method's.
+/// `None` when no kind of that name is registered.
 pub fn compute_findings(
-    kind: StudyKind,
+    kind: &str,
     runs: &Table,
     params: &[String],
     damped: &BTreeMap<String, String>,
-) -> Findings {
-    let kind = super::kinds::of(kind);
+) -> Option<Findings> {
+    let kind = super::kinds::named(kind)?;
     let mut f = Findings::default();
     for scene in scenes(runs) {
         let rows: Vec<&Vec<String>> = runs
@@ -428,7 +430,7 @@ pub fn compute_findings(
                 .push(format!("`{id}`: did not reach its horizon: {outcome}{at}."));
         }
     }
-    f
+    Some(f)
 }
 
 #[cfg(test)]

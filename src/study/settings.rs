@@ -38,8 +38,9 @@ pub fn check_name(name: &str) -> Result<(), String> {
 
 /// The `[<table>.reference]` settings' ranges.
 pub(super) fn check_reference(
-    r: &super::config::ReferenceSettings,
+    r: &super::reference::ReferenceSettings,
     table: &str,
+    allows_same_dt: bool,
     bad: &dyn Fn(&str, String) -> StudyError,
 ) -> Result<(), StudyError> {
     if !(r.dt_factor.is_finite() && r.dt_factor >= 1.0) {
@@ -54,7 +55,7 @@ pub(super) fn check_reference(
             "must be > 0 s".into(),
         ));
     }
-    if r.same_dt && table != "work-precision" {
+    if r.same_dt && !allows_same_dt {
         return Err(bad(
             &format!("{table}.reference.same_dt"),
             "only a work-precision study compares runs with a reference at their own dt".into(),

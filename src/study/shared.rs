@@ -8,11 +8,10 @@
 //! never from the first run that happens to be pending, so it is the same for a fresh
 //! study, a resumed one and every shard.
 
-use super::config::WorkPrecisionSettings;
 use super::error::RunError;
 use super::kind::RunInputs;
 use super::progress::Progress;
-use super::reference::{self, Reference, StoredReference, reference_key};
+use super::reference::{self, Reference, ScoringSettings, StoredReference, reference_key};
 use super::shared_store::{SharedStore, bits, from_bits};
 use super::spec::{RunSpec, Study};
 use crate::integrate::Method;
@@ -45,7 +44,7 @@ pub(super) struct SharedWork {
     /// References that failed (stability studies go on without them): scene and message.
     pub failed_references: BTreeMap<u64, (String, String)>,
     /// The reference settings the keys were made with.
-    settings: Option<WorkPrecisionSettings>,
+    settings: Option<ScoringSettings>,
 }
 
 impl SharedWork {

@@ -1,6 +1,6 @@
 //! What loading a study gives: the [`Study`] and the [`RunSpec`] of every run of its grid.
 
-use super::config::{StudyFile, StudyKind};
+use super::config::StudyFile;
 use crate::integrate::Method;
 use crate::scene::LoadedScene;
 use crate::solve::LinearSolverKind;
@@ -14,8 +14,8 @@ pub struct Study {
     pub path: PathBuf,
     /// The study as written, with `--quick` applied.
     pub file: StudyFile,
-    /// What each run measures (a sweep's inner kind).
-    pub kind: StudyKind,
+    /// The registered kind that measures each run (a sweep's inner kind).
+    pub kind: &'static str,
     /// That kind's measured columns of `runs.csv` (after the identity and parameter columns).
     pub kind_columns: &'static [&'static str],
     /// Whether `--quick` shortened it.

@@ -17,7 +17,7 @@
 //! first unstable trial ended.
 
 use super::charts::{Emit, SceneRows, label};
-use super::config::{StabilitySettings, StudyFile, WorkPrecisionSettings};
+use super::config::StudyFile;
 use super::context::Context;
 use super::error::StudyError;
 use super::findings::{self, Better, Ranking};
@@ -27,6 +27,7 @@ use super::kind::{Kind, RunInputs, SweepLine, Verdict, number};
 use super::measured::{
     Measured, build, cap_cells, outcome_of, picture_surface, run_observed, summary_cells,
 };
+use super::reference::{ReferenceSettings, ScoringSettings};
 use super::settings::MIN_RELATIVE_PRECISION;
 use super::spec::{RunSpec, Study};
 use super::table::Table;
@@ -91,9 +92,24 @@ pub const COLUMNS: &[&str] = &[
 /// A stability study: each run's largest stable time step, by bisection.
 pub(super) struct Stability;
 
+/// The kind's name in study files, the name of its table and the key of its resolved table.
+const NAME: &str = "stability";
+
+/// The `[stability]` table of a study file (its other keys are the study's).
+#[derive(serde::Deserialize)]
+struct FileTable {
+    #[serde(default)]
+    stability: Option<StabilitySettings>,
+}
+
+/// The study's `[stability]` table as resolved at load.
+fn settings(file: &StudyFile) -> Option<StabilitySettings> {
+    file.settings(NAME)
+}
+
 impl Kind for Stability {
     fn name(&self) -> &'static str {
-        "stability"
+        NAME
     }
 
     fn description(&self) -> &'static str {
@@ -141,8 +157,13 @@ impl Kind for Stability {
         ))
     }
 
-    fn settings_json(&self, file: &StudyFile) -> serde_json::Value {
-        serde_json::to_value(&file.stability).unwrap_or_default()
+    fn table_names(&self) -> &'static [&'static str] {
+        &[NAME]
+    }
+
+    fn parse_table(&self, text: &str) -> Result<serde_json::Value, toml::de::Error> {
+        let file: FileTable = toml::from_str(text)?;
+        Ok(serde_json::to_value(&file.stability).unwrap_or_default())
     }
 
     fn quick_notice(&self) -> &'static str {
@@ -177,11 +198,7 @@ impl Kind for Stability {
     ) -> Result<(), StudyError> {
         // It judges methods, so by default an unconverged Newton solve fails the step instead
         // of being accepted.
-        if file
-            .stability
-            .as_ref()
-            .is_some_and(|s| s.require_newton_convergence)
-        {
+        if settings(file).is_some_and(|s| s.require_newton_convergence) {
             config.integrator.newton.require_convergence = true;
         }
         Ok(())
@@ -190,7 +207,7 @@ impl Kind for Stability {
     /// About a dozen trials (widening, bisection, probes), each covering the horizon at a
     /// step near the first one tried.
     fn estimated_steps(&self, file: &StudyFile, _: &SceneConfig) -> f64 {
-        file.stability.as_ref().map_or(1.0, |s| {
+        settings(file).map_or(1.0, |s| {
             12.0 * (s.horizon / s.dt_max).clamp(s.min_steps as f64, s.max_steps as f64)
         })
     }
@@ -200,11 +217,11 @@ impl Kind for Stability {
         true
     }
 
-    fn reference_settings(&self, file: &StudyFile) -> Option<WorkPrecisionSettings> {
+    fn reference_settings(&self, file: &StudyFile) -> Option<ScoringSettings> {
         reference_settings(file)
     }
 
-    fn reference_dt(&self, study: &Study, w: &WorkPrecisionSettings, spec: &RunSpec) -> f64 {
+    fn reference_dt(&self, study: &Study, w: &ScoringSettings, spec: &RunSpec) -> f64 {
         reference_dt(study, w, spec)
     }
 
@@ -221,8 +238,8 @@ impl Kind for Stability {
         inputs: &RunInputs,
         parallelism: Parallelism,
     ) -> Result<Measured, String> {
-        let settings = study.file.stability.as_ref().expect("checked at load");
-        measure(spec, settings, inputs, parallelism)
+        let settings = settings(&study.file).ok_or("no [stability] table")?;
+        measure(spec, &settings, inputs, parallelism)
     }
 
     /// The `stability` column: clean when it answers the question (a limit, or stable up to
@@ -358,7 +375,7 @@ fn check(
     ctx: &Context,
     bad: &dyn Fn(&str, String) -> StudyError,
 ) -> Result<(), StudyError> {
-    let Some(s) = &file.stability else {
+    let Some(s) = &settings(file) else {
         return Err(ctx.invalid(
             0,
             "stability",
@@ -432,7 +449,7 @@ fn check(
             ),
         ));
     }
-    super::settings::check_reference(&s.reference, "stability", &bad)?;
+    super::settings::check_reference(&s.reference, NAME, false, &bad)?;
     Ok(())
 }
 
@@ -454,7 +471,7 @@ fn check_quick(file: &StudyFile, ctx: &Context) -> Result<(), StudyError> {
 
 /// `[quick]` applied to the `[stability]` table.
 fn quick_table(file: &mut StudyFile, ctx: &Context) -> Result<(), StudyError> {
-    if let Some(s) = file.stability.as_mut() {
+    if let Some(mut s) = settings(file) {
         // Same horizon and criterion, fewer and larger steps judged: every quick trial is the
         // trial the full study would run at that step.
         let q = &file.quick;
@@ -472,14 +489,15 @@ fn quick_table(file: &mut StudyFile, ctx: &Context) -> Result<(), StudyError> {
                 ),
             ));
         }
+        file.set_settings(NAME, &s);
     }
     Ok(())
 }
 
 /// Its reference solutions: its error samples over its horizon, if it has any.
-fn reference_settings(file: &StudyFile) -> Option<WorkPrecisionSettings> {
-    let s = file.stability.as_ref()?;
-    (s.error_samples > 0).then(|| WorkPrecisionSettings {
+fn reference_settings(file: &StudyFile) -> Option<ScoringSettings> {
+    let s = settings(file)?;
+    (s.error_samples > 0).then(|| ScoringSettings {
         horizon: s.horizon,
         samples: s.error_samples,
         require_newton_convergence: true,
@@ -489,7 +507,7 @@ fn reference_settings(file: &StudyFile) -> Option<WorkPrecisionSettings> {
 
 /// The reference step: as set, or `horizon / 4000` (in quick mode never finer than
 /// `horizon / 400`); rounded down to divide the sample interval.
-fn reference_dt(study: &Study, w: &WorkPrecisionSettings, _: &RunSpec) -> f64 {
+fn reference_dt(study: &Study, w: &ScoringSettings, _: &RunSpec) -> f64 {
     let target = w.reference.dt.unwrap_or(w.horizon / 4000.0);
     // Quick mode: a reference no finer than horizon / 400 (it is a smoke test).
     let target = if study.quick {
@@ -504,7 +522,7 @@ fn reference_dt(study: &Study, w: &WorkPrecisionSettings, _: &RunSpec) -> f64 {
 /// The report's paragraph on the search's settings, and every cap and threshold that can
 /// decide a result.
 fn report_settings(out: &mut String, file: &StudyFile) {
-    if let Some(st) = &file.stability {
+    if let Some(st) = &settings(file) {
         let _ = writeln!(
             out,
             "Stability search: first trial at {} s, bisection down to a presumed-stable {} s or \
@@ -529,6 +547,106 @@ fn report_settings(out: &mut String, file: &StudyFile) {
                  (`newton_unconverged_steps`)"
             }
         );
+    }
+}
+
+/// `[stability]`: the search for the largest stable time step.
+///
+/// A trial at `dt` runs the scene over `horizon` and counts as stable only if it covers the
+/// whole horizon, in at least `min_steps` and at most `max_steps` steps, with the energy
+/// balance holding and every step taken. So the steps that can be judged lie in
+/// `[max(dt_floor, horizon / max_steps), dt_ceiling]`, and the answer never depends on a cap
+/// that stopped a trial early.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StabilitySettings {
+    /// Presumed-stable lower end of the first bracket (s); tried only once the bracket closes
+    /// in on it.
+    pub dt_min: f64,
+    /// The first step tried (s). If it is stable the bracket widens upward (x4 at a time) to
+    /// `dt_ceiling`, so methods stable there are still ranked.
+    pub dt_max: f64,
+    /// Simulated time every trial must cover (s).
+    pub horizon: f64,
+    /// A trial is unstable when the energy balance's excess (energy gained beyond the work
+    /// done on the body) exceeds this many times the energy budget (see
+    /// `run::balance`). Default 1.
+    #[serde(default = "default_energy_factor")]
+    pub energy_factor: f64,
+    /// Bisection stops when `hi/lo - 1` is below this. Default 0.01.
+    #[serde(default = "default_relative_precision")]
+    pub relative_precision: f64,
+    /// If `dt_min` is unstable the bracket widens downward by 10x steps to this floor (or to
+    /// `horizon / max_steps`, whichever is larger). Default `dt_min / 1000`.
+    #[serde(default)]
+    pub dt_floor: Option<f64>,
+    /// The largest step tried (s). Default and upper bound: `horizon / min_steps`.
+    #[serde(default)]
+    pub dt_ceiling: Option<f64>,
+    /// Steps per trial at most; steps below `horizon / max_steps` are not judged. Default
+    /// 20,000.
+    #[serde(default = "default_max_steps")]
+    pub max_steps: usize,
+    /// Steps per trial at least, so a trial of one huge step never counts as stable.
+    /// Default 20.
+    #[serde(default = "default_min_steps")]
+    pub min_steps: usize,
+    /// After a limit is found, this many smaller steps (dt/2, dt/4, ...) are tried; a failure
+    /// there flags the result as non-monotone. Default 2.
+    #[serde(default = "default_probes")]
+    pub probes: usize,
+    /// Newton must converge within its iteration cap, or the step fails as `solver-failed`
+    /// (otherwise unconverged steps are accepted and counted). Default true.
+    #[serde(default = "yes")]
+    pub require_newton_convergence: bool,
+    /// Sample times of the error against a converged reference at the largest stable step
+    /// (`error_at_stable_dt`); 0 turns the reference off. Default 10.
+    #[serde(default = "default_error_samples")]
+    pub error_samples: usize,
+    /// How that reference is computed (defaults as in work-precision studies, with a default
+    /// step of `horizon / 4000`; in quick mode never finer than `horizon / 400`).
+    #[serde(default)]
+    pub reference: ReferenceSettings,
+}
+
+fn default_energy_factor() -> f64 {
+    1.0
+}
+fn default_relative_precision() -> f64 {
+    0.01
+}
+fn default_max_steps() -> usize {
+    20_000
+}
+fn default_min_steps() -> usize {
+    20
+}
+fn default_probes() -> usize {
+    2
+}
+fn default_error_samples() -> usize {
+    10
+}
+fn yes() -> bool {
+    true
+}
+
+impl StabilitySettings {
+    /// The floor of the downward widening as set (see [`StabilitySettings::lowest_dt`]).
+    pub fn floor(&self) -> f64 {
+        self.dt_floor.unwrap_or(self.dt_min / 1000.0)
+    }
+
+    /// The smallest step a trial can judge: the floor, or the step at which `max_steps` steps
+    /// just cover the horizon.
+    pub fn lowest_dt(&self) -> f64 {
+        self.floor().max(self.horizon / self.max_steps as f64)
+    }
+
+    /// The largest step a trial can judge: `dt_ceiling`, at most `horizon / min_steps`.
+    pub fn highest_dt(&self) -> f64 {
+        let bound = self.horizon / self.min_steps.max(1) as f64;
+        self.dt_ceiling.map_or(bound, |c| c.min(bound))
     }
 }
 

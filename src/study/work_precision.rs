@@ -10,7 +10,7 @@
 //! accuracy, and errors below `floor_factor` times it are not scored.
 
 use super::charts::{ACCURACY_KNOBS, Emit, SceneRows, accuracy_rank, label};
-use super::config::{StudyFile, WorkPrecisionSettings};
+use super::config::StudyFile;
 use super::context::Context;
 use super::error::StudyError;
 use super::findings::{self, Better, ORDER_EXCESS, Ranking};
@@ -20,7 +20,7 @@ use super::identity::float;
 use super::kind::{Kind, RunInputs, number};
 use super::measured::{Measured, build, cap_cells, outcome_of, picture_surface, summary_cells};
 use super::pictures::PictureRows;
-use super::reference::{Reference, errors, sampled_run, stride};
+use super::reference::{Reference, ScoringSettings, errors, sampled_run, stride};
 use super::spec::{RunSpec, Study};
 use super::table::Table;
 use crate::integrate::Method;
@@ -74,9 +74,24 @@ pub const COLUMNS: &[&str] = &[
 /// A work-precision study: each run's error against a reference solution.
 pub(super) struct WorkPrecision;
 
+/// The kind's name in study files, and the key of its resolved table.
+const NAME: &str = "work-precision";
+
+/// The `[work-precision]` table of a study file (its other keys are the study's).
+#[derive(serde::Deserialize)]
+struct FileTable {
+    #[serde(default, rename = "work-precision", alias = "work_precision")]
+    table: Option<ScoringSettings>,
+}
+
+/// The study's `[work-precision]` table as resolved at load.
+fn settings(file: &StudyFile) -> Option<ScoringSettings> {
+    file.settings(NAME)
+}
+
 impl Kind for WorkPrecision {
     fn name(&self) -> &'static str {
-        "work-precision"
+        NAME
     }
 
     fn description(&self) -> &'static str {
@@ -116,8 +131,13 @@ impl Kind for WorkPrecision {
         number(m, "error").map(|e| format!(", error {e}"))
     }
 
-    fn settings_json(&self, file: &StudyFile) -> serde_json::Value {
-        serde_json::to_value(&file.work_precision).unwrap_or_default()
+    fn table_names(&self) -> &'static [&'static str] {
+        &["work-precision", "work_precision"]
+    }
+
+    fn parse_table(&self, text: &str) -> Result<serde_json::Value, toml::de::Error> {
+        let file: FileTable = toml::from_str(text)?;
+        Ok(serde_json::to_value(&file.table).unwrap_or_default())
     }
 
     fn quick_notice(&self) -> &'static str {
@@ -135,8 +155,9 @@ impl Kind for WorkPrecision {
 
     /// `[quick]` shortens the `[work-precision]` table's horizon.
     fn quick_table(&self, file: &mut StudyFile, _: &Context) -> Result<(), StudyError> {
-        if let Some(w) = file.work_precision.as_mut() {
+        if let Some(mut w) = settings(file) {
             w.horizon = file.quick.horizon.unwrap_or(w.horizon);
+            file.set_settings(NAME, &w);
         }
         Ok(())
     }
@@ -157,16 +178,14 @@ impl Kind for WorkPrecision {
     }
 
     fn needs_omega(&self, file: &StudyFile) -> bool {
-        file.work_precision
-            .as_ref()
-            .is_some_and(|w| w.reference.method.is_none() && !w.reference.same_dt)
+        settings(file).is_some_and(|w| w.reference.method.is_none() && !w.reference.same_dt)
     }
 
-    fn reference_settings(&self, file: &StudyFile) -> Option<WorkPrecisionSettings> {
-        file.work_precision.clone()
+    fn reference_settings(&self, file: &StudyFile) -> Option<ScoringSettings> {
+        settings(file)
     }
 
-    fn reference_dt(&self, study: &Study, w: &WorkPrecisionSettings, spec: &RunSpec) -> f64 {
+    fn reference_dt(&self, study: &Study, w: &ScoringSettings, spec: &RunSpec) -> f64 {
         reference_dt(study, w, spec)
     }
 
@@ -177,9 +196,9 @@ impl Kind for WorkPrecision {
         inputs: &RunInputs,
         parallelism: Parallelism,
     ) -> Result<Measured, String> {
-        let settings = study.file.work_precision.as_ref().expect("checked at load");
+        let settings = settings(&study.file).ok_or("no [work-precision] table")?;
         let reference = inputs.reference.ok_or("no reference solution")?;
-        measure(spec, settings, reference, parallelism)
+        measure(spec, &settings, reference, parallelism)
     }
 
     /// An error within the reference's own accuracy is listed, though the run completed.
@@ -314,7 +333,7 @@ fn check(
     ctx: &Context,
     bad: &dyn Fn(&str, String) -> StudyError,
 ) -> Result<(), StudyError> {
-    let Some(w) = &file.work_precision else {
+    let Some(w) = &settings(file) else {
         return Err(ctx.invalid(
             0,
             "work-precision",
@@ -330,7 +349,7 @@ fn check(
     if w.samples == 0 {
         return Err(bad("work-precision.samples", "must be at least 1".into()));
     }
-    super::settings::check_reference(&w.reference, "work-precision", &bad)?;
+    super::settings::check_reference(&w.reference, NAME, true, &bad)?;
     if !file.grid.contains_key("run.dt")
         && !file
             .methods
@@ -369,15 +388,11 @@ fn configure(
 ) -> Result<(), StudyError> {
     // It judges methods, so by default an unconverged Newton solve fails the step instead of
     // being accepted.
-    if file
-        .work_precision
-        .as_ref()
-        .is_some_and(|w| w.require_newton_convergence)
-    {
+    if settings(file).is_some_and(|w| w.require_newton_convergence) {
         config.integrator.newton.require_convergence = true;
     }
     check_step_fits(ctx, file, config, axes)?;
-    let w = file.work_precision.as_ref().expect("checked");
+    let w = settings(file).expect("checked");
     let stride = (w.horizon / w.samples as f64 / config.run.dt).round() as usize;
     config.run.steps = stride * w.samples;
     // Rows at every sample time, and in between as densely as 500 rows allow.
@@ -389,7 +404,7 @@ fn configure(
 
 /// The reference step for the physics of `spec`: as set, or the smallest dt of the grid over
 /// `dt_factor`.
-fn reference_dt(study: &Study, w: &WorkPrecisionSettings, spec: &RunSpec) -> f64 {
+fn reference_dt(study: &Study, w: &ScoringSettings, spec: &RunSpec) -> f64 {
     if w.reference.same_dt {
         return spec.loaded.config.run.dt;
     }
@@ -411,7 +426,7 @@ fn check_step_fits(
     config: &SceneConfig,
     axes: &[Axis],
 ) -> Result<(), StudyError> {
-    let w = file.work_precision.as_ref().expect("checked");
+    let w = settings(file).expect("checked");
     let dt = config.run.dt;
     let interval = w.horizon / w.samples as f64;
     let per_sample = interval / dt;
@@ -437,7 +452,7 @@ fn check_step_fits(
 /// Run one work-precision run and score it against `reference`.
 pub fn measure(
     spec: &RunSpec,
-    settings: &WorkPrecisionSettings,
+    settings: &ScoringSettings,
     reference: &Reference,
     parallelism: Parallelism,
 ) -> Result<Measured, String> {
@@ -487,7 +502,7 @@ pub fn measure(
 
 /// The report's paragraph on the work-precision settings.
 fn report_settings(out: &mut String, file: &StudyFile) {
-    if let Some(w) = &file.work_precision {
+    if let Some(w) = &settings(file) {
         let _ = writeln!(
             out,
             "Work-precision: horizon {} s, errors at {} sample times (the largest is reported). \
