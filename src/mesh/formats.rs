@@ -157,8 +157,10 @@ static BUILTIN: &[MeshFormatEntry] = &[
         title: "VTK XML .vtu",
         extensions: &["vtu"],
         starts_with: "`<?xml`",
-        sniff: |b| Sniff::sure_if(vtk::looks_like_vtu(b)),
-        reader: Reader::Bytes(|b, p| vtk::parse_vtu(b, p).map(|frame| AnyMesh::Tet(frame.mesh))),
+        sniff: |b| Sniff::sure_if(vtk::xml::looks_like_vtu(b)),
+        reader: Reader::Bytes(|b, p| {
+            vtk::xml::parse_vtu(b, p).map(|frame| AnyMesh::Tet(frame.mesh))
+        }),
         description: "VTK XML unstructured grid .vtu (inline ascii or base64, zlib), linear tets",
     },
     MeshFormatEntry {
@@ -166,8 +168,8 @@ static BUILTIN: &[MeshFormatEntry] = &[
         title: "legacy VTK .vtk",
         extensions: &["vtk"],
         starts_with: "`# vtk DataFile`",
-        sniff: |b| Sniff::sure_if(vtk::looks_like_legacy(b)),
-        reader: Reader::Text(|t, p| vtk::parse_legacy(t, p).map(AnyMesh::Tet)),
+        sniff: |b| Sniff::sure_if(vtk::legacy::looks_like_legacy(b)),
+        reader: Reader::Text(|t, p| vtk::legacy::parse_legacy(t, p).map(AnyMesh::Tet)),
         description: "legacy ASCII VTK .vtk unstructured grid (versions to 4.2 and 5.1), linear tets",
     },
 ];
