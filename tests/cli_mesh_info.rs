@@ -5,7 +5,7 @@ mod common;
 use std::process::{Command, Output};
 
 use common::{TempDir, reference_mesh};
-use softbench::mesh::box_mesh;
+use softbench::mesh::{MeshFormat, box_mesh};
 
 fn softbench(args: &[&str], cwd: &std::path::Path, data: Option<&std::path::Path>) -> Output {
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_softbench"));
@@ -191,4 +191,23 @@ fn missing_file_exits_with_code_2_and_explains_softbench_data() {
     let stderr = String::from_utf8(output.stderr).unwrap();
     assert!(stderr.contains("nowhere.mesh (current folder)"), "{stderr}");
     assert!(stderr.contains("SOFTBENCH_DATA is not set"), "{stderr}");
+}
+
+#[test]
+fn help_and_list_name_every_format_of_the_table() {
+    let dir = TempDir::new("cli-help");
+    let help = softbench(&["mesh-info", "--help"], dir.path(), None);
+    assert!(help.status.success());
+    let help = String::from_utf8(help.stdout).unwrap();
+    let list = softbench(&["list"], dir.path(), None);
+    assert!(list.status.success());
+    let list = String::from_utf8(list.stdout).unwrap();
+    let listed = list.split_once("mesh formats").map_or("", |(_, rest)| rest);
+    for format in MeshFormat::all() {
+        let e = format.entry();
+        let line = format!("{:6} {}", e.name, e.title);
+        assert!(help.contains(&line), "`{line}` not in:\n{help}");
+        assert!(help.contains(e.description), "{} not in:\n{help}", e.name);
+        assert!(listed.contains(e.description), "{} not in:\n{list}", e.name);
+    }
 }

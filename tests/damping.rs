@@ -1,6 +1,7 @@
 //! Damping: forces are D(q) v with D symmetric positive semi-definite; strain-rate damping
-//! ignores rigid motion; every integrator keeps its order with damping on (which checks the
-//! implicit methods' damping terms); damping removes energy.
+//! ignores rigid motion; every registered integrator keeps its order with damping on (which
+//! checks the implicit methods' damping terms), but those listed in `ORDER_NOT_MEASURED` with
+//! the reason; damping removes energy.
 
 mod common;
 
@@ -169,8 +170,39 @@ fn integrate(model: &mut Model, method: Method, start: &State, t_end: f64, steps
     state
 }
 
+/// The registered methods whose order `every_method_not_listed_keeps_its_order_with_damping`
+/// does not measure, and why. Every other registered method is measured.
+const ORDER_NOT_MEASURED: &[(&str, &str)] = &[
+    (
+        "adaptive-explicit-euler",
+        "its error control, not dt, sets its steps",
+    ),
+    (
+        "adaptive-symplectic-euler",
+        "its error control, not dt, sets its steps",
+    ),
+    (
+        "adaptive-midpoint",
+        "its error control, not dt, sets its steps",
+    ),
+    ("adaptive-rk4", "its error control, not dt, sets its steps"),
+    ("dopri5", "its error control, not dt, sets its steps"),
+    // A defect, not a limit of the test: with this damping BDF4–6 converge at order 2 (the
+    // slope is 2.0 from 400 to 1600 steps), while without damping BDF4 and BDF5 reach their
+    // order (tests/integrator_convergence.rs). Measure them here once that is fixed.
+    ("bdf4", "second order with damping (a defect to fix)"),
+    ("bdf5", "second order with damping (a defect to fix)"),
+    ("bdf6", "second order with damping (a defect to fix)"),
+    (
+        "projective-dynamics",
+        "refuses the block's stable Neo-Hookean material",
+    ),
+    ("xpbd", "refuses the block's stable Neo-Hookean material"),
+    ("static", "has no time discretization"),
+];
+
 #[test]
-fn every_method_keeps_its_order_with_damping() {
+fn every_method_not_listed_keeps_its_order_with_damping() {
     let damping = Damping {
         rayleigh: Some((0.5, 2e-3)),
         strain_rate: Some((2.0, 3.0)),
@@ -185,20 +217,21 @@ fn every_method_keeps_its_order_with_damping() {
         t_end,
         6400,
     );
-    for (method, expected, coarsest) in [
-        (Method::from_name("explicit-euler").unwrap(), 1.0, 200),
-        (Method::from_name("symplectic-euler").unwrap(), 1.0, 200),
-        (Method::from_name("midpoint").unwrap(), 2.0, 50),
-        (Method::from_name("rk4").unwrap(), 4.0, 25),
-        (
-            Method::from_name("linearly-implicit-euler").unwrap(),
-            1.0,
-            200,
-        ),
-        (Method::from_name("backward-euler").unwrap(), 1.0, 200),
-        (Method::from_name("implicit-midpoint").unwrap(), 2.0, 50),
-        (Method::from_name("bdf2").unwrap(), 2.0, 50),
-    ] {
+    for (name, _) in ORDER_NOT_MEASURED {
+        assert!(Method::from_name(name).is_ok(), "{name} is not registered");
+    }
+    let measured: Vec<Method> = Method::all()
+        .into_iter()
+        .filter(|m| ORDER_NOT_MEASURED.iter().all(|(n, _)| *n != m.name()))
+        .collect();
+    assert!(measured.len() >= 15, "{measured:?}");
+    for method in measured {
+        // Coarse enough that rounding stays far below the error at the finest of 4 halvings.
+        let (expected, coarsest) = match method.order() {
+            1 => (1.0, 200),
+            4 => (4.0, 25),
+            order => (f64::from(order), 50),
+        };
         let errors: Vec<f64> = (0..4)
             .map(|k| {
                 let end = integrate(&mut model, method, &start, t_end, coarsest << k);

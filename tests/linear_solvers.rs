@@ -61,19 +61,37 @@ fn direct_settings() -> Vec<DirectSettings> {
     v
 }
 
-/// One solver of every kind (CG once per preconditioner), tight enough to compare.
-fn every_solver() -> Vec<Box<dyn LinearSolver>> {
-    let mut v: Vec<Box<dyn LinearSolver>> = vec![
-        Box::new(CholeskySolver::new(DirectSettings::default())),
-        Box::new(LdltSolver::new(DirectSettings::default())),
-        Box::new(DenseCholeskySolver::new()),
-    ];
-    for p in [
+/// Every preconditioner of CG (the match makes a new one a compile error here).
+fn every_preconditioner() -> Vec<Preconditioner> {
+    let all = [
         Preconditioner::None,
         Preconditioner::Jacobi,
         Preconditioner::BlockJacobi3,
         Preconditioner::IncompleteCholesky,
-    ] {
+        Preconditioner::Amg,
+    ];
+    for p in all {
+        match p {
+            Preconditioner::None
+            | Preconditioner::Jacobi
+            | Preconditioner::BlockJacobi3
+            | Preconditioner::IncompleteCholesky
+            | Preconditioner::Amg => {}
+        }
+    }
+    all.to_vec()
+}
+
+/// Every registered solver, with CG once per preconditioner, tight enough to compare.
+fn every_solver() -> Vec<Box<dyn LinearSolver>> {
+    let mut settings = SolverSettings::default();
+    settings.cg.tolerance = 1e-12;
+    let mut v: Vec<Box<dyn LinearSolver>> = LinearSolverKind::all()
+        .into_iter()
+        .filter(|k| k.name() != "cg")
+        .map(|k| k.build(&settings))
+        .collect();
+    for p in every_preconditioner() {
         v.push(Box::new(cg(1e-12, p)));
     }
     v

@@ -5,9 +5,7 @@ mod common;
 
 use common::{TempDir, assert_close};
 use nalgebra::Vector3;
-use softbench::mesh::{
-    AnyMesh, MeshFormat, MeshReport, TetMesh, read_mesh, read_surface_mesh, read_tet_mesh,
-};
+use softbench::mesh::{AnyMesh, MeshReport, TetMesh, read_mesh, read_surface_mesh, read_tet_mesh};
 
 /// The unit right-corner tet, positively oriented, 0-based.
 fn corner_tet() -> TetMesh {
@@ -43,7 +41,7 @@ fn medit_reader_accepts_comments_any_case_counts_on_either_line_and_split_record
          End\n",
     );
     let (format, mesh) = read_mesh(&path).unwrap();
-    assert_eq!(format, MeshFormat::Medit);
+    assert_eq!(format.name(), "medit");
     assert_eq!(mesh, AnyMesh::Tet(corner_tet()));
 }
 
@@ -67,7 +65,7 @@ fn plain_reader_reads_zero_based_v_and_t_lines() {
         "v 0 0 0\nv 1e0 0 0\n\nv 0 1 0\nv 0 0 1.0E+00\nt 0 1 2 3",
     );
     let (format, mesh) = read_mesh(&path).unwrap();
-    assert_eq!(format, MeshFormat::Plain);
+    assert_eq!(format.name(), "plain");
     assert_eq!(mesh, AnyMesh::Tet(corner_tet()));
 }
 
@@ -85,7 +83,7 @@ fn tetgen_reader_takes_the_index_base_from_the_first_id_and_skips_extra_columns(
         corner_tet()
     );
     let (format, mesh) = read_mesh(ele).unwrap();
-    assert_eq!(format, MeshFormat::TetGen);
+    assert_eq!(format.name(), "tetgen");
     assert_eq!(mesh, AnyMesh::Tet(corner_tet()));
 }
 
@@ -180,11 +178,11 @@ fn mesh_files_are_told_apart_by_content() {
     let medit_txt = dir.write("a.txt", &std::fs::read_to_string(&medit).unwrap());
     let plain_txt = dir.write("b.txt", &std::fs::read_to_string(&plain).unwrap());
     let obj_txt = dir.write("c.txt", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
-    assert_eq!(read_mesh(&medit).unwrap().0, MeshFormat::Medit);
-    assert_eq!(read_mesh(&plain).unwrap().0, MeshFormat::Plain);
-    assert_eq!(read_mesh(&medit_txt).unwrap().0, MeshFormat::Medit);
-    assert_eq!(read_mesh(&plain_txt).unwrap().0, MeshFormat::Plain);
-    assert_eq!(read_mesh(&obj_txt).unwrap().0, MeshFormat::Obj);
+    assert_eq!(read_mesh(&medit).unwrap().0.name(), "medit");
+    assert_eq!(read_mesh(&plain).unwrap().0.name(), "plain");
+    assert_eq!(read_mesh(&medit_txt).unwrap().0.name(), "medit");
+    assert_eq!(read_mesh(&plain_txt).unwrap().0.name(), "plain");
+    assert_eq!(read_mesh(&obj_txt).unwrap().0.name(), "obj");
     assert_eq!(
         read_tet_mesh(&medit).unwrap(),
         read_tet_mesh(&plain).unwrap()

@@ -440,15 +440,25 @@ fn an_interrupted_study_resumes_where_it_stopped() {
     assert_complete(&dir, &IDENTITY);
 }
 
+/// A study always draws the pictures of its bodies; `--render` is accepted (so `run --render`
+/// works as `simulate --render` does) and changes nothing: the second run, with the flag,
+/// reuses the runs and draws the (deleted) pictures again, byte for byte the same. It fails
+/// if the flag is refused.
 #[test]
-fn run_accepts_render_and_draws_the_pictures() {
+fn run_draws_the_pictures_without_render_and_the_flag_changes_nothing() {
     let tmp = TempDir::new("study-render");
-    run_study_ok(
-        &study("quickstart.toml"),
-        tmp.path(),
-        &["--quick", "--render", "--only", "soft_beam-rk4*"],
-    );
     let dir = tmp.path().join("quickstart");
-    assert!(dir.join("pictures-soft_beam.png").is_file());
-    assert!(dir.join("pictures-soft_beam.gif").is_file());
+    let pictures = || {
+        ["pictures-soft_beam.png", "pictures-soft_beam.gif"]
+            .map(|name| std::fs::read(dir.join(name)).unwrap_or_else(|e| panic!("{name}: {e}")))
+    };
+    let only = ["--quick", "--only", "soft_beam-rk4*"];
+    run_study_ok(&study("quickstart.toml"), tmp.path(), &only);
+    let without = pictures();
+    for name in ["pictures-soft_beam.png", "pictures-soft_beam.gif"] {
+        std::fs::remove_file(dir.join(name)).unwrap();
+    }
+    let with_flag = [only.as_slice(), &["--render"]].concat();
+    run_study_ok(&study("quickstart.toml"), tmp.path(), &with_flag);
+    assert!(without == pictures(), "--render changed the pictures");
 }

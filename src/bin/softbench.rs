@@ -23,7 +23,9 @@ use softbench::interrupt::{self, Signal};
 use softbench::io::{AtomicFile, write_atomic};
 use softbench::lock::{FolderLock, Holder, LockError, Wait};
 use softbench::material::MaterialKind;
-use softbench::mesh::{AnyMesh, MeshError, MeshFormat, MeshReport, TetMesh, read_mesh};
+use softbench::mesh::{
+    AnyMesh, MESH_FORMATS, MeshError, MeshFormat, MeshReport, TetMesh, read_mesh,
+};
 use softbench::model::Model;
 use softbench::parallel::Parallelism;
 use softbench::registry::{Listing, NamedEnum};
@@ -44,6 +46,7 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Report counts, extent, volumes, quality and surface topology of a mesh file.
+    #[command(after_help = mesh_formats_help())]
     MeshInfo(MeshInfoArgs),
     /// Run one scene with one integrator; write trajectory.csv, final_positions.csv and
     /// summary.json to the output folder.
@@ -64,8 +67,8 @@ enum Command {
     /// Draw pictures of the bodies from stored snapshots: for a `simulate --render` folder its
     /// filmstrip.png and animation.gif; for a study folder one panel PNG and one GIF per scene.
     Render(RenderArgs),
-    /// List the integrators, linear solvers, materials, contact responses, scenes and studies,
-    /// one line each.
+    /// List the integrators, linear solvers, materials, contact responses, obstacle kinds,
+    /// export and mesh formats, scenes and studies, one line each.
     List,
 }
 
@@ -185,8 +188,8 @@ struct SimulateArgs {
 
 #[derive(Args)]
 struct MeshInfoArgs {
-    /// Mesh file: MEDIT or plain .mesh, TetGen .node/.ele, or .obj. Looked up in the current
-    /// folder, then in the folder named by SOFTBENCH_DATA.
+    /// Mesh file, of any format below. Looked up in the current folder, then in the folder
+    /// named by SOFTBENCH_DATA.
     file: PathBuf,
     /// Print one JSON object instead of text.
     #[arg(long)]
@@ -286,6 +289,24 @@ fn lock_folder(folder: &Path, purpose: &str, wait: bool) -> Result<FolderLock, L
 #[error("{0}")]
 struct BadInput(String);
 
+/// The formats `mesh-info` reads, from the format table: name, title, extensions and
+/// description, one line each.
+fn mesh_formats_help() -> String {
+    let mut help = String::from("Formats (told apart by content first, extension second):\n");
+    for format in MeshFormat::all() {
+        let e = format.entry();
+        let extensions: Vec<String> = e.extensions.iter().map(|x| format!(".{x}")).collect();
+        help += &format!(
+            "  {:6} {:18} {:11} {}\n",
+            e.name,
+            e.title,
+            extensions.join(" "),
+            e.description
+        );
+    }
+    help
+}
+
 /// The JSON form of `mesh-info`: the report plus where it came from.
 #[derive(Serialize)]
 struct MeshInfo<'a> {
@@ -315,7 +336,7 @@ fn mesh_info(args: &MeshInfoArgs) -> anyhow::Result<ExitCode> {
         writeln!(out)?;
     } else {
         writeln!(out, "file                {}", path.display())?;
-        writeln!(out, "format              {format}")?;
+        writeln!(out, "format              {}", format.title())?;
         write!(out, "{report}")?;
     }
     out.flush().context("cannot write the report")?;
@@ -590,7 +611,7 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
 
 fn list() -> anyhow::Result<ExitCode> {
     let mut out = std::io::stdout().lock();
-    let families: [(&str, Vec<Listing>); 6] = [
+    let families: [(&str, Vec<Listing>); 7] = [
         ("integrators (integrator.method)", METHODS.listing()),
         (
             "linear solvers (integrator.linear_solver)",
@@ -608,6 +629,10 @@ fn list() -> anyhow::Result<ExitCode> {
         (
             "export formats (simulate --export)",
             ExportFormat::listing(),
+        ),
+        (
+            "mesh formats (mesh.file, mesh-info)",
+            MESH_FORMATS.listing(),
         ),
     ];
     for (title, entries) in families {

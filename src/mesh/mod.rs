@@ -3,9 +3,11 @@
 //!
 //! - Readers, one module per format: [`medit`] (MEDIT `.mesh`, 1-based), [`plain`] (Brown
 //!   `v`/`t` `.mesh`, 0-based), [`tetgen`] (`.node` + `.ele`, base from the first id), [`obj`]
-//!   (OBJ surfaces, 1-based), [`gmsh`] (`.msh` 2.2 and 4.1, ASCII and binary), [`vtk`] (`.vtu`
-//!   XML and legacy ASCII `.vtk` unstructured grids); [`read_tet_mesh`], [`read_surface_mesh`] and [`read_mesh`] pick
-//!   one by extension and content. In memory every index is 0-based.
+//!   (OBJ surfaces, 1-based), [`gmsh`] (`.msh` 2.2 and 4.1, ASCII and binary), [`vtk::xml`]
+//!   (`.vtu` XML) and [`vtk::legacy`] (legacy ASCII `.vtk`) unstructured grids. [`formats`] is the table of them (name,
+//!   extensions, content sniffer, reader, description; adding a format is one file plus one
+//!   line there); [`read_mesh`], [`read_tet_mesh`] and [`read_surface_mesh`] pick one from it
+//!   by content and extension. In memory every index is 0-based.
 //! - [`surface`]: boundary faces, edge topology, closed-manifold check.
 //! - [`generate`]: box, beam and ball meshes.
 //! - [`quality`]: the [`MeshReport`].
@@ -18,6 +20,7 @@
 
 mod bytes;
 mod error;
+pub mod formats;
 pub mod generate;
 pub mod gmsh;
 pub mod medit;
@@ -33,9 +36,10 @@ mod text;
 pub mod vtk;
 
 pub use error::MeshError;
+pub use formats::{MESH_FORMATS, MeshFormat};
 pub use generate::{ball, beam, box_mesh};
 pub use quality::{BoundingBox, MeshReport};
-pub use read::{AnyMesh, MeshFormat, read_mesh, read_surface_mesh, read_tet_mesh};
+pub use read::{read_mesh, read_surface_mesh, read_tet_mesh};
 pub use skinning::{OutsideVertex, Skinning, SkinningError};
 
 use nalgebra::Vector3;
@@ -47,6 +51,15 @@ pub struct TetMesh {
     pub positions: Vec<Vector3<f64>>,
     /// Tets as 0-based vertex indices, every index `< positions.len()`.
     pub tets: Vec<[usize; 4]>,
+}
+
+/// A mesh of either kind, as read from a file whose kind was not known beforehand.
+#[derive(Clone, Debug, PartialEq)]
+pub enum AnyMesh {
+    /// A tetrahedral mesh.
+    Tet(TetMesh),
+    /// A triangle surface.
+    Surface(SurfaceMesh),
 }
 
 /// A triangle surface: vertex positions and 0-based triangles (outward normals by the

@@ -1,123 +1,92 @@
-//! Choosing a reader: by extension, and by content where an extension is shared (`.mesh` is
-//! either MEDIT or the plain Brown format) or missing. Gmsh and VTK files are recognized by
-//! their first bytes (`$MeshFormat`, `<?xml`/`<VTKFile`, `# vtk DataFile`) whatever their
-//! extension; a `.msh`, `.vtu` or `.vtk` file that does not start so is read by the reader its
-//! extension names, whose error then says what it expected.
+//! Choosing a reader from the [format table](super::formats), by content first and extension
+//! second:
+//!
+//! 1. A format read from its path (its mesh spans several files: TetGen's `.node` + `.ele`)
+//!    that claims the file's extension reads it; the file is not opened first.
+//! 2. A format whose sniffer is [sure](Sniff::Sure) of the content (Gmsh's `$MeshFormat`, VTK's
+//!    `<?xml` or `# vtk DataFile`, MEDIT's `MeshVersionFormatted`) reads it, whatever the
+//!    extension.
+//! 3. Else the format that claims the extension; when several do (`.mesh`: MEDIT or plain),
+//!    the first of them whose sniffer says [maybe](Sniff::Maybe); when none does (no
+//!    extension, `.txt`), the first format whose sniffer says maybe (an `f` record: OBJ; a
+//!    `v` or `t` first record: plain).
+//! 4. Else the file's format is unknown, and the message says what each format's files start
+//!    with.
+//!
+//! So a `.msh`, `.vtu` or `.vtk` file that does not start as its format does is still read by
+//! the reader its extension names, whose error then says what it expected.
 
-use std::fmt;
 use std::path::Path;
 
-use serde::Serialize;
+use super::formats::{self, MeshFormat, Reader, Sniff};
+use super::{AnyMesh, MeshError, SurfaceMesh, TetMesh, text};
 
-use super::{MeshError, SurfaceMesh, TetMesh, gmsh, medit, obj, plain, tetgen, text, vtk};
-
-/// The mesh file formats softbench reads.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-pub enum MeshFormat {
-    /// MEDIT ASCII `.mesh`, 1-based.
-    #[serde(rename = "medit")]
-    Medit,
-    /// The plain Brown `.mesh` (`v`/`t` lines), 0-based.
-    #[serde(rename = "plain")]
-    Plain,
-    /// TetGen `.node` + `.ele`, base taken from the first point id.
-    #[serde(rename = "tetgen")]
-    TetGen,
-    /// Wavefront OBJ triangle surface, 1-based.
-    #[serde(rename = "obj")]
-    Obj,
-    /// Gmsh `.msh` 2.2 or 4.1, ASCII or binary (linear tets).
-    #[serde(rename = "gmsh")]
-    Gmsh,
-    /// VTK XML unstructured grid `.vtu` (linear tets).
-    #[serde(rename = "vtu")]
-    Vtu,
-    /// Legacy VTK `.vtk`, ASCII unstructured grid (linear tets).
-    #[serde(rename = "vtk")]
-    LegacyVtk,
-}
-
-impl MeshFormat {
-    /// Whether the format holds tets (otherwise it is a triangle surface).
-    pub fn is_volume(self) -> bool {
-        !matches!(self, MeshFormat::Obj)
-    }
-}
-
-impl fmt::Display for MeshFormat {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            MeshFormat::Medit => "MEDIT .mesh",
-            MeshFormat::Plain => "plain v/t .mesh",
-            MeshFormat::TetGen => "TetGen .node/.ele",
-            MeshFormat::Obj => "Wavefront OBJ",
-            MeshFormat::Gmsh => "Gmsh .msh",
-            MeshFormat::Vtu => "VTK XML .vtu",
-            MeshFormat::LegacyVtk => "legacy VTK .vtk",
-        })
-    }
-}
-
-/// A mesh of either kind, as read from a file whose kind was not known beforehand.
-#[derive(Clone, Debug, PartialEq)]
-pub enum AnyMesh {
-    /// A tetrahedral mesh.
-    Tet(TetMesh),
-    /// A triangle surface.
-    Surface(SurfaceMesh),
-}
-
-/// Reads a mesh of any supported format; returns the format it was read as.
+/// Reads a mesh of any registered format; returns the format it was read as.
 pub fn read_mesh(path: impl AsRef<Path>) -> Result<(MeshFormat, AnyMesh), MeshError> {
     let path = path.as_ref();
-    if is_tetgen_path(path) {
-        return Ok((MeshFormat::TetGen, AnyMesh::Tet(tetgen::read(path)?)));
+    let ext = extension(path);
+    let formats = MeshFormat::all();
+    let claims = |f: &MeshFormat| ext.as_deref().is_some_and(|e| f.claims(e));
+    let by_path = formats
+        .iter()
+        .find(|f| matches!(f.entry().reader, Reader::Files(_)) && claims(f));
+    if let Some(&format) = by_path {
+        return read_as(format, path, Vec::new());
     }
     let bytes = std::fs::read(path).map_err(|error| MeshError::Io {
         path: path.to_path_buf(),
         error,
     })?;
-    let ext = extension(path);
-    if gmsh::looks_like(&bytes) || (ext.as_deref() == Some("msh") && !vtk::looks_like_vtu(&bytes)) {
-        return Ok((MeshFormat::Gmsh, AnyMesh::Tet(gmsh::parse(&bytes, path)?)));
+    let sniffed: Vec<(MeshFormat, Sniff)> = formats
+        .iter()
+        .map(|&f| (f, (f.entry().sniff)(&bytes)))
+        .collect();
+    let first = |among: &[(MeshFormat, Sniff)], sniff: Sniff| {
+        among.iter().find(|(_, s)| *s == sniff).map(|&(f, _)| f)
+    };
+    let claimants: Vec<(MeshFormat, Sniff)> =
+        sniffed.iter().copied().filter(|(f, _)| claims(f)).collect();
+    let chosen = first(&sniffed, Sniff::Sure).or_else(|| match claimants.as_slice() {
+        [(format, _)] => Some(*format),
+        [] => first(&sniffed, Sniff::Maybe),
+        several => first(several, Sniff::Maybe),
+    });
+    match chosen {
+        Some(format) => read_as(format, path, bytes),
+        None => Err(unknown_format(path, &text::decode_text(path, bytes)?)),
     }
-    if vtk::looks_like_vtu(&bytes) || ext.as_deref() == Some("vtu") {
-        let frame = vtk::parse_vtu(&bytes, path)?;
-        return Ok((MeshFormat::Vtu, AnyMesh::Tet(frame.mesh)));
-    }
-    let content = text::decode_text(path, bytes)?;
-    if vtk::looks_like_legacy(content.as_bytes()) || ext.as_deref() == Some("vtk") {
-        let mesh = vtk::parse_legacy(&content, path)?;
-        return Ok((MeshFormat::LegacyVtk, AnyMesh::Tet(mesh)));
-    }
-    let format = detect(path, &content)?;
-    let mesh = match format {
-        MeshFormat::Medit => AnyMesh::Tet(medit::parse(&content, path)?),
-        MeshFormat::Plain => AnyMesh::Tet(plain::parse(&content, path)?),
-        MeshFormat::Obj => AnyMesh::Surface(obj::parse(&content, path)?),
-        // Not produced by `detect`; kept total so a future change cannot panic here.
-        MeshFormat::TetGen => AnyMesh::Tet(tetgen::read(path)?),
-        MeshFormat::Gmsh => AnyMesh::Tet(gmsh::parse(content.as_bytes(), path)?),
-        MeshFormat::Vtu => AnyMesh::Tet(vtk::parse_vtu(content.as_bytes(), path)?.mesh),
-        MeshFormat::LegacyVtk => AnyMesh::Tet(vtk::parse_legacy(&content, path)?),
+}
+
+/// Reads `path`, whose content is `bytes` (unread for a [`Reader::Files`] format), as `format`.
+fn read_as(
+    format: MeshFormat,
+    path: &Path,
+    bytes: Vec<u8>,
+) -> Result<(MeshFormat, AnyMesh), MeshError> {
+    let mesh = match format.entry().reader {
+        Reader::Text(parse) => parse(&text::decode_text(path, bytes)?, path)?,
+        Reader::Bytes(parse) => parse(&bytes, path)?,
+        Reader::Files(read) => read(path)?,
     };
     Ok((format, mesh))
 }
 
-/// Reads a tet mesh: MEDIT or plain `.mesh` (told apart by content), TetGen `.node`/`.ele`,
-/// Gmsh `.msh`, VTK `.vtu` or legacy `.vtk`.
+/// Reads a tet mesh, of any registered format that holds tets.
 pub fn read_tet_mesh(path: impl AsRef<Path>) -> Result<TetMesh, MeshError> {
     let path = path.as_ref();
     match read_mesh(path)? {
         (_, AnyMesh::Tet(mesh)) => Ok(mesh),
         (format, AnyMesh::Surface(_)) => Err(MeshError::Invalid {
             path: path.to_path_buf(),
-            message: format!("this is a {format} triangle surface, not a tet mesh"),
+            message: format!(
+                "this is a {} triangle surface, not a tet mesh",
+                format.title()
+            ),
         }),
     }
 }
 
-/// Reads a triangle surface (OBJ). A tet mesh is refused rather than silently reduced to its
+/// Reads a triangle surface (an OBJ, or any registered surface format). A tet mesh is refused rather than silently reduced to its
 /// boundary; use [`TetMesh::boundary_surface`] for that.
 pub fn read_surface_mesh(path: impl AsRef<Path>) -> Result<SurfaceMesh, MeshError> {
     let path = path.as_ref();
@@ -126,8 +95,9 @@ pub fn read_surface_mesh(path: impl AsRef<Path>) -> Result<SurfaceMesh, MeshErro
         (format, AnyMesh::Tet(_)) => Err(MeshError::Invalid {
             path: path.to_path_buf(),
             message: format!(
-                "this is a {format} tet mesh, not a surface; read it with read_tet_mesh and \
-                 take its boundary_surface()"
+                "this is a {} tet mesh, not a surface; read it with read_tet_mesh and \
+                 take its boundary_surface()",
+                format.title()
             ),
         }),
     }
@@ -139,39 +109,20 @@ fn extension(path: &Path) -> Option<String> {
         .map(str::to_ascii_lowercase)
 }
 
-fn is_tetgen_path(path: &Path) -> bool {
-    matches!(extension(path).as_deref(), Some("node" | "ele"))
-}
-
-/// Tells the format of a (non-TetGen) file from its extension and content.
-fn detect(path: &Path, content: &str) -> Result<MeshFormat, MeshError> {
-    let ext = extension(path);
-    if ext.as_deref() == Some("obj") {
-        return Ok(MeshFormat::Obj);
-    }
-    if medit::looks_like(content) {
-        return Ok(MeshFormat::Medit);
-    }
-    let is_mesh = ext.as_deref() == Some("mesh");
-    // Without an extension, a `v`-first file is OBJ if it has faces, plain if it has tets.
-    if !is_mesh && obj::looks_like(content) {
-        return Ok(MeshFormat::Obj);
-    }
-    if plain::looks_like(content) {
-        return Ok(MeshFormat::Plain);
-    }
+/// The error for a file no format recognizes: its first token, and what each format's files
+/// start with.
+fn unknown_format(path: &Path, content: &str) -> MeshError {
     let first = text::lines(content)
         .find_map(|(line, l)| l.split_ascii_whitespace().next().map(|t| (line, t)));
     let Some((line, token)) = first else {
         let end = text::last_line(content);
-        return Err(text::empty_mesh(path, end, "the file has no records"));
+        return text::empty_mesh(path, end, "the file has no records");
     };
-    Err(MeshError::UnknownFormat {
+    MeshError::UnknownFormat {
         path: path.to_path_buf(),
         message: format!(
-            "line {line} starts with `{token}`; expected `MeshVersionFormatted` (MEDIT .mesh), a `v x y z` line (plain \
-             .mesh), `$MeshFormat` (Gmsh), `<?xml` (VTK .vtu), `# vtk DataFile` (legacy VTK), or an .obj, .node or \
-             .ele extension"
+            "line {line} starts with `{token}`; expected {}",
+            formats::expected_starts()
         ),
-    })
+    }
 }

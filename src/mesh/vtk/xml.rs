@@ -1,28 +1,20 @@
-//! VTK unstructured grids of linear tets: XML `.vtu` (one `Piece`; `DataArray`s inline as
-//! `ascii` or base64 `binary`, uncompressed or zlib-compressed, `UInt32` or `UInt64`
-//! headers, either byte order — softbench's own frames and meshio's files) and legacy `.vtk`
-//! ASCII (`DATASET UNSTRUCTURED_GRID`, the `CELLS n size` layout of versions up to 4.2 and
-//! the `OFFSETS`/`CONNECTIVITY` layout of 5.1).
+//! VTK XML unstructured grids (`.vtu`) of linear tets: one `Piece`; `DataArray`s inline as
+//! `ascii` or base64 `binary`, uncompressed or zlib-compressed, `UInt32` or `UInt64` headers,
+//! either byte order (softbench's own frames and meshio's files). Appended data is refused
+//! with a message saying so.
 //!
-//! Cells of type 10 (`VTK_TETRA`) become the tets; other linear cells (vertices, lines,
-//! triangles) are read past; quadratic tets (24) are refused. `.vtu` point data with three
-//! components (softbench writes `velocity` and `displacement`) and the field `TimeValue` are
-//! kept by [`read_vtu_frame`], so a run can start from an exported frame. Appended data and
-//! legacy `BINARY` files are refused with a message saying so.
+//! Point data with three components (softbench writes `velocity` and `displacement`) and the
+//! field `TimeValue` are kept by [`read_vtu_frame`], so a run can start from an exported frame.
 
 use std::io::Read;
 use std::path::Path;
 
 use nalgebra::Vector3;
 
-use super::bytes::{Cursor, bad_coordinate, clip};
-use super::text::{self, TetCollector, Tokens, parse_error};
-use super::{MeshError, TetMesh};
-
-/// VTK's linear tetrahedron.
-const VTK_TETRA: i64 = 10;
-/// VTK's quadratic tetrahedron.
-const VTK_QUADRATIC_TETRA: i64 = 24;
+use super::super::bytes::{Cursor, bad_coordinate, clip};
+use super::super::text::{self, parse_error};
+use super::super::{MeshError, TetMesh};
+use super::cells::cells;
 
 /// A `.vtu` grid with the point data and time it carries.
 #[derive(Clone, Debug, PartialEq)]
@@ -51,11 +43,6 @@ pub fn looks_like_vtu(bytes: &[u8]) -> bool {
     start.is_some_and(|s| bytes[s..].starts_with(b"<?xml") || bytes[s..].starts_with(b"<VTKFile"))
 }
 
-/// Whether a text looks like legacy VTK (`# vtk DataFile` first).
-pub fn looks_like_legacy(bytes: &[u8]) -> bool {
-    bytes.starts_with(b"# vtk DataFile")
-}
-
 /// Reads a `.vtu` file's tet mesh.
 pub fn read_vtu(path: impl AsRef<Path>) -> Result<TetMesh, MeshError> {
     Ok(read_vtu_frame(path)?.mesh)
@@ -69,12 +56,6 @@ pub fn read_vtu_frame(path: impl AsRef<Path>) -> Result<VtuFrame, MeshError> {
         error,
     })?;
     parse_vtu(&bytes, path)
-}
-
-/// Reads a legacy ASCII `.vtk` file.
-pub fn read_legacy(path: impl AsRef<Path>) -> Result<TetMesh, MeshError> {
-    let path = path.as_ref();
-    parse_legacy(&text::read_text(path)?, path)
 }
 
 /// One XML tag: its name, attributes, offset, and whether it closes (`</x>`) or is empty
@@ -364,73 +345,6 @@ pub fn parse_vtu(bytes: &[u8], path: &Path) -> Result<VtuFrame, MeshError> {
     })
 }
 
-/// The tets among VTK cells given as connectivity, offsets (the end of each cell in the
-/// connectivity, as in XML) and types.
-fn cells(
-    path: &Path,
-    connectivity: &[f64],
-    offsets: &[f64],
-    types: &[f64],
-    [cl, ol, tl]: [usize; 3],
-    num_points: usize,
-) -> Result<Vec<[usize; 4]>, MeshError> {
-    let index = |x: f64, line: usize, what: &str| -> Result<usize, MeshError> {
-        if x.fract() == 0.0 && x >= 0.0 && x < usize::MAX as f64 {
-            Ok(x as usize)
-        } else {
-            Err(parse_error(
-                path,
-                line,
-                format!("{what} {x} is not a valid index"),
-            ))
-        }
-    };
-    let mut tets = TetCollector::new(0, types.len().min(connectivity.len() / 4));
-    let mut start = 0usize;
-    for (i, &kind) in types.iter().enumerate() {
-        let end = index(offsets[i], ol, "offset")?;
-        if end < start || end > connectivity.len() {
-            return Err(parse_error(
-                path,
-                ol,
-                format!(
-                    "cell {i}: offset {end} is out of order or beyond the {} connectivity entries",
-                    connectivity.len()
-                ),
-            ));
-        }
-        let kind = kind as i64;
-        if kind == VTK_QUADRATIC_TETRA {
-            return Err(parse_error(
-                path,
-                tl,
-                format!(
-                    "cell {i} is a quadratic tet (type 24); only linear tets (10) are supported"
-                ),
-            ));
-        }
-        if kind == VTK_TETRA {
-            if end - start != 4 {
-                return Err(parse_error(
-                    path,
-                    ol,
-                    format!("cell {i} is a tet with {} vertices", end - start),
-                ));
-            }
-            let mut tet = [0; 4];
-            for (slot, &x) in tet.iter_mut().zip(&connectivity[start..end]) {
-                *slot = index(x, cl, "connectivity entry")?;
-            }
-            tets.push(path, cl, tet)?;
-        }
-        start = end;
-    }
-    if tets.tets.is_empty() {
-        return Err(text::empty_mesh(path, tl, "no tets (cell type 10)"));
-    }
-    tets.finish(path, num_points)
-}
-
 /// Decodes one `DataArray`'s content (the cursor is just past its opening tag) to f64
 /// values, and moves past `</DataArray>`.
 fn data_array(c: &mut Cursor, tag: &Tag, enc: Encoding) -> Result<Vec<f64>, MeshError> {
@@ -639,198 +553,4 @@ fn decode_base64(text: &[u8]) -> Result<Vec<u8>, usize> {
         return Err(text.len());
     }
     Ok(out)
-}
-
-/// Parses legacy ASCII `.vtk` text; `path` is used only in error messages.
-pub fn parse_legacy(content: &str, path: &Path) -> Result<TetMesh, MeshError> {
-    let mut lines = content.split('\n');
-    let header = lines.next().unwrap_or("").trim();
-    let Some(version) = header.strip_prefix("# vtk DataFile Version") else {
-        return Err(parse_error(
-            path,
-            1,
-            "expected `# vtk DataFile Version x.y` to start a legacy VTK file",
-        ));
-    };
-    let major: u32 = version
-        .trim()
-        .split('.')
-        .next()
-        .and_then(|v| v.parse().ok())
-        .ok_or_else(|| parse_error(path, 1, format!("unreadable version `{}`", clip(version))))?;
-    // Line 2 is a free-form title; tokens start at line 3, with line numbers kept.
-    let skip = content
-        .match_indices('\n')
-        .nth(1)
-        .map_or(content.len(), |(i, _)| i);
-    let body = format!("\n{}", &content[skip..]);
-    let mut tokens = Tokens::new(&body);
-    let t = &mut tokens;
-    let len = content.len();
-    let (line, encoding) = tok(t, path, "ASCII or BINARY")?;
-    if !encoding.eq_ignore_ascii_case("ASCII") {
-        return Err(parse_error(
-            path,
-            line,
-            format!(
-                "`{}`: only ASCII legacy VTK is read (write binary grids as .vtu)",
-                clip(encoding)
-            ),
-        ));
-    }
-    let (line, dataset) = tok(t, path, "DATASET")?;
-    let (_, kind) = tok(t, path, "the dataset type")?;
-    if !dataset.eq_ignore_ascii_case("DATASET") || !kind.eq_ignore_ascii_case("UNSTRUCTURED_GRID") {
-        return Err(parse_error(
-            path,
-            line,
-            format!(
-                "expected `DATASET UNSTRUCTURED_GRID`, found `{} {}`",
-                clip(dataset),
-                clip(kind)
-            ),
-        ));
-    }
-    let mut points = None;
-    let mut cell_data: Option<(Vec<f64>, Vec<f64>, [usize; 2])> = None;
-    let mut types = None;
-    while let Some((line, keyword)) = t.next() {
-        match keyword.to_ascii_uppercase().as_str() {
-            "POINTS" => {
-                let n = count(t, path, "the number of points", len)?;
-                tok(t, path, "the point data type")?;
-                let (_, xyz) = numbers(t, path, 3 * n, "a coordinate", len)?;
-                let mut p = Vec::with_capacity(n);
-                for (k, x) in xyz.chunks_exact(3).enumerate() {
-                    if let Some(msg) = x.iter().find_map(|&v| bad_coordinate(v)) {
-                        return Err(parse_error(path, line, format!("point {k}: {msg}")));
-                    }
-                    p.push(Vector3::new(x[0], x[1], x[2]));
-                }
-                points = Some(p);
-            }
-            "CELLS" => {
-                let a = count(t, path, "the number of cells", len)?;
-                let b = count(t, path, "the size of the cell list", len)?;
-                if major >= 5 {
-                    keyword_token(t, path, "OFFSETS")?;
-                    tok(t, path, "the offsets' data type")?;
-                    let (ol, offsets) = numbers(t, path, a, "an offset", len)?;
-                    keyword_token(t, path, "CONNECTIVITY")?;
-                    tok(t, path, "the connectivity's data type")?;
-                    let (cl, conn) = numbers(t, path, b, "a point index", len)?;
-                    // 5.1 offsets start with 0; the XML form lists cell ends.
-                    let ends = offsets.get(1..).unwrap_or(&[]).to_vec();
-                    cell_data = Some((conn, ends, [cl, ol]));
-                } else {
-                    let (cl, list) = numbers(t, path, b, "a cell entry", len)?;
-                    let (mut conn, mut ends) = (Vec::new(), Vec::with_capacity(a));
-                    let mut i = 0;
-                    for _ in 0..a {
-                        let k = list.get(i).copied().unwrap_or(-1.0);
-                        if !(k >= 0.0 && k.fract() == 0.0) || i + 1 + k as usize > list.len() {
-                            return Err(parse_error(
-                                path,
-                                cl,
-                                "the CELLS list does not match its announced size",
-                            ));
-                        }
-                        conn.extend_from_slice(&list[i + 1..i + 1 + k as usize]);
-                        i += 1 + k as usize;
-                        ends.push(conn.len() as f64);
-                    }
-                    cell_data = Some((conn, ends, [cl, cl]));
-                }
-            }
-            "CELL_TYPES" => {
-                let n = count(t, path, "the number of cell types", len)?;
-                types = Some(numbers(t, path, n, "a cell type", len)?);
-            }
-            "POINT_DATA" | "CELL_DATA" | "FIELD" | "METADATA" => break,
-            _ => {
-                return Err(parse_error(
-                    path,
-                    line,
-                    format!(
-                        "unexpected `{}` (expected POINTS, CELLS, CELL_TYPES, POINT_DATA or \
-                         CELL_DATA)",
-                        clip(keyword)
-                    ),
-                ));
-            }
-        }
-    }
-    let end = text::last_line(content);
-    let points = points.ok_or_else(|| text::empty_mesh(path, end, "no POINTS"))?;
-    let (conn, ends, [cl, ol]) =
-        cell_data.ok_or_else(|| text::empty_mesh(path, end, "no CELLS"))?;
-    let (tl, types) = types.ok_or_else(|| text::empty_mesh(path, end, "no CELL_TYPES"))?;
-    if types.len() != ends.len() {
-        return Err(parse_error(
-            path,
-            tl,
-            format!("{} cell types for {} cells", types.len(), ends.len()),
-        ));
-    }
-    let tets = cells(path, &conn, &ends, &types, [cl, ol, tl], points.len())?;
-    Ok(TetMesh {
-        positions: points,
-        tets,
-    })
-}
-
-/// The next legacy token, or an error saying the file ends where `what` was expected.
-fn tok<'a>(t: &mut Tokens<'a>, path: &Path, what: &str) -> Result<(usize, &'a str), MeshError> {
-    let line = t.line();
-    t.next()
-        .ok_or_else(|| parse_error(path, line, format!("file ends where {what} was expected")))
-}
-
-/// Expects the keyword `word` (any case).
-fn keyword_token(t: &mut Tokens, path: &Path, word: &str) -> Result<(), MeshError> {
-    let (line, found) = tok(t, path, word)?;
-    if found.eq_ignore_ascii_case(word) {
-        Ok(())
-    } else {
-        Err(parse_error(
-            path,
-            line,
-            format!("expected `{word}`, found `{}`", clip(found)),
-        ))
-    }
-}
-
-/// A count, checked against the mesh budget.
-fn count(t: &mut Tokens, path: &Path, what: &str, len: usize) -> Result<usize, MeshError> {
-    let (line, token) = tok(t, path, what)?;
-    let n = text::count(path, line, token, what)?;
-    text::announced(path, line, n, what, len)?;
-    Ok(n)
-}
-
-/// `n` numbers and the line of the first.
-fn numbers(
-    t: &mut Tokens,
-    path: &Path,
-    n: usize,
-    what: &str,
-    len: usize,
-) -> Result<(usize, Vec<f64>), MeshError> {
-    let mut values = Vec::with_capacity(n.min(len / 2 + 1));
-    let mut first = t.line();
-    for i in 0..n {
-        let (line, token) = tok(t, path, what)?;
-        if i == 0 {
-            first = line;
-        }
-        let x = token.parse::<f64>().map_err(|_| {
-            parse_error(
-                path,
-                line,
-                format!("expected {what}, found `{}`", clip(token)),
-            )
-        })?;
-        values.push(x);
-    }
-    Ok((first, values))
 }
