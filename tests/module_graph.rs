@@ -14,14 +14,6 @@
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::path::{Path, PathBuf};
 
-/// Folders allowed to have an import cycle for now; each is still printed. Remove an entry
-/// once its cycle is gone: the test fails on an entry without a cycle, so the list can only
-/// shrink.
-///
-/// `study`: the study layer's one-way stack (issue 23, item 1) is being built on another
-/// branch; delete this entry when it is merged.
-const ALLOWED_CYCLES: &[&str] = &["study"];
-
 /// A module: its path in the crate (`["mesh", "read"]`).
 type Module = Vec<String>;
 
@@ -53,7 +45,6 @@ fn no_folder_of_src_has_an_import_cycle_and_folders_point_one_way() {
     );
     let arrows = arrows(&sources);
     let mut failures = Vec::new();
-    let mut reports = Vec::new();
     let folders: BTreeSet<String> = sources
         .iter()
         .filter(|s| s.is_mod_rs && s.module.len() == 1)
@@ -66,20 +57,8 @@ fn no_folder_of_src_has_an_import_cycle_and_folders_point_one_way() {
             .filter(|a| a.from[0] == *folder && a.to[0] == *folder)
             .cloned()
             .collect();
-        let cycles = cycles(&inside);
-        let allowed = ALLOWED_CYCLES.contains(&folder.as_str());
-        if cycles.is_empty() && allowed {
-            failures.push(format!(
-                "src/{folder}/ has no import cycle any more: remove it from ALLOWED_CYCLES"
-            ));
-        }
-        for cycle in cycles {
-            let report = format!("src/{folder}/: {cycle}");
-            if allowed {
-                reports.push(report);
-            } else {
-                failures.push(report);
-            }
+        for cycle in cycles(&inside) {
+            failures.push(format!("src/{folder}/: {cycle}"));
         }
     }
     let top: Vec<Arrow> = arrows
@@ -93,9 +72,6 @@ fn no_folder_of_src_has_an_import_cycle_and_folders_point_one_way() {
         .collect();
     for cycle in cycles(&top) {
         failures.push(format!("between the modules of src/: {cycle}"));
-    }
-    for report in &reports {
-        eprintln!("allowed for now (ALLOWED_CYCLES): {report}");
     }
     assert!(failures.is_empty(), "{}", failures.join("\n\n"));
 }
