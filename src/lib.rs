@@ -22,7 +22,9 @@
 //! - [`run`]: running a scene and measuring it (energies, momenta, blow-up detection);
 //! - [`io`]: writing results atomically;
 //! - [`plot`]: charts of the experiment runner (PNG and SVG);
-//! - [`export`]: frames for viewers (VTU + PVD, OBJ; skinned display meshes).
+//! - [`export`]: frames for viewers (VTU + PVD, OBJ; skinned display meshes);
+//! - [`pipeline`]: one run of a scene as `simulate`, studies and programs run it (the model
+//!   and integrator built once, one observer wiring, one picture surface, `summary.json`).
 //!
 //! Conventions: SI units; f64 everywhere; stacked coordinates `q = [x0 y0 z0 x1 y1 z1 ...]`;
 //! `vec(F)` is column-major (`F[(0,0)], F[(1,0)], F[(2,0)], F[(0,1)], ...`), which is nalgebra's
@@ -43,6 +45,7 @@ pub mod mesh;
 pub mod model;
 pub mod names;
 pub mod parallel;
+pub mod pipeline;
 pub mod plot;
 pub mod quote;
 pub mod registry;

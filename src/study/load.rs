@@ -31,8 +31,9 @@ struct SceneSource {
 /// Longest run id (a file name, with `-trials.csv` appended, must stay under 255 bytes).
 const MAX_RUN_ID: usize = 200;
 
-/// Read, expand and check a study. `quick` applies its `[quick]` settings.
-pub fn load(path: &Path, quick: bool) -> Result<Study, StudyError> {
+/// Read, expand and check a study. `quick` applies its `[quick]` settings; the scenes' data
+/// files are found through `data`.
+pub fn load(path: &Path, quick: bool, data: &DataPaths) -> Result<Study, StudyError> {
     let text = scene::read_config_text(path).map_err(|error| StudyError::Io {
         path: path.to_owned(),
         error,
@@ -160,11 +161,12 @@ pub fn load(path: &Path, quick: bool) -> Result<Study, StudyError> {
                     hash,
                     physics,
                     dofs: 0,
+                    data: data.clone(),
                 });
             }
         }
     }
-    check_scenes_build(&mut runs, &scenes, &ctx)?;
+    check_scenes_build(&mut runs, &scenes, &ctx, data)?;
     Ok(Study {
         path: path.to_owned(),
         file,
@@ -353,15 +355,15 @@ fn check_scenes_build(
     runs: &mut [RunSpec],
     scenes: &[SceneSource],
     ctx: &Context,
+    data: &DataPaths,
 ) -> Result<(), StudyError> {
-    let data = DataPaths::from_env();
     let mut built: HashMap<u64, usize> = HashMap::new();
     for run in runs.iter_mut() {
         if let Some(&dofs) = built.get(&run.physics) {
             run.dofs = dofs;
             continue;
         }
-        match scene::build(&run.loaded, &data, Parallelism::Sequential) {
+        match scene::build(&run.loaded, data, Parallelism::Sequential) {
             Ok(scene) => {
                 run.dofs = scene.model.num_dofs();
                 built.insert(run.physics, run.dofs);

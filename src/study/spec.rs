@@ -1,6 +1,7 @@
 //! What loading a study gives: the [`Study`] and the [`RunSpec`] of every run of its grid.
 
 use super::config::{StudyFile, StudyKind};
+use crate::data::DataPaths;
 use crate::integrate::Method;
 use crate::scene::LoadedScene;
 use crate::solve::LinearSolverKind;
@@ -48,6 +49,8 @@ pub struct RunSpec {
     pub physics: u64,
     /// Free degrees of freedom of the built scene (for the cost estimate that balances shards).
     pub dofs: usize,
+    /// Where the scene's data files (meshes, display meshes) are found.
+    pub data: DataPaths,
 }
 
 impl Study {
