@@ -237,11 +237,9 @@ fn vtu_frames_alone_do_not_read_the_display_mesh() {
     assert!(simulation.display().is_none());
 }
 
-#[test]
-fn a_study_draws_the_display_mesh_as_simulate_render_does() {
-    let dir = TempDir::new("pipeline-study-display");
-    let (scene_file, display_vertices) = box_with_display(&dir);
-    let study_file = dir.write(
+/// A trajectory study of one run of `scene_file` (in the same folder).
+fn one_run_study(dir: &TempDir, scene_file: &Path) -> std::path::PathBuf {
+    dir.write(
         "skinned.toml",
         &format!(
             r#"name = "skinned"
@@ -253,7 +251,14 @@ scenes = [{:?}]
 "#,
             scene_file.file_name().unwrap().to_str().unwrap()
         ),
-    );
+    )
+}
+
+#[test]
+fn a_study_draws_the_display_mesh_as_simulate_render_does() {
+    let dir = TempDir::new("pipeline-study-display");
+    let (scene_file, display_vertices) = box_with_display(&dir);
+    let study_file = one_run_study(&dir, &scene_file);
     let study = softbench::study::load(&study_file, false, &DataPaths::new(None)).unwrap();
     let options = softbench::study::RunOptions {
         dir: dir.path().join("results"),
@@ -270,4 +275,19 @@ scenes = [{:?}]
     let snapshots =
         Snapshots::read(&done.dir.join("series").join(format!("{id}.snapshots"))).unwrap();
     assert_eq!(snapshots.num_vertices(), display_vertices);
+}
+
+#[test]
+fn a_study_whose_display_mesh_is_missing_fails_at_load() {
+    let dir = TempDir::new("pipeline-study-no-display");
+    let (scene_file, _) = box_with_display(&dir);
+    std::fs::remove_file(dir.path().join("skin.obj")).unwrap();
+    let study_file = one_run_study(&dir, &scene_file);
+    let error = softbench::study::load(&study_file, false, &DataPaths::new(None))
+        .expect_err("a missing display mesh is bad input");
+    let message = error.to_string();
+    assert!(
+        message.contains("display.file") && message.contains("skin.obj"),
+        "{message}"
+    );
 }

@@ -350,7 +350,8 @@ fn configure(
 }
 
 /// Build each distinct scene once, so a missing mesh file or a bad mesh is reported before
-/// anything runs; record each run's free degrees of freedom.
+/// anything runs; record each run's free degrees of freedom. A run's pictures show the
+/// scene's `[display]` mesh, which each run reads and skins itself: here it is only found.
 fn check_scenes_build(
     runs: &mut [RunSpec],
     scenes: &[SceneSource],
@@ -369,18 +370,32 @@ fn check_scenes_build(
                 built.insert(run.physics, run.dofs);
             }
             Err(error) => {
-                let line = scenes
-                    .iter()
-                    .find(|s| s.name == run.scene)
-                    .map_or(1, |s| s.line);
                 return Err(StudyError::Scene {
                     path: ctx.path.to_owned(),
-                    line,
+                    line: scene_line(scenes, run),
                     key: format!("scene `{}` (run {})", run.scene, run.id),
                     error: Box::new(error),
                 });
             }
         }
+        if let Some(display) = &run.loaded.config.display
+            && let Err(error) = data.resolve(&display.file, Some(run.loaded.base_dir()))
+        {
+            return Err(StudyError::Invalid {
+                path: ctx.path.to_owned(),
+                line: scene_line(scenes, run),
+                key: format!("scene `{}` (run {}): display.file", run.scene, run.id),
+                message: error.to_string(),
+            });
+        }
     }
     Ok(())
+}
+
+/// The line of the study that names `run`'s scene.
+fn scene_line(scenes: &[SceneSource], run: &RunSpec) -> usize {
+    scenes
+        .iter()
+        .find(|s| s.name == run.scene)
+        .map_or(1, |s| s.line)
 }
