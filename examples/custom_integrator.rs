@@ -3,16 +3,22 @@
 //! (SSPRK3, Shu & Osher 1988) — registers it under a name, registers a linear solver of its
 //! own (CG with an incomplete-Cholesky preconditioner, under the name `cg-ic0`), and runs a
 //! study that compares them with RK4 and backward Euler on the same scene, with the same CSVs,
-//! plots and report:
+//! plots and report; and runs the new method once more through `simulate`'s pipeline as a
+//! library call ([`softbench::pipeline::Simulation`]), which writes what `softbench simulate`
+//! does:
 //!
 //! `cargo run --release --example custom_integrator -- [out folder, default out]`
 //!
 //! The study (written beside the results) is the soft cantilever of `experiments/scenes`,
 //! which needs no downloaded data.
 
+use softbench::data::DataPaths;
 use softbench::integrate::methods::explicit;
 use softbench::integrate::{Dynamics, Integrator, State, StepError, StepReport, register_method};
 use softbench::model::Model;
+use softbench::parallel::Parallelism;
+use softbench::pipeline::{SimulateOptions, Simulation};
+use softbench::scene;
 use softbench::solve::{CgSettings, CgSolver, LINEAR_SOLVERS, Preconditioner, SolverEntry};
 use softbench::study;
 use std::path::{Path, PathBuf};
@@ -93,9 +99,9 @@ impl Integrator for SspRk3 {
     }
 }
 
-/// Register SSPRK3 (once per process) and run the comparison study into `out`; returns the
-/// study's results folder.
-fn run(out: &Path) -> anyhow::Result<PathBuf> {
+/// Register SSPRK3 (once per process), run the comparison study into `out` and one simulation
+/// with SSPRK3 into `out/ssprk3`; returns the study's results folder and the simulation's.
+fn run(out: &Path) -> anyhow::Result<(PathBuf, PathBuf)> {
     if softbench::integrate::Method::from_name("ssprk3").is_err() {
         register_method(explicit(
             "ssprk3",
@@ -139,7 +145,8 @@ scenes = [{scene:?}]
 "#
         ),
     )?;
-    let study = study::load(&study_file, false)?;
+    let data = DataPaths::from_env();
+    let study = study::load(&study_file, false, &data)?;
     let options = study::RunOptions {
         dir: out.join(&study.file.name),
         only: None,
@@ -150,24 +157,38 @@ scenes = [{scene:?}]
         shard: None,
     };
     let done = study::run(&study, &options)?;
-    Ok(done.dir)
+
+    // The registered method through the run pipeline `softbench simulate` uses.
+    let overrides = ["integrator.method=ssprk3", "run.dt=0.002", "run.steps=100"].map(String::from);
+    let loaded = scene::load(&scene, &overrides)?;
+    let options = SimulateOptions {
+        export: None,
+        every: 1,
+        pictures: false,
+        progress: false,
+    };
+    let simulated = out.join("ssprk3");
+    std::fs::create_dir_all(&simulated)?;
+    Simulation::prepare(loaded, &data, Parallelism::Rayon, options)?.run(&simulated)?;
+    Ok((done.dir, simulated))
 }
 
 fn main() -> anyhow::Result<()> {
     let out = PathBuf::from(std::env::args().nth(1).unwrap_or_else(|| "out".into()));
-    let dir = run(&out)?;
-    eprintln!("wrote {}", dir.display());
+    let (dir, simulated) = run(&out)?;
+    eprintln!("wrote {} and {}", dir.display(), simulated.display());
     Ok(())
 }
 
 #[cfg(test)]
 mod tests {
     /// CI runs this (the example is built with `test = true`): the study's runs.csv holds the
-    /// registered method and solver beside the built-in ones, each completed.
+    /// registered method and solver beside the built-in ones, each completed, and the
+    /// simulation's summary.json names the method and a completed run.
     #[test]
     fn the_registered_method_runs_in_a_study() {
         let out = std::env::temp_dir().join(format!("softbench-custom-{}", std::process::id()));
-        let dir = super::run(&out).unwrap();
+        let (dir, simulated) = super::run(&out).unwrap();
         let runs = std::fs::read_to_string(dir.join("runs.csv")).unwrap();
         for method in ["ssprk3", "rk4", "backward-euler", "cg-ic0"] {
             let row = runs
@@ -177,6 +198,12 @@ mod tests {
             assert!(row.contains("completed"), "{row}");
         }
         assert!(dir.join("report.md").exists());
+        let summary: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(simulated.join("summary.json")).unwrap())
+                .unwrap();
+        assert_eq!(summary["summary"]["method"], "ssprk3");
+        assert_eq!(summary["summary"]["outcome"]["status"], "completed");
+        assert_eq!(summary["summary"]["steps_completed"], 100);
         std::fs::remove_dir_all(&out).ok();
     }
 }

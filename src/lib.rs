@@ -29,6 +29,7 @@ pub mod mesh;
 pub mod model;
 pub mod names;
 pub mod parallel;
+pub mod pipeline;
 pub mod plot;
 pub mod quote;
 pub mod registry;

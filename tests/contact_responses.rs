@@ -104,7 +104,7 @@ fn center_of_mass(model: &Model, state: &State) -> (f64, f64) {
 }
 
 fn simulate(mut scene: Scene, steps: usize) -> Trajectory {
-    let mut integrator = scene.integrator();
+    let mut integrator = scene.take_integrator();
     let dt = scene.config.run.dt;
     let mut state = scene.initial.clone();
     let (y, vy) = center_of_mass(&scene.model, &state);

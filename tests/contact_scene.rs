@@ -44,7 +44,7 @@ fn build(extra: &str) -> Scene {
 
 /// Step a built scene with its own integrator; returns the largest contact count reported.
 fn run(scene: &mut Scene) -> u32 {
-    let mut integrator = scene.integrator();
+    let mut integrator = scene.take_integrator();
     let mut state = scene.initial.clone();
     let mut contacts = 0;
     for _ in 0..scene.config.run.steps {
@@ -367,7 +367,7 @@ fn local_solvers_take_obstacles_through_projection_and_refuse_penalty_at_build()
             };
             let mut scene =
                 scene::build(&loaded, &DataPaths::new(None), Parallelism::Sequential).unwrap();
-            let mut integrator = scene.integrator();
+            let mut integrator = scene.take_integrator();
             let mut state = scene.initial.clone();
             let mut contacts = 0;
             for _ in 0..scene.config.run.steps {

@@ -218,7 +218,7 @@ fn study_folder() -> TempDir {
 fn check_study(text: &str, what: &str) {
     let tmp = study_folder();
     let path = tmp.write("study.toml", text);
-    if let Err(e) = softbench::study::load(&path, false) {
+    if let Err(e) = softbench::study::load(&path, false, &DataPaths::from_env()) {
         panic!("{what}: not a valid study: {e}");
     }
 }

@@ -334,7 +334,10 @@ fn study_target(n: u64) {
     fuzz("study", &seeds, n, |f| {
         std::fs::write(&path, &f[0]).unwrap();
         let quick = f[0].len() % 2 == 0;
-        named(softbench::study::load(&path, quick), "fuzz.toml")?;
+        named(
+            softbench::study::load(&path, quick, &softbench::data::DataPaths::from_env()),
+            "fuzz.toml",
+        )?;
         Ok(())
     });
     let _ = std::fs::remove_dir_all(&dir);

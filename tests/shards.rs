@@ -7,6 +7,7 @@ mod common;
 
 use common::results::assert_same_study;
 use common::{TempDir, run_study, run_study_ok, softbench};
+use softbench::data::DataPaths;
 use softbench::study::shard::{assign, estimated_cost, runs_of};
 use softbench::study::{Shard, table::Table};
 use std::path::{Path, PathBuf};
@@ -60,7 +61,8 @@ fn meta(dir: &Path) -> serde_json::Value {
 
 #[test]
 fn the_assignment_is_a_partition_balanced_by_cost_and_the_same_for_every_shard() {
-    let s = softbench::study::load(&study("quickstart.toml"), false).unwrap();
+    let s =
+        softbench::study::load(&study("quickstart.toml"), false, &DataPaths::from_env()).unwrap();
     for n in [1, 2, 3, 5, s.runs.len()] {
         let shard_of = assign(&s, n);
         assert_eq!(shard_of, assign(&s, n), "the assignment is deterministic");
@@ -157,7 +159,7 @@ fn a_merge_says_which_runs_are_missing_and_a_shard_run_again_resumes() {
     let out = tmp.path();
     let dir = out.join("quickstart");
     run_shards(&file, out, &[0, 1], 3, &["--quick"]);
-    let s = softbench::study::load(&file, true).unwrap();
+    let s = softbench::study::load(&file, true, &DataPaths::from_env()).unwrap();
     let (third, _) = runs_of(&s, Shard { index: 2, count: 3 });
     let expected: Vec<String> = third.iter().map(|r| r.id.clone()).collect();
 
@@ -354,7 +356,7 @@ reference = { method = "implicit-midpoint", dt_factor = 8 }
     run_study_ok(&file, &resumed, &[]);
     let sharded = tmp.path().join("sharded");
     // Shard 1 of 4 holds one CG run only.
-    let s = softbench::study::load(&file, false).unwrap();
+    let s = softbench::study::load(&file, false, &DataPaths::from_env()).unwrap();
     let (one, _) = runs_of(&s, Shard { index: 1, count: 4 });
     assert!(
         one.iter().all(|r| r.id.contains("-cg-")),

@@ -5,6 +5,7 @@
 mod common;
 
 use common::TempDir;
+use softbench::data::DataPaths;
 use softbench::study::table::Table;
 use softbench::study::{RunOptions, kinds, load, run};
 
@@ -44,7 +45,7 @@ fn every_registered_study_kind_runs_from_its_example() {
             kind.name, kind.example
         );
         let path = tmp.write("study.toml", &text);
-        let study = load(&path, true)
+        let study = load(&path, true, &DataPaths::new(None))
             .unwrap_or_else(|e| panic!("{}: its example does not load: {e}\n{text}", kind.name));
         assert!(!study.runs.is_empty(), "{}: no runs", kind.name);
         let dir = tmp.path().join("out");
@@ -108,7 +109,7 @@ fn a_study_kind_that_is_not_registered_is_refused_with_the_valid_ones() {
         "study.toml",
         "name = \"kind\"\nstudy = \"stabilty\"\nscenes = [\"beam.toml\"]\n",
     );
-    let e = load(&path, false).unwrap_err().to_string();
+    let e = load(&path, false, &DataPaths::new(None)).unwrap_err().to_string();
     assert!(e.contains("study.toml"), "{e}");
     for kind in kinds() {
         assert!(e.contains(kind.name), "the error lists {}: {e}", kind.name);

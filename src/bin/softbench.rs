@@ -17,21 +17,20 @@ use serde::Serialize;
 use softbench::console;
 use softbench::contact::{ContactResponse, ObstacleKind};
 use softbench::data::{DataError, DataPaths};
-use softbench::export::{DisplayError, ExportFormat, FrameContent, FrameWriter, load_display};
+use softbench::export::{DisplayError, ExportFormat};
 use softbench::integrate::methods::METHODS;
 use softbench::interrupt::{self, Signal};
-use softbench::io::{AtomicFile, write_atomic};
 use softbench::lock::{FolderLock, Holder, LockError, Wait};
 use softbench::material::MaterialKind;
-use softbench::mesh::{
-    AnyMesh, MESH_FORMATS, MeshError, MeshFormat, MeshReport, TetMesh, read_mesh,
-};
-use softbench::model::Model;
+use softbench::mesh::{AnyMesh, MESH_FORMATS, MeshError, MeshFormat, MeshReport, read_mesh};
 use softbench::parallel::Parallelism;
+use softbench::pipeline::{
+    RUN_SNAPSHOTS, SimulateError, SimulateOptions, Simulation, draw_pictures,
+};
 use softbench::registry::{Listing, NamedEnum};
-use softbench::render::{self, Coloring, RunPictures, SnapshotRecorder, Snapshots, Surface};
-use softbench::run::{self, OutcomeKind};
-use softbench::scene::{self, LoadedScene, SceneError};
+use softbench::render::{Coloring, Snapshots};
+use softbench::run::OutcomeKind;
+use softbench::scene::{self, SceneError};
 use softbench::solve::LINEAR_SOLVERS;
 use softbench::study::{self, StudyError};
 
@@ -48,27 +47,33 @@ enum Command {
     /// Report counts, extent, volumes, quality and surface topology of a mesh file.
     #[command(after_help = mesh_formats_help())]
     MeshInfo(MeshInfoArgs),
-    /// Run one scene with one integrator; write trajectory.csv, final_positions.csv and
-    /// summary.json to the output folder.
+    /// Run one scene with one integrator; write trajectory.csv (a row every run.sample_every
+    /// steps), final_positions.csv and summary.json to the output folder. Exit code 1 when
+    /// the run does not complete (it blew up or a solver failed); what it did is written.
     Simulate(SimulateArgs),
-    /// Run a study: every run of its grid, then runs.csv, series/, plots, report.md and
-    /// meta.json in <OUT>/<study name>/. Runs already complete with the same configuration
-    /// are reused.
+    /// Run a study: every run of its grid, then runs.csv, series/, plots, pictures,
+    /// report.md and meta.json in <OUT>/<study name>/. Runs already complete with the same
+    /// configuration are reused. A run that blows up is a result (runs.csv says how it
+    /// ended), not an error.
     Run(RunArgs),
-    /// Merge a study run as shards (`run --shard K/N`): runs.csv, plots, report.md and
-    /// meta.json from the shards' tables; says which runs are missing (exit code 1 then).
-    /// Merging again gives the same files.
+    /// Merge a study run as shards (`run --shard K/N`), or redo the tables of a local run:
+    /// runs.csv, plots, report.md and meta.json from the shards' tables; says which runs are
+    /// missing (exit code 1 then). The study file the shards ran is loaded again, so it and
+    /// its meshes must still be found. Merging again gives the same files.
     Merge(MergeArgs),
     /// Write Slurm job scripts for a study (a job array of shards plus a merge job after
-    /// it) into <OUT>/<study name>/slurm/, and with --submit submit them with sbatch.
+    /// it) into <OUT>/<study name>/slurm/, and with --submit submit them with sbatch. The
+    /// jobs get SOFTBENCH_DATA (made absolute) if it is set here.
     Slurm(SlurmArgs),
-    /// Redraw the plots of a results folder from its CSV files.
+    /// Redraw the plots of a study's results folder from runs.csv, series/ and meta.json, and
+    /// refresh the findings in its report.md.
     Plot(PlotArgs),
     /// Draw pictures of the bodies from stored snapshots: for a `simulate --render` folder its
     /// filmstrip.png and animation.gif; for a study folder one panel PNG and one GIF per scene.
     Render(RenderArgs),
     /// List the integrators, linear solvers, materials, contact responses, obstacle kinds,
-    /// export and mesh formats, scenes and studies, one line each.
+    /// export and mesh formats (with their facts), the study kinds, and the scenes and studies
+    /// in experiments/ (of the current folder, else of the softbench source tree).
     List,
 }
 
@@ -79,13 +84,17 @@ struct RunArgs {
     /// Parent folder of the study's results folder.
     #[arg(long, default_value = "results")]
     out: PathBuf,
-    /// Only the runs whose id contains PATTERN (`*` matches any text).
+    /// Only the runs whose id contains PATTERN; a PATTERN with `*` (any text) must match the
+    /// whole id, e.g. `jello*-rk4`.
     #[arg(long, value_name = "PATTERN")]
     only: Option<String>,
-    /// Runs to execute in parallel (each then uses one thread for its element loops).
+    /// Runs to execute in parallel. With more than one, each run's element loops and linear
+    /// solvers use one thread; with one, they use rayon's pool (RAYON_NUM_THREADS, else one
+    /// thread per core).
     #[arg(long, default_value_t = 1)]
     jobs: usize,
-    /// Shorten horizons and ladders so the study finishes in under a minute (a smoke test).
+    /// Apply the study's [quick] settings (fewer steps, shorter horizons and ladders): a smoke
+    /// test.
     #[arg(long)]
     quick: bool,
     /// Redo runs that are already complete.
@@ -95,7 +104,8 @@ struct RunArgs {
     #[arg(long)]
     wait: bool,
     /// Run only the K-th of N parts of the grid (K counts from 0), balanced by estimated
-    /// cost; the same for every K. The last shard to finish merges (see `merge`).
+    /// cost (every shard computes the same split). The last shard to finish merges (see
+    /// `merge`).
     #[arg(long, value_name = "K/N")]
     shard: Option<study::Shard>,
     /// Draw the pictures of the bodies (panel PNG and GIF per scene, in report.md). A study
@@ -152,7 +162,9 @@ struct RenderArgs {
     /// A `simulate --render` output folder (with run.snapshots) or a study's results folder.
     dir: PathBuf,
     /// Body colour: `j` (det F of the tet under each face), `energy` (its elastic energy
-    /// density, white at 0, dark red at the run's largest) or `plain`.
+    /// density, white at 0, dark red at the largest drawn together) or `plain`. A surface
+    /// that is not the boundary of elastic tets (a [display] mesh, a mass-spring body) is
+    /// drawn plain.
     #[arg(long, default_value = "j", value_parser = ["j", "energy", "plain"])]
     color: String,
 }
@@ -167,11 +179,13 @@ struct SimulateArgs {
     /// Override a scene key by its dotted path, e.g. --set integrator.method=rk4 (repeatable).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     set: Vec<String>,
-    /// Threads for element loops (default: one per core).
+    /// Threads for element loops and linear solvers (default: RAYON_NUM_THREADS, else one
+    /// per core).
     #[arg(long)]
     threads: Option<usize>,
-    /// Write frames to <OUT>/frames/: `vtu` (the tets with velocity, J and energy, plus
-    /// series.pvd) or `obj` (the boundary surface, or the scene's [display] mesh skinned).
+    /// Write frames to <OUT>/frames/: `vtu` (the tets with velocity, displacement, J and,
+    /// with an elastic material, energy and energy density; plus series.pvd) or `obj` (the
+    /// boundary surface, or the scene's [display] mesh skinned onto the tets).
     #[arg(long, value_name = "FORMAT")]
     export: Option<String>,
     /// With --export: a frame every K steps (and at step 0 and the last step). Default 1.
@@ -180,8 +194,9 @@ struct SimulateArgs {
     /// If another softbench is writing the output folder, wait for it instead of stopping.
     #[arg(long)]
     wait: bool,
-    /// Keep the body's surface at 31 times (run.snapshots) and draw filmstrip.png (6 times)
-    /// and animation.gif into the output folder.
+    /// Keep the body's surface (the scene's [display] mesh if it has one) at up to 31 times
+    /// (run.snapshots) and draw filmstrip.png (6 of them) and animation.gif into the output
+    /// folder.
     #[arg(long)]
     render: bool,
 }
@@ -241,6 +256,8 @@ fn is_bad_input(err: &anyhow::Error) -> bool {
     err.chain().any(|e| {
         e.is::<MeshError>()
             || e.is::<DataError>()
+            || e.downcast_ref::<SimulateError>()
+                .is_some_and(SimulateError::is_bad_input)
             || e.is::<SceneError>()
             || e.is::<DisplayError>()
             || e.is::<BadInput>()
@@ -343,53 +360,6 @@ fn mesh_info(args: &MeshInfoArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// What the frames of `--export` hold, built before anything is written: the model's tets
-/// (or the scene mesh's, for a body without an elastic material), their boundary surface, or
-/// the scene's display mesh skinned onto them.
-fn frame_content(
-    format: ExportFormat,
-    loaded: &LoadedScene,
-    model: &Model,
-) -> anyhow::Result<FrameContent> {
-    let data = DataPaths::from_env();
-    let tets = if model.tets().is_empty() {
-        scene::scene_mesh(loaded, &data)?.tets
-    } else {
-        model.tets().to_vec()
-    };
-    Ok(match format {
-        ExportFormat::Vtu => FrameContent::tets(model, tets),
-        ExportFormat::Obj => {
-            let rest = TetMesh {
-                positions: model.rest_positions().to_vec(),
-                tets,
-            };
-            match load_display(loaded, &data, &rest)? {
-                None => FrameContent::boundary_surface(&rest.tets),
-                Some(display) => {
-                    let skin = &display.skinning;
-                    if !skin.outside().is_empty() {
-                        console::err(&format!(
-                            "note: {} of {} display vertices of {} lie outside the tet mesh \
-                             (largest distance {:.3e}); they follow the closest point of their \
-                             nearest tet",
-                            skin.outside().len(),
-                            skin.num_display_vertices(),
-                            display.path.display(),
-                            skin.max_outside_distance()
-                        ));
-                    }
-                    let name = display.path.file_name().map_or_else(
-                        || display.path.display().to_string(),
-                        |n| n.to_string_lossy().into_owned(),
-                    );
-                    FrameContent::skinned(display.skinning, display.mesh.triangles, &name)
-                }
-            }
-        }
-    })
-}
-
 fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
     let export = args
         .export
@@ -412,129 +382,48 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
     }
     // Everything that can be wrong with the input is found before anything is written.
     let loaded = scene::load(&args.scene, &args.set)?;
-    let mut built = scene::build(&loaded, &DataPaths::from_env(), Parallelism::Rayon)?;
-    let config = &built.config;
-    let mut integrator = built.integrator();
-    let linear_solver = (config.integrator.method.uses_linear_solver())
-        .then(|| config.integrator.linear_solver.to_string());
-    let content = export
-        .map(|format| frame_content(format, &loaded, &built.model))
-        .transpose()?;
+    let options = SimulateOptions {
+        export,
+        every,
+        pictures: args.render,
+        progress: true,
+    };
+    let simulation =
+        Simulation::prepare(loaded, &DataPaths::from_env(), Parallelism::Rayon, options).map_err(
+            |e| match e {
+                SimulateError::NoSurface => anyhow::Error::from(BadInput(format!("--render: {e}"))),
+                e => e.into(),
+            },
+        )?;
+    if export == Some(ExportFormat::Obj)
+        && let Some(display) = simulation.display()
+    {
+        let skin = &display.skinning;
+        if !skin.outside().is_empty() {
+            console::err(&format!(
+                "note: {} of {} display vertices of {} lie outside the tet mesh (largest \
+                 distance {:.3e}); they follow the closest point of their nearest tet",
+                skin.outside().len(),
+                skin.num_display_vertices(),
+                display.path.display(),
+                skin.max_outside_distance()
+            ));
+        }
+    }
 
     stop_if_requested()?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
     let _lock = lock_folder(&args.out, "simulate", args.wait)?;
-    let trajectory_path = args.out.join("trajectory.csv");
-    let mut trajectory = AtomicFile::create(&trajectory_path)
-        .with_context(|| format!("cannot write {}", trajectory_path.display()))?;
-    let mut csv = csv::Writer::from_writer(trajectory.writer());
-    let mut state = built.initial.clone();
-    let mut rows = 0usize;
-    let mut write_row = |row: &run::Sample| {
-        rows += 1;
-        csv.serialize(row)
-            .map_err(|e| std::io::Error::other(format!("{}: {e}", trajectory_path.display())))
-    };
-    let frames_dir = args.out.join("frames");
-    let mut frames_written = 0;
-    let surface = args
-        .render
-        .then(|| picture_surface(&loaded, &built.model))
-        .transpose()?;
-    let obstacles = built.contact.as_ref().map(|c| c.obstacles().clone());
-    let mut frames = None;
-    let rows_out: &mut dyn run::Observer = match content {
-        Some(content) => frames.insert(
-            FrameWriter::new(
-                &frames_dir,
-                every,
-                config.run.steps,
-                content,
-                &mut write_row,
-            )
-            .context("cannot write the frames")?,
-        ),
-        None => &mut write_row,
-    };
-    let mut recorder = None;
-    let observer: &mut dyn run::Observer = match surface {
-        Some(surface) => recorder.insert(SnapshotRecorder::new(
-            &built.model,
-            &state,
-            surface,
-            obstacles,
-            (config.run.steps, config.run.dt),
-            rows_out,
-        )),
-        None => rows_out,
-    };
-    let horizon = state.t + config.run.dt * config.run.steps as f64;
-    let mut progress = run::RunProgress::new(observer, config.run.steps, horizon, true);
-    let summary = run::run(
-        &mut built.model,
-        integrator.as_mut(),
-        &mut state,
-        &config.run,
-        &mut progress,
-    )
-    .context("cannot write the output")?;
-    progress.finish();
-    drop(progress);
-    let snapshots = recorder.map(|r| r.finish(&built.model, &summary.outcome));
-    if let Some(frames) = frames {
-        frames_written = frames
-            .finish(&built.model, &state, summary.steps_completed)
-            .context("cannot write the frames")?
-            .len();
-    }
-    if let Some(snapshots) = &snapshots {
-        let path = args.out.join(RUN_SNAPSHOTS);
-        snapshots.write(&path)?;
-        draw_run_pictures(&args.out, snapshots, Coloring::VolumeRatio)?;
-    }
-    csv.flush()?;
-    drop(csv);
-    trajectory
-        .commit()
-        .with_context(|| format!("cannot write {}", trajectory_path.display()))?;
+    let done = simulation.run(&args.out)?;
 
-    let positions_path = args.out.join("final_positions.csv");
-    let positions = built.model.full_positions(&state.q);
-    write_atomic(&positions_path, |w| {
-        writeln!(w, "vertex,x,y,z")?;
-        for (v, p) in positions.iter().enumerate() {
-            writeln!(w, "{v},{:e},{:e},{:e}", p.x, p.y, p.z)?;
-        }
-        Ok(())
-    })
-    .with_context(|| format!("cannot write {}", positions_path.display()))?;
-
-    let summary_path = args.out.join("summary.json");
-    let document = serde_json::json!({
-        "softbench_version": env!("CARGO_PKG_VERSION"),
-        "scene": built.name,
-        "scene_file": loaded.path,
-        "linear_solver": linear_solver,
-        "springs": built
-            .spring_counts
-            .iter()
-            .map(|(k, n)| (k.to_string(), serde_json::json!(n)))
-            .collect::<serde_json::Map<_, _>>(),
-        "summary": summary,
-        "config": config,
-    });
-    write_atomic(&summary_path, |w| {
-        serde_json::to_writer_pretty(&mut *w, &document)?;
-        writeln!(w)
-    })
-    .with_context(|| format!("cannot write {}", summary_path.display()))?;
-
+    let summary = &done.summary;
     let outcome = &summary.outcome;
+    let rows = done.rows;
     match outcome.status {
         OutcomeKind::Completed => {
-            let frames_note = if frames_written > 0 {
-                format!(" ({frames_written} frames in {})", frames_dir.display())
+            let frames_note = if done.frames > 0 {
+                format!(" ({} frames in {})", done.frames, done.frames_dir.display())
             } else {
                 String::new()
             };
@@ -546,10 +435,10 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
             } else {
                 String::new()
             };
-            let springs_note = if built.spring_counts.is_empty() {
+            let springs_note = if done.spring_counts.is_empty() {
                 String::new()
             } else {
-                let counts: Vec<String> = built
+                let counts: Vec<String> = done
                     .spring_counts
                     .iter()
                     .map(|(k, n)| format!("{k} {n}"))
@@ -564,7 +453,7 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
             });
             console::out(&format!(
                 "{}: completed {} steps of {} with dt = {:e} s in {:.3} s{unconverged}{internal_note}; wrote {}{frames_note}{springs_note}",
-                built.name,
+                done.name,
                 summary.steps_completed,
                 summary.method,
                 summary.dt,
@@ -579,11 +468,11 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
                 "{}: {} of {}; the {rows} rows so far are in {}, the state after step {step} in \
                  {} and summary.json says `interrupted`. simulate keeps no checkpoint: run the \
                  same command again to start over",
-                built.name,
+                done.name,
                 outcome.message,
                 summary.steps_requested,
-                trajectory_path.display(),
-                positions_path.display()
+                done.trajectory.display(),
+                done.final_positions.display()
             ));
             let code = match interrupt::requested() {
                 Some(s) => s.exit_code(),
@@ -595,14 +484,14 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
             console::err(&format!(
                 "error: {} with {} ended {} at step {} (t = {:e} s): {}: {}; the {rows} rows \
                  written before it are in {}",
-                built.name,
+                done.name,
                 summary.method,
                 outcome.status,
                 outcome.step.unwrap_or(0),
                 outcome.t.unwrap_or(0.0),
                 outcome.cause,
                 outcome.message,
-                trajectory_path.display()
+                done.trajectory.display()
             ));
             Ok(ExitCode::FAILURE)
         }
@@ -711,7 +600,7 @@ fn run_study(args: &RunArgs) -> anyhow::Result<ExitCode> {
         return Err(BadInput("--jobs must be at least 1".into()).into());
     }
     // Everything that can be wrong with the study is found before anything is written.
-    let study = study::load(&args.study, args.quick)?;
+    let study = study::load(&args.study, args.quick, &DataPaths::from_env())?;
     let _always_rendered = args.render;
     let options = study::RunOptions {
         dir: args.out.join(&study.file.name),
@@ -790,7 +679,7 @@ fn run_study(args: &RunArgs) -> anyhow::Result<ExitCode> {
 }
 
 fn merge(args: &MergeArgs) -> anyhow::Result<ExitCode> {
-    let merged = study::merge(&args.dir, args.wait, true)
+    let merged = study::merge(&args.dir, args.wait, true, &DataPaths::from_env())
         .with_context(|| format!("cannot merge {}", args.dir.display()))?;
     let hosts: std::collections::BTreeSet<&str> =
         merged.shards.iter().map(|r| r.host.as_str()).collect();
@@ -839,7 +728,8 @@ fn slurm(args: &SlurmArgs) -> anyhow::Result<ExitCode> {
         softbench::slurm::check_partition(p)?;
     }
     // Everything that can be wrong with the study is found before anything is written.
-    let study = study::load(&args.study, args.quick)?;
+    let data = DataPaths::from_env();
+    let study = study::load(&args.study, args.quick, &data)?;
     let runs = study.runs.len();
     let shards = match args.shards {
         Some(0) => return Err(BadInput("--shards must be at least 1".into()).into()),
@@ -867,10 +757,7 @@ fn slurm(args: &SlurmArgs) -> anyhow::Result<ExitCode> {
         time: args.time.clone(),
         cpus_per_task: args.cpus_per_task,
         quick: args.quick,
-        data: std::env::var_os("SOFTBENCH_DATA")
-            .filter(|v| !v.is_empty())
-            .map(|v| absolute(Path::new(&v)))
-            .transpose()?,
+        data: data.data_dir.as_deref().map(absolute).transpose()?,
     };
     // Paths that an #SBATCH line cannot hold are bad input, found before writing.
     job.array_script()?;
@@ -897,44 +784,6 @@ fn slurm(args: &SlurmArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// The snapshot file `simulate --render` writes into its output folder.
-const RUN_SNAPSHOTS: &str = "run.snapshots";
-
-/// The surface `--render` draws: the scene's [display] mesh skinned onto the tets, else the
-/// boundary of the model's tets (or of the scene mesh's, for a spring body).
-fn picture_surface(loaded: &LoadedScene, model: &Model) -> anyhow::Result<Surface> {
-    let data = DataPaths::from_env();
-    let tets = if model.tets().is_empty() {
-        scene::scene_mesh(loaded, &data)?.tets
-    } else {
-        model.tets().to_vec()
-    };
-    if tets.is_empty() {
-        return Err(
-            BadInput("--render: the body has no tets whose surface could be drawn".into()).into(),
-        );
-    }
-    let rest = TetMesh {
-        positions: model.rest_positions().to_vec(),
-        tets,
-    };
-    Ok(match load_display(loaded, &data, &rest)? {
-        Some(display) => Surface::skinned(display.skinning, &display.mesh.triangles),
-        None => Surface::boundary(model, &rest.tets),
-    })
-}
-
-/// filmstrip.png and animation.gif of one run into `dir`.
-fn draw_run_pictures(dir: &Path, s: &Snapshots, coloring: Coloring) -> anyhow::Result<()> {
-    render::filmstrip(&dir.join("filmstrip.png"), s, coloring)?;
-    let one = [RunPictures {
-        label: String::new(),
-        snapshots: s,
-    }];
-    render::animation(&dir.join("animation.gif"), &one, coloring)?;
-    Ok(())
-}
-
 fn render_folder(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     let coloring = match args.color.as_str() {
         "plain" => Coloring::Plain,
@@ -944,7 +793,7 @@ fn render_folder(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     let single = args.dir.join(RUN_SNAPSHOTS);
     if single.is_file() {
         let s = Snapshots::read(&single)?;
-        draw_run_pictures(&args.dir, &s, coloring)?;
+        draw_pictures(&args.dir, &s, coloring)?;
         for f in ["filmstrip.png", "animation.gif"] {
             console::out(&args.dir.join(f).display().to_string());
         }

@@ -330,7 +330,7 @@ fn validate(c: &SceneConfig, path: &Path) -> Result<(), SceneError> {
     Ok(())
 }
 
-/// A built scene: the model and its initial state.
+/// A built scene: the model, its initial state and the integrator of its first run.
 pub struct Scene {
     pub name: String,
     pub config: SceneConfig,
@@ -341,23 +341,50 @@ pub struct Scene {
     /// Springs of a mass-spring body per kind (`structural`, `shear`, ...), kinds with none
     /// left out; empty for a FEM body.
     pub spring_counts: Vec<(&'static str, usize)>,
+    /// The scene mesh's tets when the model has no elastic tets (a mass-spring body, such as
+    /// a jello cube's lattice): the surface its frames and pictures show, kept so that
+    /// nothing reads the mesh again. Empty when the model has tets of its own.
+    pub mesh_tets: Vec<[usize; 4]>,
+    /// The integrator [`build`] made and checked against the model, until a run takes it.
+    integrator: Option<Box<dyn Integrator>>,
 }
 
 impl Scene {
-    /// The scene's integrator, with its contact response if it has obstacles.
+    /// The integrator for a run of this scene, with its contact response if it has
+    /// obstacles: the one [`build`] checked against the model for the first run, a new one
+    /// for every later run (a stability search's trials each start fresh).
     ///
     /// The linear solvers run with the model's parallelism (the CLI's `--threads` sizes the
     /// pool), so the direct solvers' factorization and CG's mat-vecs get the same threads as
     /// assembly.
-    pub fn integrator(&self) -> Box<dyn Integrator> {
-        let settings = self
-            .config
-            .integrator
-            .with_parallelism(self.model.parallelism());
-        match &self.contact {
-            Some(contact) => contact.integrator(&settings),
-            None => settings.build(),
+    pub fn take_integrator(&mut self) -> Box<dyn Integrator> {
+        self.integrator
+            .take()
+            .unwrap_or_else(|| new_integrator(&self.config, &self.model, self.contact.as_ref()))
+    }
+
+    /// The tets whose boundary is the body's surface: the model's elastic tets, or for a body
+    /// without any, the scene mesh's ([`Scene::mesh_tets`]).
+    pub fn surface_tets(&self) -> &[[usize; 4]] {
+        if self.model.tets().is_empty() {
+            &self.mesh_tets
+        } else {
+            self.model.tets()
         }
+    }
+}
+
+/// The integrator `config` names for `model`, with the model's parallelism and the contact
+/// response of `contact`.
+fn new_integrator(
+    config: &SceneConfig,
+    model: &Model,
+    contact: Option<&Contact>,
+) -> Box<dyn Integrator> {
+    let settings = config.integrator.with_parallelism(model.parallelism());
+    match contact {
+        Some(contact) => contact.integrator(&settings),
+        None => settings.build(),
     }
 }
 
@@ -562,6 +589,12 @@ pub fn build(
     let path = &loaded.path;
     let mesh = scene_mesh(loaded, data)?;
     let tets = c.initial.from.as_ref().map(|_| mesh.tets.clone());
+    // A body without an elastic material has no model tets; its surface is the mesh's.
+    let mesh_tets = if c.material.is_none() {
+        mesh.tets.clone()
+    } else {
+        Vec::new()
+    };
     let material = c
         .material
         .as_ref()
@@ -629,9 +662,9 @@ pub fn build(
     })?;
     let contact = Contact::build(&c.obstacles, &c.contact, &mut model);
     // A method that has no form for the model's material or potentials says so now, not at
-    // its first step.
-    c.integrator
-        .build()
+    // its first step. The integrator checked is the one the first run uses.
+    let integrator = new_integrator(c, &model, contact.as_ref());
+    integrator
         .check_model(&model)
         .map_err(|e| SceneError::Invalid {
             path: path.clone(),
@@ -652,5 +685,7 @@ pub fn build(
         initial,
         contact,
         spring_counts,
+        mesh_tets,
+        integrator: Some(integrator),
     })
 }

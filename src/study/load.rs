@@ -30,8 +30,9 @@ struct SceneSource {
 /// Longest run id (a file name, with `-trials.csv` appended, must stay under 255 bytes).
 const MAX_RUN_ID: usize = 200;
 
-/// Read, expand and check a study. `quick` applies its `[quick]` settings.
-pub fn load(path: &Path, quick: bool) -> Result<Study, StudyError> {
+/// Read, expand and check a study. `quick` applies its `[quick]` settings; the scenes' data
+/// files are found through `data`.
+pub fn load(path: &Path, quick: bool, data: &DataPaths) -> Result<Study, StudyError> {
     let text = scene::read_config_text(path).map_err(|error| StudyError::Io {
         path: path.to_owned(),
         error,
@@ -176,11 +177,12 @@ pub fn load(path: &Path, quick: bool) -> Result<Study, StudyError> {
                     physics,
                     dofs: 0,
                     estimated_steps,
+                    data: data.clone(),
                 });
             }
         }
     }
-    check_scenes_build(&mut runs, &scenes, &ctx)?;
+    check_scenes_build(&mut runs, &scenes, &ctx, data)?;
     Ok(Study {
         path: path.to_owned(),
         file,
@@ -365,36 +367,43 @@ fn configure(
 }
 
 /// Build each distinct scene once, so a missing mesh file or a bad mesh is reported before
-/// anything runs; record each run's free degrees of freedom.
+/// anything runs; record each run's free degrees of freedom. A run's pictures show the
+/// scene's `[display]` mesh, which each run reads and skins itself: here it is only found.
 fn check_scenes_build(
     runs: &mut [RunSpec],
     scenes: &[SceneSource],
     ctx: &Context,
+    data: &DataPaths,
 ) -> Result<(), StudyError> {
-    let data = DataPaths::from_env();
     let mut built: HashMap<u64, usize> = HashMap::new();
     for run in runs.iter_mut() {
         if let Some(&dofs) = built.get(&run.physics) {
             run.dofs = dofs;
             continue;
         }
-        match scene::build(&run.loaded, &data, Parallelism::Sequential) {
+        match scene::build(&run.loaded, data, Parallelism::Sequential) {
             Ok(scene) => {
                 run.dofs = scene.model.num_dofs();
                 built.insert(run.physics, run.dofs);
             }
             Err(error) => {
-                let line = scenes
-                    .iter()
-                    .find(|s| s.name == run.scene)
-                    .map_or(1, |s| s.line);
                 return Err(StudyError::Scene {
                     path: ctx.path.to_owned(),
-                    line,
+                    line: scene_line(scenes, run),
                     key: format!("scene `{}` (run {})", run.scene, run.id),
                     error: Box::new(error),
                 });
             }
+        }
+        if let Some(display) = &run.loaded.config.display
+            && let Err(error) = data.resolve(&display.file, Some(run.loaded.base_dir()))
+        {
+            return Err(StudyError::Invalid {
+                path: ctx.path.to_owned(),
+                line: scene_line(scenes, run),
+                key: format!("scene `{}` (run {}): display.file", run.scene, run.id),
+                message: error.to_string(),
+            });
         }
     }
     Ok(())
@@ -520,4 +529,12 @@ fn check_settings(file: &StudyFile, ctx: &Context) -> Result<&'static str, Study
     kind.check(file, ctx, &bad)?;
     super::settings::check_quick(file, &bad)?;
     Ok(kind.name())
+}
+
+/// The line of the study that names `run`'s scene.
+fn scene_line(scenes: &[SceneSource], run: &RunSpec) -> usize {
+    scenes
+        .iter()
+        .find(|s| s.name == run.scene)
+        .map_or(1, |s| s.line)
 }

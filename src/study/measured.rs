@@ -3,10 +3,10 @@
 
 use super::format::cell;
 use super::spec::RunSpec;
-use crate::data::DataPaths;
 use crate::integrate::State;
 use crate::parallel::Parallelism;
-use crate::run::{self, Observer, Outcome, RunSummary, Sample};
+use crate::pipeline::{self, BodySurface, Recording};
+use crate::run::{Observer, Outcome, RunSummary, Sample};
 use crate::scene::{self, RunConfig, Scene};
 
 /// The result of one run.
@@ -189,63 +189,38 @@ pub fn cap_cells(spec: &RunSpec) -> Vec<(&'static str, String)> {
 
 /// The scene of a run, built with the given parallelism.
 pub fn build(spec: &RunSpec, parallelism: Parallelism) -> Result<Scene, scene::SceneError> {
-    scene::build(&spec.loaded, &DataPaths::from_env(), parallelism)
+    scene::build(&spec.loaded, &spec.data, parallelism)
 }
 
 /// Run `scene` from rest with `run`, passing every row to `inner`; with a `surface`, also
 /// record its snapshots (see [`crate::render`]). Returns the final state too (how far a run
-/// that ended early got).
+/// that ended early got). Each call is one run with its own integrator
+/// ([`Scene::take_integrator`]).
 pub fn run_observed(
     scene: &mut Scene,
     run: &RunConfig,
     surface: Option<crate::render::Surface>,
     inner: &mut dyn Observer,
 ) -> (RunSummary, State, Option<crate::render::Snapshots>) {
-    let mut integrator = scene.integrator();
-    let mut state: State = scene.initial.clone();
-    let Some(surface) = surface else {
-        let summary = run::run(
-            &mut scene.model,
-            integrator.as_mut(),
-            &mut state,
-            run,
-            inner,
-        )
-        .expect("keeping rows in memory cannot fail");
-        return (summary, state, None);
+    let recording = Recording {
+        pictures: surface,
+        ..Recording::default()
     };
-    let obstacles = scene.contact.as_ref().map(|c| c.obstacles().clone());
-    let mut recorder = crate::render::SnapshotRecorder::new(
-        &scene.model,
-        &state,
-        surface,
-        obstacles,
-        (run.steps, run.dt),
-        inner,
-    );
-    let summary = run::run(
-        &mut scene.model,
-        integrator.as_mut(),
-        &mut state,
-        run,
-        &mut recorder,
-    )
-    .expect("keeping rows and snapshots in memory cannot fail");
-    let snapshots = recorder.finish(&scene.model, &summary.outcome);
-    (summary, state, Some(snapshots))
+    let observed = pipeline::run_observed(scene, run, recording, inner)
+        .expect("keeping rows and snapshots in memory cannot fail");
+    (observed.summary, observed.state, observed.snapshots)
 }
 
-/// The surface a study run's pictures show: the boundary of the model's tets, or of the scene
-/// mesh's tets for a body without an elastic material (a jello cube's lattice); `None` when
-/// there are no tets to draw.
-pub fn picture_surface(scene: &Scene, spec: &RunSpec) -> Option<crate::render::Surface> {
-    let model = &scene.model;
-    if !model.tets().is_empty() {
-        return Some(crate::render::Surface::boundary(model, model.tets()));
-    }
-    let mesh = scene::scene_mesh(&spec.loaded, &DataPaths::from_env()).ok()?;
-    (!mesh.tets.is_empty() && mesh.positions.len() == model.rest_positions().len())
-        .then(|| crate::render::Surface::boundary(model, &mesh.tets))
+/// The surface a study run's pictures show, as `simulate --render` draws it
+/// ([`BodySurface`]): the scene's `[display]` mesh skinned onto the tets, else the boundary
+/// of the body's tets; `None` when there are no tets to draw.
+pub fn picture_surface(
+    scene: &Scene,
+    spec: &RunSpec,
+) -> Result<Option<crate::render::Surface>, String> {
+    let body =
+        BodySurface::new(&spec.loaded, &spec.data, scene, true).map_err(|e| e.to_string())?;
+    Ok(body.picture_surface(scene))
 }
 
 /// Run `scene` from rest with `run`, keeping every sampled row (and snapshots of `surface`).

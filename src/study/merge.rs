@@ -53,8 +53,14 @@ pub enum MergeError {
 }
 
 /// Merge the study folder `dir`: load the study its shards ran (the study file is recorded,
-/// absolute, in each `shard.json`; for a folder of a local run, in `meta.json`) and merge.
-pub fn merge(dir: &Path, wait: bool, progress: bool) -> Result<Merged, MergeError> {
+/// absolute, in each `shard.json`; for a folder of a local run, in `meta.json`), its scenes'
+/// data files found through `data`, and merge.
+pub fn merge(
+    dir: &Path,
+    wait: bool,
+    progress: bool,
+    data: &crate::data::DataPaths,
+) -> Result<Merged, MergeError> {
     let records = ShardRecord::read_all(dir).map_err(|e| MergeError::Unreadable {
         path: dir.join("shards"),
         message: e.to_string(),
@@ -72,7 +78,7 @@ pub fn merge(dir: &Path, wait: bool, progress: bool) -> Result<Merged, MergeErro
             (meta.study.file, meta.study.quick)
         }
     };
-    let study = super::load(&path, quick)?;
+    let study = super::load(&path, quick, data)?;
     let wait = if wait { Wait::Yes } else { Wait::No };
     Ok(merge_study(&study, dir, wait, progress)?)
 }

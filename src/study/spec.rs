@@ -1,6 +1,7 @@
 //! What loading a study gives: the [`Study`] and the [`RunSpec`] of every run of its grid.
 
 use super::config::StudyFile;
+use crate::data::DataPaths;
 use crate::integrate::Method;
 use crate::scene::LoadedScene;
 use crate::solve::LinearSolverKind;
@@ -53,6 +54,8 @@ pub struct RunSpec {
     /// Roughly how many steps the run takes (a stability search's trials together), as its
     /// kind estimates it: the cost estimate that balances shards (only ratios matter).
     pub estimated_steps: f64,
+    /// Where the scene's data files (meshes, display meshes) are found.
+    pub data: DataPaths,
 }
 
 impl Study {

@@ -764,7 +764,7 @@ pub(super) fn measure(
     let sample_times = shared
         .reference
         .map_or_else(Vec::new, |r| r.times().to_vec());
-    let surface = picture_surface(&scene, spec);
+    let surface = picture_surface(&scene, spec)?;
     let run_trial = |dt: f64| -> Trial {
         let needed = (settings.horizon / dt * (1.0 - 1e-12)).ceil().max(1.0);
         let steps = (needed as usize).min(settings.max_steps);

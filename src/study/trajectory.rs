@@ -192,7 +192,7 @@ pub fn measure(spec: &RunSpec, parallelism: Parallelism) -> Result<Measured, Str
     super::measured::reset_peak_rss();
     let mut scene = build(spec, parallelism).map_err(|e| e.to_string())?;
     let run = scene.config.run;
-    let surface = picture_surface(&scene, spec);
+    let surface = picture_surface(&scene, spec)?;
     let (summary, rows, snapshots) = run_rows(&mut scene, &run, surface);
     let (outcome, message) = outcome_of(&summary.outcome);
     let mut m = Measured {

@@ -458,7 +458,7 @@ pub fn measure(
 ) -> Result<Measured, String> {
     let mut scene = build(spec, parallelism).map_err(|e| e.to_string())?;
     let run = scene.config.run;
-    let surface = picture_surface(&scene, spec);
+    let surface = picture_surface(&scene, spec)?;
     let (summary, rows, snapshots, pictures) =
         sampled_run(&mut scene, &run, stride(settings, run.dt), surface);
     let (outcome, message) = outcome_of(&summary.outcome);
