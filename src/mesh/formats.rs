@@ -9,7 +9,7 @@
 //! [`SurfaceMesh`](super::SurfaceMesh), whose errors are [`MeshError`]s naming the file and
 //! line (`text.rs` and `bytes.rs` have the plumbing), and, if its files can be recognized by
 //! their content, a `looks_like`; declare the module in `mod.rs`; add its line to
-//! [`BUILTIN`] (name, title, extensions, what its files start with, sniffer, reader,
+//! `BUILTIN` below (name, title, extensions, what its files start with, sniffer, reader,
 //! description). `tests/mesh_format_table.rs` then fails until it has a small sample of the
 //! format, which it reads back through the dispatch.
 
