@@ -109,7 +109,9 @@ fn a_study_kind_that_is_not_registered_is_refused_with_the_valid_ones() {
         "study.toml",
         "name = \"kind\"\nstudy = \"stabilty\"\nscenes = [\"beam.toml\"]\n",
     );
-    let e = load(&path, false, &DataPaths::new(None)).unwrap_err().to_string();
+    let e = load(&path, false, &DataPaths::new(None))
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("study.toml"), "{e}");
     for kind in kinds() {
         assert!(e.contains(kind.name), "the error lists {}: {e}", kind.name);

@@ -111,6 +111,20 @@ pub(super) fn cost_per_simulated_second(s: &SceneRows) -> Option<Ranking> {
     )
 }
 
+/// Cost per simulated second where the table has the wall and simulated times, then energy
+/// drift where it has it: what trajectory and work-precision studies rank first.
+pub(super) fn cost_and_drift(s: &SceneRows, damped: Option<&str>) -> Vec<Ranking> {
+    let has = |c: &str| s.runs.column(c).is_some();
+    let mut out = Vec::new();
+    if has("wall_seconds") && has("final_time") {
+        out.extend(cost_per_simulated_second(s));
+    }
+    if has("energy_drift_max") {
+        out.extend(energy_drift(s, damped));
+    }
+    out
+}
+
 /// The largest energy drift of the completed runs (with `damped`, how the scene is damped:
 /// then the drift includes the damping's loss).
 pub(super) fn energy_drift(s: &SceneRows, damped: Option<&str>) -> Option<Ranking> {

@@ -83,22 +83,8 @@ pub fn kinds() -> Vec<KindInfo> {
 
 /// Redraw the plots of a results folder from its `runs.csv`, series files and `meta.json`.
 pub fn redraw(dir: &std::path::Path) -> Result<Vec<plots::Plot>, RedrawError> {
-    let meta_path = dir.join("meta.json");
-    let text = std::fs::read_to_string(&meta_path).map_err(|error| ResultsError::Io {
-        path: meta_path.clone(),
-        error,
-    })?;
-    let meta: Meta = serde_json::from_str(&text).map_err(|e| ResultsError::Malformed {
-        path: meta_path.clone(),
-        message: e.to_string(),
-    })?;
-    check_kind(&meta, &meta_path)?;
-    let runs_path = dir.join("runs.csv");
-    let runs = table::Table::read(&runs_path)?.ok_or_else(|| ResultsError::Io {
-        path: runs_path.clone(),
-        error: std::io::Error::from(std::io::ErrorKind::NotFound),
-    })?;
-    check_runs_table(&runs, &meta.study, &runs_path)?;
+    let (meta, runs) = read_results(dir)?;
+    check_runs_table(&runs, &meta.study, &dir.join("runs.csv"))?;
     let plots = plots::draw_all(dir, &meta.study, &runs)?;
     report::refresh_findings(dir, &meta, &runs).map_err(|error| ResultsError::Io {
         path: dir.join("report.md"),
@@ -107,12 +93,21 @@ pub fn redraw(dir: &std::path::Path) -> Result<Vec<plots::Plot>, RedrawError> {
     Ok(plots)
 }
 
-/// [`pictures::draw`] for a study's results folder, reading its `runs.csv` and `meta.json` (for the
-/// swept parameters that label the runs).
+/// [`pictures::draw`] for a study's results folder, reading its `runs.csv` and `meta.json` (for
+/// the swept parameters that label the runs).
 pub fn redraw_pictures(
     dir: &std::path::Path,
     coloring: crate::render::Coloring,
 ) -> Result<Vec<charts::Plot>, RedrawError> {
+    let (meta, runs) = read_results(dir)?;
+    let which = kinds::of(&meta.study.kind).picture_rows();
+    pictures::draw(dir, &runs, &meta.study.parameters, which, coloring)
+        .map_err(|e| RedrawError::Plot(crate::plot::PlotError::Draw(e.to_string())))
+}
+
+/// A results folder's `meta.json` (whose kind must be registered in this build) and
+/// `runs.csv`.
+fn read_results(dir: &std::path::Path) -> Result<(Meta, table::Table), ResultsError> {
     let meta_path = dir.join("meta.json");
     let text = std::fs::read_to_string(&meta_path).map_err(|error| ResultsError::Io {
         path: meta_path.clone(),
@@ -122,27 +117,19 @@ pub fn redraw_pictures(
         path: meta_path.clone(),
         message: e.to_string(),
     })?;
-    check_kind(&meta, &meta_path)?;
+    if kinds::named(&meta.study.kind).is_none() {
+        let names: Vec<&str> = kinds::KINDS.iter().map(|k| k.name()).collect();
+        return Err(ResultsError::Malformed {
+            path: meta_path,
+            message: crate::names::unknown_name_message("study kind", &meta.study.kind, &names),
+        });
+    }
     let runs_path = dir.join("runs.csv");
     let runs = table::Table::read(&runs_path)?.ok_or_else(|| ResultsError::Io {
         path: runs_path.clone(),
         error: std::io::Error::from(std::io::ErrorKind::NotFound),
     })?;
-    let which = kinds::of(&meta.study.kind).picture_rows();
-    pictures::draw(dir, &runs, &meta.study.parameters, which, coloring)
-        .map_err(|e| RedrawError::Plot(crate::plot::PlotError::Draw(e.to_string())))
-}
-
-/// The kind a results folder's `meta.json` names is registered in this build.
-fn check_kind(meta: &Meta, path: &std::path::Path) -> Result<(), ResultsError> {
-    if kinds::named(&meta.study.kind).is_some() {
-        return Ok(());
-    }
-    let names: Vec<&str> = kinds::KINDS.iter().map(|k| k.name()).collect();
-    Err(ResultsError::Malformed {
-        path: path.to_owned(),
-        message: crate::names::unknown_name_message("study kind", &meta.study.kind, &names),
-    })
+    Ok((meta, runs))
 }
 
 /// Count columns newer than some studies' tables: a table without them was written by an

@@ -144,15 +144,7 @@ impl Kind for Trajectory {
 
     /// Cost per simulated second and energy drift.
     fn rankings(&self, s: &SceneRows, damped: Option<&str>) -> Vec<Ranking> {
-        let has = |c: &str| s.runs.column(c).is_some();
-        let mut out = Vec::new();
-        if has("wall_seconds") && has("final_time") {
-            out.extend(findings::cost_per_simulated_second(s));
-        }
-        if has("energy_drift_max") {
-            out.extend(findings::energy_drift(s, damped));
-        }
-        out
+        findings::cost_and_drift(s, damped)
     }
 
     fn unit_notes(&self, runs: &Table, shown: &dyn Fn(&str) -> bool) -> Vec<String> {

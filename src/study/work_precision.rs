@@ -222,13 +222,7 @@ impl Kind for WorkPrecision {
     /// Energy drift, and error at equal cost.
     fn rankings(&self, s: &SceneRows, damped: Option<&str>) -> Vec<Ranking> {
         let has = |c: &str| s.runs.column(c).is_some();
-        let mut out = Vec::new();
-        if has("wall_seconds") && has("final_time") {
-            out.extend(findings::cost_per_simulated_second(s));
-        }
-        if has("energy_drift_max") {
-            out.extend(findings::energy_drift(s, damped));
-        }
+        let mut out = findings::cost_and_drift(s, damped);
         if has("error") && has("wall_seconds") {
             out.extend(error_at_equal_cost(s.runs, s.params, s.scene, s.rows));
         }
