@@ -56,7 +56,7 @@ pub struct ReferenceLine {
 #[derive(Clone, Debug, Default)]
 pub struct LineChart {
     pub title: String,
-    /// x axis description, with its unit (e.g. "time step dt [s]").
+    /// x axis description, with its unit (e.g. "time step dt \[s\]").
     pub x_label: String,
     /// y axis description, with its unit.
     pub y_label: String,

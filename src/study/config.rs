@@ -28,8 +28,9 @@ pub(super) const STUDY_KEYS: [&str; 9] = [
     "quick",
 ];
 
-/// A study file as written. Its keys other than [`STUDY_KEYS`] are the kinds' own settings
-/// tables, which each kind parses (and loading checks that no other key is there).
+/// A study file as written. Its keys other than the generic ones (`name`, `study`, `scenes`,
+/// ...) are the kinds' own settings tables, which each kind parses (and loading checks that no
+/// other key is there).
 #[derive(Clone, Debug, serde::Deserialize)]
 pub struct StudyFile {
     /// The study's name: its results folder.

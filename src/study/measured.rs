@@ -12,8 +12,9 @@ use crate::scene::{self, RunConfig, Scene};
 /// The result of one run.
 #[derive(Clone, Debug, Default)]
 pub struct Measured {
-    /// The outcome word ([`OutcomeKind`]): how the run ended, or for a stability run how its
-    /// first unstable trial ended (`completed` when none was).
+    /// The outcome word ([`OutcomeKind`](crate::run::OutcomeKind)): how the run ended, or, for
+    /// a kind that runs trials (stability), how its first failing trial ended (`completed`
+    /// when none failed).
     pub outcome: String,
     /// The message behind an outcome other than `completed`.
     pub message: String,

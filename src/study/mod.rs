@@ -2,9 +2,11 @@
 //! plots, `meta.json` and `report.md` under `results/<study>/`.
 //!
 //! [`load`] parses and expands the grid and checks every run before anything is written;
-//! [`run`] executes the runs not already complete (resuming an interrupted study), each kind
-//! measured by its own module ([`trajectory`], [`work_precision`], [`stability`]); [`redraw`]
-//! draws the plots again from the CSVs.
+//! [`run`] executes the runs not already complete (resuming an interrupted study), each run
+//! measured by its study kind's own module ([`trajectory`], [`work_precision`],
+//! [`stability`]; [`kinds()`] lists the registered ones); [`redraw`] draws the plots again from
+//! the CSVs. The files form a one-way stack (vocabulary, the kind trait, the kinds, the
+//! orchestrators): DESIGN.md's layout describes it.
 
 mod charts;
 pub mod config;

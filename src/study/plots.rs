@@ -1,6 +1,7 @@
 //! The study's plots, drawn from `runs.csv` and the series files alone, so `softbench plot`
-//! can redraw them: energy and Newton iterations over time, work-precision, largest stable
-//! dt against 2/omega_max, time per step by phase, and sweep metrics against the parameter.
+//! can redraw them: each kind's own charts of a scene (`Kind::scene_charts`), energy and
+//! Newton iterations over time, time per step by phase, sweep metrics against the parameter,
+//! and the pictures of the bodies.
 
 pub use super::charts::Plot;
 use super::charts::{SceneRows, label, scenes, slug, smallest_dt_rows};
@@ -170,8 +171,8 @@ fn remove_stale(dir: &Path, drawn: &[Plot]) {
 struct RunSeries {
     label: String,
     table: Table,
-    /// The run ended early (not `completed`; stability rows, whose outcome is their first
-    /// unstable trial's, never are).
+    /// The run ended early (not `completed`; never for a kind whose outcome is not how its
+    /// series ended, see `Kind::outcome_ends_series`).
     ended: bool,
 }
 

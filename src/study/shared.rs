@@ -1,5 +1,5 @@
 //! What the runs of a study share, computed before they start: the highest mode of each
-//! scene (for stability studies and the default reference method) and the reference
+//! scene (for kinds that start from it, and the default reference method) and the reference
 //! solutions. A local study computes them in memory; the shards of a study go through the
 //! study folder's [`SharedStore`], so each item is computed once whichever shards need it;
 //! a merge reads what the shards stored.
@@ -41,7 +41,8 @@ pub(super) struct SharedWork {
     /// Reference solution by physics (and dt, with `same_dt`: see
     /// [`reference_key`]), with its label.
     pub references: BTreeMap<u64, (String, Reference)>,
-    /// References that failed (stability studies go on without them): scene and message.
+    /// References that failed (kinds whose reference is optional go on without them): scene
+    /// and message.
     pub failed_references: BTreeMap<u64, (String, String)>,
     /// The reference settings the keys were made with.
     settings: Option<ScoringSettings>,
@@ -74,7 +75,7 @@ impl SharedWork {
             }
         };
         let mut omega = HashMap::new();
-        // (A stability study's reference also picks its method from omega_max.)
+        // (A reference without a set method also picks it from omega_max.)
         if kind.needs_omega(&study.file) {
             for spec in &templates {
                 let task = format!("highest mode of {}", spec.scene);
@@ -206,8 +207,8 @@ impl SharedWork {
             for (spec, (method, result, solved_here)) in results {
                 let reference = match result {
                     Ok(r) => r,
-                    // A kind that goes on without its reference (stability) leaves the errors
-                    // that need it empty, and the report says why.
+                    // A kind that goes on without its reference leaves the errors that need it
+                    // empty, and the report says why.
                     Err(m) if kind.reference_optional() => {
                         progress.line(&format!(
                             "reference for {} failed, so error_at_stable_dt is left empty: {m}",
