@@ -274,3 +274,18 @@ fn stability_step_bounds_that_leave_nothing_to_judge() {
         &["quick.horizon", "keeps its horizon"],
     );
 }
+
+#[test]
+fn an_unknown_quick_key_is_refused_with_the_keys_the_kinds_read() {
+    let s = format!("{GOOD}\n[quick]\nstpes = 5\n");
+    assert_rejected(
+        &s,
+        &["study.toml:9", "quick.stpes", "steps", "max_steps", "dts"],
+    );
+}
+
+#[test]
+fn a_quick_key_of_the_wrong_type_names_its_line() {
+    let s = format!("{GOOD}\n[quick]\nsteps = \"many\"\n");
+    assert_rejected(&s, &["study.toml", "line 9", "steps", "expected usize"]);
+}

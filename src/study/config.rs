@@ -95,29 +95,36 @@ pub struct SweepSettings {
     pub metrics: Vec<String>,
 }
 
-/// `[quick]`: how `--quick` shortens the study (so any shipped study takes under a minute).
-#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
+/// `[quick]`: how `--quick` shortens the study. `set` applies whatever the kind; every other
+/// key belongs to a kind (`Kind::quick_keys`), which parses and checks it at load.
+#[derive(Clone, Debug, Default, PartialEq, serde::Deserialize)]
 pub struct QuickSettings {
     /// Scene keys set in quick mode (dotted paths), after `set` and the grid.
     #[serde(default)]
     pub set: BTreeMap<String, toml::Value>,
-    /// Trajectory runs take at most this many steps. Default 20.
-    #[serde(default)]
-    pub steps: Option<usize>,
-    /// Work-precision: the horizon. Stability studies refuse it: they keep their horizon, so a
-    /// quick verdict at a step is the full study's verdict at that step.
-    #[serde(default)]
-    pub horizon: Option<f64>,
-    /// Stability: steps per trial at most, so only larger steps are judged (default: the
-    /// study's, at most 2000), and the bisection precision (default 0.05).
-    #[serde(default)]
-    pub max_steps: Option<usize>,
-    #[serde(default)]
-    pub relative_precision: Option<f64>,
-    /// Work-precision: only the largest this many time steps of the ladder. Default 2.
-    #[serde(default)]
-    pub dts: Option<usize>,
+    /// The kinds' own keys as they parsed them (JSON null where the file has none), merged.
+    #[serde(skip)]
+    pub keys: serde_json::Map<String, serde_json::Value>,
+}
+
+impl QuickSettings {
+    /// A kind's `[quick]` key as parsed at load; `None` when the file does not set it.
+    pub fn get<T: serde::de::DeserializeOwned>(&self, key: &str) -> Option<T> {
+        self.keys
+            .get(key)
+            .filter(|v| !v.is_null())
+            .and_then(|v| serde_json::from_value(v.clone()).ok())
+    }
+}
+
+/// As hashed into every run and recorded in meta.json: `set` and every kind's keys, one object.
+impl serde::Serialize for QuickSettings {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        let mut all = self.keys.clone();
+        let set = serde_json::to_value(&self.set).map_err(serde::ser::Error::custom)?;
+        all.insert("set".into(), set);
+        all.serialize(serializer)
+    }
 }
 
 /// The line (1-based) of byte offset `at` in `text`.

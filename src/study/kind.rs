@@ -85,7 +85,32 @@ pub(super) trait Kind: Sync {
         Ok(())
     }
 
-    /// Checks of the kind's `[quick]` settings, whether or not `--quick` is given.
+    /// The `[quick]` keys the kind reads (besides `set`, which every kind applies).
+    fn quick_keys(&self) -> &'static [&'static str] {
+        &[]
+    }
+
+    /// Its `[quick]` keys parsed out of the study file's `text` (the rest is ignored here) as a
+    /// JSON object, null where the file does not set them. Errors name the line.
+    fn parse_quick(
+        &self,
+        _text: &str,
+    ) -> Result<serde_json::Map<String, serde_json::Value>, toml::de::Error> {
+        Ok(serde_json::Map::new())
+    }
+
+    /// Checks of the values of its `[quick]` keys, for every study whatever its kind and
+    /// whether or not `--quick` is given, so a study file is valid or not.
+    fn check_quick_values(
+        &self,
+        _: &StudyFile,
+        _: &dyn Fn(&str, String) -> StudyError,
+    ) -> Result<(), StudyError> {
+        Ok(())
+    }
+
+    /// Checks of `[quick]` when this kind measures the study, whether or not `--quick` is
+    /// given (a key another kind reads that this one refuses).
     fn check_quick(&self, _: &StudyFile, _: &Context) -> Result<(), StudyError> {
         Ok(())
     }
@@ -282,6 +307,27 @@ pub(super) fn not_ok(kind: &dyn Kind, table: &Table) -> Vec<(String, String)> {
             (!verdict.clean).then(|| (row[0].clone(), verdict.word.to_owned()))
         })
         .collect()
+}
+
+/// The `[quick]` keys of a kind's `Q` (a struct of `Option`s named as the keys) parsed out of a
+/// study file's text: what `Kind::parse_quick` returns.
+pub(super) fn parse_quick<Q>(
+    text: &str,
+) -> Result<serde_json::Map<String, serde_json::Value>, toml::de::Error>
+where
+    Q: serde::de::DeserializeOwned + serde::Serialize + Default,
+{
+    #[derive(serde::Deserialize)]
+    #[serde(bound = "Q: serde::de::DeserializeOwned")]
+    struct File<Q> {
+        #[serde(default = "Option::default")]
+        quick: Option<Q>,
+    }
+    let file: File<Q> = toml::from_str(text)?;
+    Ok(match serde_json::to_value(file.quick.unwrap_or_default()) {
+        Ok(serde_json::Value::Object(keys)) => keys,
+        _ => serde_json::Map::new(),
+    })
 }
 
 /// A measured number, shortened for a progress line.

@@ -51,6 +51,8 @@ pub fn load(path: &Path, quick: bool, data: &DataPaths) -> Result<Study, StudyEr
             let table = k.parse_table(&text).map_err(parse_error)?;
             file.tables.insert(k.name(), table);
         }
+        let quick = k.parse_quick(&text).map_err(parse_error)?;
+        file.quick.keys.extend(quick);
     }
     let kind = check_settings(&file, &ctx)?;
     let measured_by = super::kinds::of(kind);
@@ -446,6 +448,28 @@ fn check_keys(text: &str, ctx: &Context) -> Result<(), StudyError> {
             ),
         });
     }
+    if let Some(toml::Value::Table(quick)) = top.get("quick") {
+        let mut valid: Vec<&str> = vec!["set"];
+        for key in super::kinds::KINDS.iter().flat_map(|k| k.quick_keys()) {
+            if !valid.contains(key) {
+                valid.push(key);
+            }
+        }
+        if let Some(unknown) = quick.keys().find(|k| !valid.contains(&k.as_str())) {
+            let hint = crate::names::closest(unknown, &valid)
+                .map_or(String::new(), |c| format!("; did you mean `{c}`?"));
+            let shown = crate::quote::clip_message(unknown);
+            return Err(StudyError::Invalid {
+                path: ctx.path.to_owned(),
+                line: ctx.line_of_key(unknown),
+                key: format!("quick.{shown}"),
+                message: format!(
+                    "unknown field `{shown}`{hint} (expected one of: {})",
+                    valid.join(", ")
+                ),
+            });
+        }
+    }
     Ok(())
 }
 
@@ -527,7 +551,10 @@ fn check_settings(file: &StudyFile, ctx: &Context) -> Result<&'static str, Study
         message,
     };
     kind.check(file, ctx, &bad)?;
-    super::settings::check_quick(file, &bad)?;
+    // Every kind's `[quick]` keys, whatever the study's kind, so a study file is valid or not.
+    for k in super::kinds::KINDS {
+        k.check_quick_values(file, &bad)?;
+    }
     Ok(kind.name())
 }
 

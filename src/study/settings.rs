@@ -1,7 +1,6 @@
-//! Checks of a study's settings that every kind shares: its name (a folder name), the
-//! `[quick]` table and the ranges of a `reference` table.
+//! Checks of a study's settings that every kind shares: its name (a folder name) and the
+//! ranges of a `reference` table.
 
-use super::config::StudyFile;
 use super::error::StudyError;
 
 /// Longest study name: it is a folder name, and run ids and file names are built from it.
@@ -71,41 +70,6 @@ pub(super) fn check_reference(
         return Err(bad(
             &format!("{table}.reference.newton_tolerance"),
             format!("must be > 0 (got {})", r.newton_tolerance),
-        ));
-    }
-    Ok(())
-}
-
-/// Finest bisection precision of a stability study: well above f64 resolution, so the
-/// bracket always closes.
-pub const MIN_RELATIVE_PRECISION: f64 = 1e-9;
-
-/// `[quick]`, checked whether or not `--quick` is given, so a study file is valid or not.
-pub(super) fn check_quick(
-    file: &StudyFile,
-    bad: &dyn Fn(&str, String) -> StudyError,
-) -> Result<(), StudyError> {
-    let q = &file.quick;
-    for (key, value) in [
-        ("quick.steps", q.steps),
-        ("quick.max_steps", q.max_steps),
-        ("quick.dts", q.dts),
-    ] {
-        if value == Some(0) {
-            return Err(bad(key, "must be at least 1".into()));
-        }
-    }
-    if let Some(h) = q.horizon
-        && !(h.is_finite() && h > 0.0)
-    {
-        return Err(bad("quick.horizon", format!("must be > 0 s (got {h})")));
-    }
-    if let Some(p) = q.relative_precision
-        && !(MIN_RELATIVE_PRECISION..1.0).contains(&p)
-    {
-        return Err(bad(
-            "quick.relative_precision",
-            format!("must be in [{MIN_RELATIVE_PRECISION:e}, 1) (got {p})"),
         ));
     }
     Ok(())

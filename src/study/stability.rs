@@ -23,12 +23,11 @@ use super::error::StudyError;
 use super::findings::{self, Better, Ranking};
 use super::format::{cell, short};
 use super::grid::Axis;
-use super::kind::{Kind, RunInputs, SweepLine, Verdict, number};
+use super::kind::{Kind, RunInputs, SweepLine, Verdict, number, parse_quick};
 use super::measured::{
     Measured, build, cap_cells, outcome_of, picture_surface, run_observed, summary_cells,
 };
 use super::reference::{ReferenceSettings, ScoringSettings};
-use super::settings::MIN_RELATIVE_PRECISION;
 use super::spec::{RunSpec, Study};
 use super::table::Table;
 use crate::integrate::State;
@@ -100,6 +99,18 @@ const NAME: &str = "stability";
 struct FileTable {
     #[serde(default)]
     stability: Option<StabilitySettings>,
+}
+
+/// The `[quick]` keys a stability study reads.
+#[derive(Default, serde::Serialize, serde::Deserialize)]
+struct Quick {
+    /// Steps per trial at most, so only larger steps are judged (default: the study's, at
+    /// most 2000).
+    max_steps: Option<usize>,
+    /// The bisection precision (default 0.05).
+    relative_precision: Option<f64>,
+    /// Refused: a stability study keeps its horizon (see `check_quick`).
+    horizon: Option<f64>,
 }
 
 /// The study's `[stability]` table as resolved at load.
@@ -178,6 +189,36 @@ impl Kind for Stability {
         bad: &dyn Fn(&str, String) -> StudyError,
     ) -> Result<(), StudyError> {
         check(file, ctx, bad)
+    }
+
+    fn quick_keys(&self) -> &'static [&'static str] {
+        &["max_steps", "relative_precision", "horizon"]
+    }
+
+    fn parse_quick(
+        &self,
+        text: &str,
+    ) -> Result<serde_json::Map<String, serde_json::Value>, toml::de::Error> {
+        parse_quick::<Quick>(text)
+    }
+
+    fn check_quick_values(
+        &self,
+        file: &StudyFile,
+        bad: &dyn Fn(&str, String) -> StudyError,
+    ) -> Result<(), StudyError> {
+        if file.quick.get::<usize>("max_steps") == Some(0) {
+            return Err(bad("quick.max_steps", "must be at least 1".into()));
+        }
+        if let Some(p) = file.quick.get::<f64>("relative_precision")
+            && !(MIN_RELATIVE_PRECISION..1.0).contains(&p)
+        {
+            return Err(bad(
+                "quick.relative_precision",
+                format!("must be in [{MIN_RELATIVE_PRECISION:e}, 1) (got {p})"),
+            ));
+        }
+        Ok(())
     }
 
     fn check_quick(&self, file: &StudyFile, ctx: &Context) -> Result<(), StudyError> {
@@ -455,7 +496,7 @@ fn check(
 
 /// A stability study keeps its horizon in quick mode.
 fn check_quick(file: &StudyFile, ctx: &Context) -> Result<(), StudyError> {
-    if file.quick.horizon.is_some() {
+    if file.quick.get::<f64>("horizon").is_some() {
         return Err(StudyError::Invalid {
             path: ctx.path.to_owned(),
             line: ctx.line_of_key("horizon"),
@@ -475,8 +516,8 @@ fn quick_table(file: &mut StudyFile, ctx: &Context) -> Result<(), StudyError> {
         // Same horizon and criterion, fewer and larger steps judged: every quick trial is the
         // trial the full study would run at that step.
         let q = &file.quick;
-        s.max_steps = q.max_steps.unwrap_or(s.max_steps.min(2000));
-        s.relative_precision = q.relative_precision.unwrap_or(0.05);
+        s.max_steps = q.get("max_steps").unwrap_or(s.max_steps.min(2000));
+        s.relative_precision = q.get("relative_precision").unwrap_or(0.05);
         if s.lowest_dt() > s.highest_dt() {
             return Err(ctx.invalid(
                 0,
@@ -657,6 +698,9 @@ pub const VERDICTS: [&str; 4] = [
     "unstable-at-every-dt",
     "no-stable-dt-in-range",
 ];
+
+/// Finest bisection precision: well above f64 resolution, so the bracket always closes.
+pub const MIN_RELATIVE_PRECISION: f64 = 1e-9;
 
 /// The verdicts that answer the question (a limit, or stable up to the ceiling).
 const ANSWERED: [&str; 2] = ["limit-found", "stable-to-ceiling"];

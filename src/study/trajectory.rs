@@ -8,7 +8,7 @@ use super::error::StudyError;
 use super::findings::{self, Ranking};
 use super::format::cell;
 use super::grid::Axis;
-use super::kind::{Kind, RunInputs, number};
+use super::kind::{Kind, RunInputs, number, parse_quick};
 use super::measured::{
     Measured, build, cap_cells, outcome_of, picture_surface, run_rows, summary_cells,
 };
@@ -75,6 +75,13 @@ pub const COLUMNS: &[&str] = &[
 /// A trajectory study (and the runs of a sweep of one): each run as configured.
 pub(super) struct Trajectory;
 
+/// The `[quick]` keys a trajectory study reads.
+#[derive(Default, serde::Serialize, serde::Deserialize)]
+struct Quick {
+    /// Runs take at most this many steps. Default 20.
+    steps: Option<usize>,
+}
+
 impl Kind for Trajectory {
     fn name(&self) -> &'static str {
         "trajectory"
@@ -118,6 +125,28 @@ impl Kind for Trajectory {
         "runs are shortened"
     }
 
+    fn quick_keys(&self) -> &'static [&'static str] {
+        &["steps"]
+    }
+
+    fn parse_quick(
+        &self,
+        text: &str,
+    ) -> Result<serde_json::Map<String, serde_json::Value>, toml::de::Error> {
+        parse_quick::<Quick>(text)
+    }
+
+    fn check_quick_values(
+        &self,
+        file: &StudyFile,
+        bad: &dyn Fn(&str, String) -> StudyError,
+    ) -> Result<(), StudyError> {
+        if file.quick.get::<usize>("steps") == Some(0) {
+            return Err(bad("quick.steps", "must be at least 1".into()));
+        }
+        Ok(())
+    }
+
     fn configure(
         &self,
         _: &Context,
@@ -127,7 +156,8 @@ impl Kind for Trajectory {
         quick: bool,
     ) -> Result<(), StudyError> {
         if quick {
-            config.run.steps = config.run.steps.min(file.quick.steps.unwrap_or(20));
+            let steps = file.quick.get::<usize>("steps").unwrap_or(20);
+            config.run.steps = config.run.steps.min(steps);
         }
         Ok(())
     }

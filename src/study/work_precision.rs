@@ -17,7 +17,7 @@ use super::findings::{self, Better, ORDER_EXCESS, Ranking};
 use super::format::{cell, short};
 use super::grid::Axis;
 use super::identity::float;
-use super::kind::{Kind, RunInputs, number};
+use super::kind::{Kind, RunInputs, number, parse_quick};
 use super::measured::{Measured, build, cap_cells, outcome_of, picture_surface, summary_cells};
 use super::pictures::PictureRows;
 use super::reference::{Reference, ScoringSettings, errors, sampled_run, stride};
@@ -82,6 +82,15 @@ const NAME: &str = "work-precision";
 struct FileTable {
     #[serde(default, rename = "work-precision", alias = "work_precision")]
     table: Option<ScoringSettings>,
+}
+
+/// The `[quick]` keys a work-precision study reads.
+#[derive(Default, serde::Serialize, serde::Deserialize)]
+struct Quick {
+    /// The horizon in quick mode.
+    horizon: Option<f64>,
+    /// Only the largest this many time steps of each ladder. Default 2.
+    dts: Option<usize>,
 }
 
 /// The study's `[work-precision]` table as resolved at load.
@@ -153,10 +162,37 @@ impl Kind for WorkPrecision {
         check(file, ctx, bad)
     }
 
+    fn quick_keys(&self) -> &'static [&'static str] {
+        &["horizon", "dts"]
+    }
+
+    fn parse_quick(
+        &self,
+        text: &str,
+    ) -> Result<serde_json::Map<String, serde_json::Value>, toml::de::Error> {
+        parse_quick::<Quick>(text)
+    }
+
+    fn check_quick_values(
+        &self,
+        file: &StudyFile,
+        bad: &dyn Fn(&str, String) -> StudyError,
+    ) -> Result<(), StudyError> {
+        if file.quick.get::<usize>("dts") == Some(0) {
+            return Err(bad("quick.dts", "must be at least 1".into()));
+        }
+        if let Some(h) = file.quick.get::<f64>("horizon")
+            && !(h.is_finite() && h > 0.0)
+        {
+            return Err(bad("quick.horizon", format!("must be > 0 s (got {h})")));
+        }
+        Ok(())
+    }
+
     /// `[quick]` shortens the `[work-precision]` table's horizon.
     fn quick_table(&self, file: &mut StudyFile, _: &Context) -> Result<(), StudyError> {
         if let Some(mut w) = settings(file) {
-            w.horizon = file.quick.horizon.unwrap_or(w.horizon);
+            w.horizon = file.quick.get::<f64>("horizon").unwrap_or(w.horizon);
             file.set_settings(NAME, &w);
         }
         Ok(())
@@ -361,7 +397,7 @@ fn check(
 
 /// Quick mode keeps the largest steps of each ladder (the global one and each method's own).
 fn quick_axes(file: &StudyFile, method_axes: &mut [Vec<Axis>]) {
-    let keep = file.quick.dts.unwrap_or(2).max(1);
+    let keep = file.quick.get::<usize>("dts").unwrap_or(2).max(1);
     for axis in method_axes
         .iter_mut()
         .flatten()
