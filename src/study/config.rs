@@ -67,10 +67,7 @@ pub struct StudyFile {
 impl StudyFile {
     /// The settings table of `kind` as resolved at load; `None` when the file has none.
     pub fn settings<T: serde::de::DeserializeOwned>(&self, kind: &str) -> Option<T> {
-        self.tables
-            .get(kind)
-            .filter(|v| !v.is_null())
-            .and_then(|v| serde_json::from_value(v.clone()).ok())
+        from_json(self.tables.get(kind))
     }
 
     /// Replace the resolved settings table of `kind` (`[quick]` applied to it).
@@ -110,10 +107,7 @@ pub struct QuickSettings {
 impl QuickSettings {
     /// A kind's `[quick]` key as parsed at load; `None` when the file does not set it.
     pub fn get<T: serde::de::DeserializeOwned>(&self, key: &str) -> Option<T> {
-        self.keys
-            .get(key)
-            .filter(|v| !v.is_null())
-            .and_then(|v| serde_json::from_value(v.clone()).ok())
+        from_json(self.keys.get(key))
     }
 }
 
@@ -125,6 +119,13 @@ impl serde::Serialize for QuickSettings {
         all.insert("set".into(), set);
         all.serialize(serializer)
     }
+}
+
+/// A value parsed at load, read back as its type (`None` for null or absent).
+fn from_json<T: serde::de::DeserializeOwned>(value: Option<&serde_json::Value>) -> Option<T> {
+    value
+        .filter(|v| !v.is_null())
+        .and_then(|v| serde_json::from_value(v.clone()).ok())
 }
 
 /// The line (1-based) of byte offset `at` in `text`.

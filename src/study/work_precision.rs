@@ -239,8 +239,7 @@ impl Kind for WorkPrecision {
 
     /// An error within the reference's own accuracy is listed, though the run completed.
     fn flagged(&self, runs: &Table, row: &[String]) -> bool {
-        runs.get(row, "scored") == Some("no")
-            && runs.get(row, "outcome") == Some(crate::run::OutcomeKind::Completed.name())
+        self.unscored(runs, row) && findings::completed(runs, row)
     }
 
     fn report_settings(&self, out: &mut String, file: &StudyFile) {
@@ -296,11 +295,7 @@ impl Kind for WorkPrecision {
         runs.get(row, "scored") == Some("no")
     }
 
-    /// No time histories: its runs differ only in accuracy.
-    fn energy_caption(&self) -> Option<&'static str> {
-        None
-    }
-
+    /// (It draws no time histories, the default: its runs differ only in accuracy.)
     fn phases_at_smallest_dt(&self) -> bool {
         true
     }
