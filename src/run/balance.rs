@@ -5,17 +5,26 @@
 //! explicit time dependence of potentials (a drag target that moves does work
 //! `V(x_n, t_n+1) - V(x_n, t_n)` over a step, at fixed positions) and the energy damping
 //! removes (`dt vᵀ D v` per step). So a correct method keeps the *excess*
-//! `H(t) - H(0) - W_driven(t) + W_damping(t)` at or below round-off plus its own truncation
-//! error, and an unstable one makes it grow without bound. A run is unstable when the excess
-//! exceeds `limit` times the scene's energy scale: the initial kinetic and stored energy, the
-//! energy gravity would release if the body fell by its own size (`M |g| L`), the elastic
-//! energy of a 0.1 % dilation of the rest shape (a material scale that is never zero, never
-//! round-off), and the positive work done on the body so far.
+//! `H(t) - H(0) - W_driven(t) + W_damping(t)` at round-off plus its own truncation error
+//! (negative when it dissipates), and an unstable one makes it grow without bound.
 //!
-//! Gravity is part of `H`, so an explicit step that gains kinetic energy before the body has
-//! moved is balanced by nothing but its own (tiny) truncation error, not compared with a
-//! gravity work of zero.
+//! The excess is judged against the energy the body holds or exchanges ([`EnergyScale`]): its
+//! kinetic and stored energy at the start, the most gravity has released or taken so far, the
+//! most net work the drags have done so far, and (so the scale is never zero) the elastic
+//! energy of a 0.1 % dilation of the rest shape. A run is unstable when
+//!
+//! - its state or energy is no longer finite; or
+//! - its excess grew past `limit` times that scale *and* is still growing: more than
+//!   [`GROWN`] times the largest excess of the run's first half (checked after every step, so
+//!   a blow-up stops early; a transient that overshoots at the first step and then decays
+//!   never satisfies it); or
+//! - at its end, the excess is still above `limit` times the scale (energy gained and kept),
+//!   or it grew exponentially over the run's last half ([`super::growth`]: sustained growth,
+//!   however small it still is, is a blow-up the horizon has not reached yet).
+//!
+//! Every run reports the fitted growth rate and its peak excess, signed, over the scale.
 
+use super::growth::{Envelope, GrowthFit};
 use super::metrics::Energies;
 use crate::integrate::State;
 use crate::model::{Model, ModelError};
@@ -23,33 +32,32 @@ use crate::model::{Model, ModelError};
 /// The dilation whose elastic energy sets the material part of the energy scale.
 pub const REFERENCE_STRAIN: f64 = 1e-3;
 
-/// The parts of a scene's energy scale (J), computed once at the start of a run.
+/// How much the excess must have grown since the run's first half, past the limit, to stop
+/// a run early as a blow-up (see the module docs).
+pub const GROWN: f64 = 1e3;
+
+/// The round-off floor of the excess, relative to the magnitudes summed into `H` at the start:
+/// below it a logarithm of the excess means nothing.
+pub const ROUND_OFF: f64 = 1e-12;
+
+/// The energy the body holds or exchanges (J): the scale the excess is judged against.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct EnergyScale {
     /// Kinetic + elastic + springs at the start (never below zero).
     pub initial: f64,
-    /// `M |g| L`: the energy gravity releases if the body falls by its bounding-box diagonal.
+    /// The largest `|gravity(t) - gravity(0)|` so far: what gravity released or took back.
     pub gravity: f64,
+    /// The largest `|W_driven(t)|` so far: net work of the time-dependent potentials (drags).
+    pub driven: f64,
     /// Elastic + spring energy of the rest shape dilated by [`REFERENCE_STRAIN`].
     pub material: f64,
 }
 
 impl EnergyScale {
-    /// The scale of `model` starting from `initial` energies.
+    /// The scale of `model` at the start of a run from `initial` energies (nothing exchanged
+    /// yet).
     pub fn of(model: &mut Model, initial: &Energies) -> Result<Self, ModelError> {
         let rest = model.rest_state();
-        let mass: f64 = model.vertex_masses().iter().sum();
-        let g = model.gravity().map_or(0.0, |g| g.norm());
-        let positions = model.rest_positions();
-        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-        for p in positions {
-            for k in 0..3 {
-                lo[k] = lo[k].min(p[k]);
-                hi[k] = hi[k].max(p[k]);
-            }
-        }
-        let diagonal = (0..3).map(|k| (hi[k] - lo[k]).powi(2)).sum::<f64>().sqrt();
-        let diagonal = if diagonal.is_finite() { diagonal } else { 0.0 };
         // Dilate the free vertices about their centroid.
         let n = rest.len() / 3;
         let mut centroid = [0.0; 3];
@@ -70,14 +78,15 @@ impl EnergyScale {
         let material = (stored(model, &dilated)? - stored(model, &rest)?).abs();
         Ok(Self {
             initial: initial.internal().max(0.0),
-            gravity: mass * g * diagonal,
+            gravity: 0.0,
+            driven: 0.0,
             material,
         })
     }
 
     /// The sum of the parts (J).
     pub fn total(&self) -> f64 {
-        self.initial + self.gravity + self.material
+        self.initial + self.gravity + self.driven + self.material
     }
 }
 
@@ -85,52 +94,119 @@ impl EnergyScale {
 #[derive(Clone, Debug)]
 pub struct EnergyBalance {
     initial_total: f64,
+    initial_gravity: f64,
     scale: EnergyScale,
     limit: f64,
     /// Net work of time-dependent potentials (J).
     driven: f64,
-    /// Positive part of that work, summed step by step (J).
-    work_in: f64,
     /// Energy removed by damping (J, >= 0).
     dissipated: f64,
     damping: bool,
     force: Vec<f64>,
-    /// Largest `excess / budget` so far.
-    peak_ratio: f64,
-    /// `(t, excess)` at the first step whose excess passed [`ONSET`] budgets, and at the
-    /// step before the latest: the ends of the growth-rate estimate.
-    onset: Option<(f64, f64)>,
-    previous: Option<(f64, f64)>,
-    latest: Option<(f64, f64)>,
+    /// Steps checked so far.
+    steps: usize,
+    /// The latest excess (J).
+    latest: f64,
+    /// The excess over the scale of largest magnitude so far, signed.
+    peak: f64,
+    /// The largest excess of steps `1..=2^k`, for every `2^k` reached.
+    checkpoints: Vec<f64>,
+    /// The largest excess so far.
+    largest: f64,
+    envelope: Envelope,
+    /// [`ROUND_OFF`] times the magnitudes summed into the initial energy (J).
+    floor: f64,
 }
-
-/// The excess (in budgets) from which its growth is timed for [`EnergyBalance::growth_rate`].
-pub const ONSET: f64 = 1e-6;
 
 /// Why the balance says a run blew up.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Violation {
-    pub excess: f64,
-    pub budget: f64,
-    pub energy: f64,
+pub enum Violation {
+    /// The energy is no longer finite.
+    NonFinite { energy: f64 },
+    /// The excess passed `limit` scales while growing past [`GROWN`] times its first half's.
+    Growing { excess: f64, scale: f64, since: f64 },
+    /// At the end of the run the excess is above `limit` scales.
+    Kept { excess: f64, scale: f64 },
+    /// At the end of the run the excess grew exponentially over the last half.
+    Sustained {
+        excess: f64,
+        scale: f64,
+        fit: GrowthFit,
+    },
+}
+
+impl Violation {
+    /// The short cause written in tables.
+    pub fn cause(&self) -> &'static str {
+        match self {
+            Self::NonFinite { .. } => "non-finite state",
+            Self::Growing { .. } => "energy growth",
+            Self::Kept { .. } => "energy gained",
+            Self::Sustained { .. } => "sustained energy growth",
+        }
+    }
+
+    /// The full message, naming the threshold that decided it.
+    pub fn message(&self, limit: f64) -> String {
+        use super::growth::{MIN_FIT_R2, SUSTAINED_GROWTH};
+        match self {
+            Self::NonFinite { energy } => format!("the energy is {energy}"),
+            Self::Growing {
+                excess,
+                scale,
+                since,
+            } => format!(
+                "the energy gained beyond the work done on the body, {excess:.4e} J, passed \
+                 run.energy_limit = {limit} times the energy the body holds or exchanges \
+                 ({scale:.4e} J) and grew {:.3e} times since the first half of the run (more \
+                 than {GROWN:e}: still growing)",
+                excess / since.max(f64::MIN_POSITIVE)
+            ),
+            Self::Kept { excess, scale } => format!(
+                "at the end of the run the energy gained beyond the work done on the body, \
+                 {excess:.4e} J, is {:.3e} times the energy the body holds or exchanges \
+                 ({scale:.4e} J), above run.energy_limit = {limit}",
+                excess / scale
+            ),
+            Self::Sustained { excess, scale, fit } => format!(
+                "the energy gained beyond the work done on the body grew exponentially over \
+                 the last half of the run: e-folding rate {:.4e}/s, x{:.3e} (sustained: at \
+                 least x{SUSTAINED_GROWTH:e} with R^2 {:.4} >= {MIN_FIT_R2}), to {excess:.4e} J \
+                 ({:.3e} of the energy the body holds or exchanges, {scale:.4e} J)",
+                fit.rate,
+                fit.factor,
+                fit.r2,
+                excess / scale
+            ),
+        }
+    }
 }
 
 impl EnergyBalance {
     /// A balance starting at `initial` with the given scale and limit (0 turns the check off).
     pub fn new(model: &Model, initial: &Energies, scale: EnergyScale, limit: f64) -> Self {
+        let magnitudes = initial.kinetic.abs()
+            + initial.elastic.abs()
+            + initial.springs.abs()
+            + initial.gravity.abs()
+            + initial.external.abs()
+            + scale.total();
         Self {
             initial_total: initial.total(),
+            initial_gravity: initial.gravity,
             scale,
             limit,
             driven: 0.0,
-            work_in: 0.0,
             dissipated: 0.0,
             damping: model.has_damping(),
             force: Vec::new(),
-            peak_ratio: 0.0,
-            onset: None,
-            previous: None,
-            latest: None,
+            steps: 0,
+            latest: 0.0,
+            peak: 0.0,
+            checkpoints: Vec::with_capacity(64),
+            largest: f64::NEG_INFINITY,
+            envelope: Envelope::default(),
+            floor: (ROUND_OFF * magnitudes).max(f64::MIN_POSITIVE),
         }
     }
 
@@ -144,12 +220,12 @@ impl EnergyBalance {
         let after = model.vertex_energy_at(&state.q, state.t + dt);
         if let (Ok(b), Ok(a)) = (before, after) {
             self.driven += a - b;
-            self.work_in += (a - b).max(0.0);
+            self.scale.driven = self.scale.driven.max(self.driven.abs());
         }
     }
 
     /// Account the energy damping removed over a step of `dt` ending at `state`, and check
-    /// the balance against `energies` (of `state`).
+    /// the balance against `energies` (of `state`) while the run goes on.
     pub fn after_step(
         &mut self,
         model: &mut Model,
@@ -169,26 +245,56 @@ impl EnergyBalance {
             }
         }
         let energy = energies.total();
+        if !energy.is_finite() {
+            return if self.limit > 0.0 {
+                Err(Violation::NonFinite { energy })
+            } else {
+                Ok(())
+            };
+        }
+        let gravity = (energies.gravity - self.initial_gravity).abs();
+        self.scale.gravity = self.scale.gravity.max(gravity);
         let excess = self.excess(energy);
-        let budget = self.budget();
-        if budget > 0.0 && excess.is_finite() {
-            self.peak_ratio = self.peak_ratio.max(excess / budget);
+        self.steps += 1;
+        self.latest = excess;
+        let scale = self.scale.total();
+        if scale > 0.0 && (excess / scale).abs() > self.peak.abs() {
+            self.peak = excess / scale;
         }
-        if excess.is_finite() {
-            if self.onset.is_none() && excess > ONSET * budget {
-                self.onset = Some((state.t, excess));
+        self.largest = self.largest.max(excess);
+        if self.steps.is_power_of_two() {
+            self.checkpoints.push(self.largest);
+        }
+        self.envelope.push(state.t, excess);
+        if self.limit > 0.0 && self.steps >= 2 && excess > self.limit * scale {
+            // The largest excess of steps 1..=2^k with 2^k <= steps / 2.
+            let k = (self.steps / 2).ilog2() as usize;
+            let since = self.checkpoints[k].max(0.0);
+            if excess > GROWN * since {
+                return Err(Violation::Growing {
+                    excess,
+                    scale,
+                    since,
+                });
             }
-            self.previous = self.latest;
-            self.latest = Some((state.t, excess));
-        }
-        if self.limit > 0.0 && (!energy.is_finite() || excess > self.limit * budget) {
-            return Err(Violation {
-                excess,
-                budget,
-                energy,
-            });
         }
         Ok(())
+    }
+
+    /// The verdict at the end of a run that took every step: energy gained and kept, or
+    /// sustained growth (see the module docs).
+    pub fn finish(&self) -> Result<(), Violation> {
+        if self.limit <= 0.0 || self.steps == 0 {
+            return Ok(());
+        }
+        let (excess, scale) = (self.latest, self.scale.total());
+        if excess > self.limit * scale {
+            return Err(Violation::Kept { excess, scale });
+        }
+        match self.growth() {
+            Some(fit) if fit.sustained() => Err(Violation::Sustained { excess, scale, fit }),
+            _ => Ok(()),
+        }
     }
 
     /// `H - H(0) - W_driven + W_damping` for a mechanical energy `energy` (J).
@@ -196,9 +302,9 @@ impl EnergyBalance {
         energy - self.initial_total - self.driven + self.dissipated
     }
 
-    /// The energy scale plus the positive work done on the body so far (J).
-    pub fn budget(&self) -> f64 {
-        self.scale.total() + self.work_in
+    /// The energy the body holds or exchanges so far (J).
+    pub fn scale(&self) -> EnergyScale {
+        self.scale
     }
 
     /// Net work done by time-dependent potentials so far (J).
@@ -211,20 +317,15 @@ impl EnergyBalance {
         self.dissipated
     }
 
-    /// Largest `excess / budget` seen.
-    pub fn peak_ratio(&self) -> f64 {
-        self.peak_ratio
+    /// The excess over the scale of largest magnitude so far, signed: positive when energy was
+    /// gained, negative when it was lost.
+    pub fn peak(&self) -> f64 {
+        self.peak
     }
 
-    /// The e-folding rate (1/s) at which the excess grew from its onset ([`ONSET`] budgets)
-    /// to the latest step, or over the latest step if it jumped past the onset in one step;
-    /// `None` while it has not grown past the onset.
-    pub fn growth_rate(&self) -> Option<f64> {
-        let (t1, e1) = self.latest?;
-        let (t0, e0) = match self.onset {
-            Some((t, e)) if t < t1 => (t, e),
-            _ => self.previous.filter(|(_, e)| *e > 0.0)?,
-        };
-        (e1 > e0 && e0 > 0.0 && t1 > t0).then(|| (e1 / e0).ln() / (t1 - t0))
+    /// The exponential fitted to the excess over the last half of the run so far (see
+    /// [`super::growth`]); `None` before two windows.
+    pub fn growth(&self) -> Option<GrowthFit> {
+        self.envelope.fit(self.floor)
     }
 }

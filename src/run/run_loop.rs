@@ -2,12 +2,15 @@
 //!
 //! A run ends early at the first step that cannot be taken (non-finite state, inverted
 //! element, Newton or solver failure: see [`crate::integrate::StepError`]) or, after any step,
-//! when the energy balance fails ([`super::balance`]): the mechanical energy exceeds its
-//! initial value plus the work done on the body by more than `energy_limit` times the scene's
-//! energy scale. The rows written before are valid states; the [`Outcome`] says where and why
-//! the run ended, in the vocabulary of [`OutcomeKind`].
+//! when the energy balance sees a blow-up ([`super::balance`]): the energy gained beyond the
+//! work done on the body passed `energy_limit` times the energy the body holds or exchanges
+//! and is still growing. A run that took every step is judged once more at its end (energy
+//! gained and kept, or sustained exponential growth). The rows written before are valid
+//! states; the [`Outcome`] says where and why the run ended, in the vocabulary of
+//! [`OutcomeKind`].
 
-use super::balance::{EnergyBalance, EnergyScale};
+use super::balance::{EnergyBalance, EnergyScale, Violation};
+use super::growth::GrowthFit;
 use super::metrics::{Energies, Metrics};
 use super::outcome::{Outcome, OutcomeKind};
 use crate::integrate::{Integrator, State, StepReport};
@@ -84,9 +87,9 @@ pub struct Sample {
     /// The energy balance's excess `total - total(0) - driven_work + dissipated` (J): zero for
     /// an exact method, growing without bound for an unstable one.
     pub energy_excess: f64,
-    /// What the excess is compared with: the scene's energy scale plus the positive work done
-    /// so far (J).
-    pub energy_budget: f64,
+    /// What the excess is judged against: the energy the body holds or exchanges so far (J;
+    /// see [`EnergyScale`]).
+    pub energy_scale: f64,
     /// Local-solver iterations since the previous row (VBD sweeps, projective-dynamics
     /// local/global iterations, XPBD constraint sweeps).
     pub local_iterations: u64,
@@ -174,15 +177,18 @@ pub struct RunSummary {
     pub energy_drift_max: f64,
     /// The same at the last sampled row.
     pub energy_drift_final: f64,
-    /// The scene's energy scale the balance is measured against (J).
+    /// The energy the body held or exchanged by the end, which the excess is judged against
+    /// (J; see [`EnergyScale`]).
     pub energy_scale: EnergyScale,
-    /// The blow-up limit: the excess may reach this many budgets (0: off).
+    /// The blow-up limit: an excess above this many scales that is still growing is a blow-up
+    /// (0: the check is off).
     pub energy_limit: f64,
-    /// Largest excess over budget of any step (the blow-up check fires above `energy_limit`).
+    /// The excess over the scale of largest magnitude of any step, signed: positive when
+    /// energy was gained, negative when it was lost.
     pub energy_excess_peak: f64,
-    /// How fast the excess grew (e-folding rate, 1/s) when the run ended `unstable` by energy
-    /// growth (see [`EnergyBalance::growth_rate`]).
-    pub energy_growth_rate: Option<f64>,
+    /// The exponential fitted to the excess over the last half of the run (see
+    /// [`super::growth`]): its rate, fit and growth; `None` for runs of fewer than two steps.
+    pub energy_growth: Option<GrowthFit>,
     /// Net work of time-dependent potentials and energy removed by damping (J).
     pub driven_work: f64,
     pub dissipated: f64,
@@ -271,7 +277,7 @@ fn sample(
         driven_work: balance.driven_work(),
         dissipated: balance.dissipated(),
         energy_excess: balance.excess(energies.total()),
-        energy_budget: balance.budget(),
+        energy_scale: balance.scale().total(),
         local_iterations: work.local_iterations.into(),
         symbolic_analyses: work.symbolic_analyses.into(),
         amg_operator_complexity: work.amg_operator_complexity,
@@ -285,6 +291,11 @@ fn sample(
         internal_dt_median: w.internal_dt.map(|s| s.median),
         internal_dt_max: w.internal_dt.map(|s| s.max),
     }
+}
+
+/// The outcome of a run the energy balance calls a blow-up after `step`.
+fn unstable(step: usize, t: f64, v: &Violation, limit: f64) -> Outcome {
+    Outcome::ended(OutcomeKind::Unstable, step, t, v.cause(), v.message(limit))
 }
 
 fn add_work(acc: &mut StepReport, r: &StepReport) {
@@ -323,7 +334,7 @@ pub fn run(
         energy_scale: EnergyScale::default(),
         energy_limit: config.energy_limit,
         energy_excess_peak: 0.0,
-        energy_growth_rate: None,
+        energy_growth: None,
         driven_work: 0.0,
         dissipated: 0.0,
         newton_unconverged_steps: 0,
@@ -439,39 +450,18 @@ pub fn run(
             summary.final_energy = Some(energies);
         }
         if let Err(v) = verdict {
-            summary.energy_growth_rate = balance.growth_rate();
-            let message = if v.energy.is_finite() {
-                format!(
-                    "energy {:.4e} J exceeds its initial value {:.4e} J plus the net work done \
-                     on the body {:.4e} J by {:.4e} J, more than run.energy_limit = {} times \
-                     the budget {:.4e} J (the scene's energy scale {:.4e} J plus the work put \
-                     in)",
-                    v.energy,
-                    initial.total(),
-                    balance.driven_work() - balance.dissipated(),
-                    v.excess,
-                    config.energy_limit,
-                    v.budget,
-                    scale.total(),
-                )
-            } else {
-                format!("energy is {} at t = {:e} s", v.energy, state.t)
-            };
-            summary.outcome = Outcome::ended(
-                OutcomeKind::Unstable,
-                step,
-                state.t,
-                if v.energy.is_finite() {
-                    "energy growth"
-                } else {
-                    "non-finite state"
-                },
-                message,
-            );
+            summary.outcome = unstable(step, state.t, &v, config.energy_limit);
             break;
         }
     }
-    summary.energy_excess_peak = balance.peak_ratio();
+    if summary.outcome.is_completed()
+        && let Err(v) = balance.finish()
+    {
+        summary.outcome = unstable(summary.steps_completed, state.t, &v, config.energy_limit);
+    }
+    summary.energy_excess_peak = balance.peak();
+    summary.energy_scale = balance.scale();
+    summary.energy_growth = balance.growth();
     summary.driven_work = balance.driven_work();
     summary.dissipated = balance.dissipated();
     summary.internal_dt = StepSizes::of(&mut run_dts);

@@ -226,10 +226,11 @@ pub struct RunConfig {
     /// Write a row every this many steps (the first and last are always written). Default 1.
     #[serde(default = "one")]
     pub sample_every: usize,
-    /// A run is stopped as unstable when, after any step, its mechanical energy exceeds the
-    /// initial energy plus the net work done on the body (time-dependent potentials, less
-    /// damping) by more than this many times the energy budget: the scene's energy scale plus
-    /// the work put in (see `run::balance`). 0 turns the check off. Default 1.
+    /// A run is a blow-up when the energy it gained beyond the work done on the body
+    /// (time-dependent potentials, less damping) passes this many times the energy the body
+    /// holds or exchanges while still growing, or is still above it at the end; or when that
+    /// gain grew exponentially over the run's last half (see `run::balance`). 0 turns the
+    /// check off. Default 1.
     #[serde(default = "default_energy_limit")]
     pub energy_limit: f64,
 }

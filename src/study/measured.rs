@@ -109,6 +109,11 @@ pub fn summary_cells(s: &RunSummary) -> Vec<(&'static str, String)> {
             s.newton_unconverged_steps.to_string(),
         ),
         ("energy_excess_peak", f(s.energy_excess_peak)),
+        ("energy_growth_rate", cell(s.energy_growth.map(|g| g.rate))),
+        (
+            "energy_growth_factor",
+            cell(s.energy_growth.map(|g| g.factor)),
+        ),
         ("energy_limit", f(s.energy_limit)),
         ("linear_solver_used", t.linear_solver.to_owned()),
         ("ordering", t.ordering.to_owned()),

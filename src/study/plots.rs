@@ -270,14 +270,14 @@ fn energy_chart(scene: &str, series: &[RunSeries]) -> LineChart {
     LineChart {
         title: format!("Energy balance over time: {scene}"),
         x_label: "time t (s)".into(),
-        y_label: "|E(t) - E(0) - work| / energy budget".into(),
+        y_label: "|E(t) - E(0) - work| / energy held or exchanged".into(),
         x_log: spans_decades(series),
         y_log: true,
         series: series
             .iter()
             .map(|s| {
                 let t = &s.table;
-                let points = match ["t", "energy_excess", "energy_budget"].map(|c| t.column(c)) {
+                let points = match ["t", "energy_excess", "energy_scale"].map(|c| t.column(c)) {
                     [Some(ct), Some(ce), Some(cb)] => {
                         let num =
                             |r: &Vec<String>, c: usize| r[c].parse::<f64>().unwrap_or(f64::NAN);

@@ -3,18 +3,21 @@
 //! 2/omega_max of the scene at rest.
 //!
 //! A trial at `dt` is stable when it covers the whole horizon in at least `min_steps` and at
-//! most `max_steps` steps with every step taken and the energy balance holding (see
-//! [`crate::run::balance`]). Steps outside `[lowest_dt, highest_dt]` are never
-//! judged, so no cap decides a verdict. The search: try `dt_max`; if it is stable, widen
-//! upward (x4) to the ceiling; otherwise bisect in log dt between a presumed-stable `dt_min`
-//! (tried once the bracket closes in on it, widened downward by 10x to `lowest_dt` if it
-//! fails) and the failure. Bisection presumes stability is monotone in dt; after it, a few
-//! smaller steps are probed and a failure there is reported (`non_monotone_dt`).
+//! most `max_steps` steps with every step taken and no blow-up (see [`crate::run::balance`]: a
+//! blow-up is energy gained beyond the work done on the body that keeps growing, not a level
+//! crossed). Steps outside `[lowest_dt, highest_dt]` are never judged, so no cap decides a
+//! verdict. The search: try `dt_max`; if it is stable, widen upward (x4) to the ceiling;
+//! otherwise bisect in log dt between a presumed-stable `dt_min` (tried once the bracket
+//! closes in on it, widened downward by 10x to `lowest_dt` if it fails) and the failure.
+//! Bisection presumes stability is monotone in dt; after it, a few smaller steps are probed
+//! and a failure there is reported (`non_monotone_dt`), and trials [`ROBUSTNESS`] away from
+//! each end of the bracket must agree with that end (`limit_robust`).
 //!
-//! The verdict (`stability`): `limit-found`, `stable-to-ceiling`, `unstable-at-every-dt`
-//! (every trial ended `unstable`; the energy growth rate of the smallest is reported) or
-//! `no-stable-dt-in-range` (otherwise no trial was stable). The `outcome` column is how the
-//! first unstable trial ended.
+//! The verdict (`stability`): `limit-found` (a bracket: `max_stable_dt`, `first_unstable_dt`),
+//! `stable-to-ceiling`, `unstable-at-every-dt` (every trial blew up and the growth rate of the
+//! three smallest shrinks as one positive power of dt, `growth_exponent`, below 2/omega_max:
+//! see [`GrowthTrend`]) or `no-stable-dt-in-range` (no trial was stable, which says nothing
+//! about steps below the range). The `outcome` column is how the first unstable trial ended.
 
 use super::charts::{Emit, SceneRows, label};
 use super::config::StudyFile;
@@ -34,6 +37,7 @@ use crate::integrate::State;
 use crate::model::Model;
 use crate::parallel::Parallelism;
 use crate::plot::{Bar, BarChart, Chart, LineChart, PlotError, ReferenceLine, Series};
+use crate::run::balance::GROWN;
 use crate::run::{Observer, Outcome, OutcomeKind, RunSummary, Sample};
 use crate::scene::{RunConfig, SceneConfig};
 use std::fmt::Write;
@@ -54,6 +58,8 @@ pub const COLUMNS: &[&str] = &[
     "reference_difference",
     "non_monotone_dt",
     "energy_growth_rate",
+    "growth_exponent",
+    "limit_robust",
     "lowest_dt",
     "highest_dt",
     "horizon",
@@ -149,6 +155,8 @@ impl Kind for Stability {
             "error_at_stable_dt",
             "non_monotone_dt",
             "energy_growth_rate",
+            "growth_exponent",
+            "limit_robust",
             "newton_unconverged_steps",
             "trials",
         ]
@@ -293,10 +301,12 @@ impl Kind for Stability {
         }
     }
 
-    /// A limit below which a smaller step failed is listed, though it was found.
+    /// A limit below which a smaller step failed, or whose bracket is not robust, is listed,
+    /// though it was found.
     fn flagged(&self, runs: &Table, row: &[String]) -> bool {
         runs.get(row, "non_monotone_dt")
             .is_some_and(|v| !v.is_empty())
+            || runs.get(row, "limit_robust") == Some("no")
     }
 
     /// A row's outcome is how its first unstable trial ended; its series is the trial it
@@ -361,8 +371,8 @@ impl Kind for Stability {
     fn energy_caption(&self) -> Option<&'static str> {
         Some(
             "Energy balance over time of each method's trial at its largest stable dt (or its \
-             failing trial): |E(t) - E(0) - work done| over the energy budget the blow-up check \
-             uses (log scale).",
+             failing trial): |E(t) - E(0) - work done| over the energy the body holds or \
+             exchanges, the scale the blow-up check judges it against (log scale).",
         )
     }
 
@@ -567,10 +577,15 @@ fn report_settings(out: &mut String, file: &StudyFile) {
         let _ = writeln!(
             out,
             "Stability search: first trial at {} s, bisection down to a presumed-stable {} s or \
-             widening up (x4) to the ceiling, to {}% precision, then {} smaller probe(s). A trial \
-             is stable when it covers the {} s horizon in {} to {} steps with every step taken \
-             and its energy gain beyond the work done on the body below {} x the energy budget; \
-             so only steps in [{}, {}] s are judged. Newton convergence {}.\n",
+             widening up (x4) to the ceiling, to {}% precision, then {} smaller probe(s) and a \
+             trial {ROBUSTNESS:e} (relative) on each side of each end of the bracket. A trial is \
+             stable when it covers the {} s horizon in {} to {} steps with every step taken and \
+             no blow-up: its energy gain beyond the work done on the body never passed {} x the \
+             energy the body holds or exchanges while growing ({GROWN:e} x its first half's), is \
+             not above it at the end, and did not grow exponentially over the last half (x{} \
+             with R^2 >= {}); so only steps in [{}, {}] s are judged. With no stable trial, \
+             `unstable-at-every-dt` needs the three smallest trials' growth rates to follow \
+             one positive power of dt below 2/omega_max. Newton convergence {}.\n",
             short(st.dt_max),
             short(st.dt_min),
             st.relative_precision * 100.0,
@@ -579,6 +594,8 @@ fn report_settings(out: &mut String, file: &StudyFile) {
             st.min_steps,
             st.max_steps,
             st.energy_factor,
+            crate::run::growth::SUSTAINED_GROWTH,
+            crate::run::growth::MIN_FIT_R2,
             short(st.lowest_dt()),
             short(st.highest_dt()),
             if st.require_newton_convergence {
@@ -609,9 +626,10 @@ pub struct StabilitySettings {
     pub dt_max: f64,
     /// Simulated time every trial must cover (s).
     pub horizon: f64,
-    /// A trial is unstable when the energy balance's excess (energy gained beyond the work
-    /// done on the body) exceeds this many times the energy budget (see
-    /// `run::balance`). Default 1.
+    /// The trials' `run.energy_limit`: a trial blows up when the energy it gained beyond the
+    /// work done on the body passes this many times the energy the body holds or exchanges
+    /// while growing, or is still above it at the end (see `run::balance`; sustained
+    /// exponential growth is a blow-up at any level). Default 1.
     #[serde(default = "default_energy_factor")]
     pub energy_factor: f64,
     /// Bisection stops when `hi/lo - 1` is below this. Default 0.01.
@@ -704,6 +722,66 @@ pub const MIN_RELATIVE_PRECISION: f64 = 1e-9;
 
 /// The verdicts that answer the question (a limit, or stable up to the ceiling).
 const ANSWERED: [&str; 2] = ["limit-found", "stable-to-ceiling"];
+
+/// Relative distance from a bracket's ends of the trials that check it is robust.
+pub const ROBUSTNESS: f64 = 1e-6;
+
+/// How far the two local exponents of the growth rate may differ (absolute, or this fraction
+/// of the fitted exponent if larger) for the growth to follow one power of dt.
+const EXPONENT_TOLERANCE: (f64, f64) = (0.5, 0.25);
+
+/// How the energy's growth rate changes with dt over the three smallest trials, when every
+/// trial blew up: `rate ∝ dt^exponent`. Explicit Euler's top mode grows at `omega² dt`
+/// (exponent 1) and explicit midpoint's at `omega⁴ dt³ / 4` (exponent 3) below the explicit
+/// limit; a method whose limit lies below the range grows ever more slowly as dt approaches
+/// it (the local exponent steepens), and above `2/omega_max` every explicit method may blow
+/// up, so no claim about every dt is made from trials there.
+#[derive(Clone, Copy, Debug)]
+struct GrowthTrend {
+    /// Least-squares slope of `ln rate` against `ln dt`.
+    exponent: f64,
+    /// The slopes between the first and second, and second and third smallest trials.
+    local: (f64, f64),
+    smallest_dt: f64,
+    /// The largest of the three steps over `2/omega_max`, when omega_max is known.
+    over_theory: Option<f64>,
+}
+
+impl GrowthTrend {
+    /// The trend of the three smallest trials, if each has a positive growth rate.
+    fn of(trials: &[Trial], omega: Option<f64>) -> Option<Self> {
+        let mut points: Vec<(f64, f64)> = trials
+            .iter()
+            .map(|t| Some((t.dt, t.summary.energy_growth?.rate)))
+            .collect::<Option<_>>()?;
+        points.sort_by(|a, b| a.0.total_cmp(&b.0));
+        points.truncate(3);
+        if points.len() < 3 || points.iter().any(|p| !(p.1 > 0.0)) {
+            return None;
+        }
+        let logs: Vec<(f64, f64)> = points.iter().map(|(d, r)| (d.ln(), r.ln())).collect();
+        let slope = |a: (f64, f64), b: (f64, f64)| (b.1 - a.1) / (b.0 - a.0);
+        let mean = |f: fn(&(f64, f64)) -> f64| logs.iter().map(f).sum::<f64>() / 3.0;
+        let (mx, my) = (mean(|p| p.0), mean(|p| p.1));
+        let sxx: f64 = logs.iter().map(|p| (p.0 - mx).powi(2)).sum();
+        let sxy: f64 = logs.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+        Some(Self {
+            exponent: sxy / sxx,
+            local: (slope(logs[0], logs[1]), slope(logs[1], logs[2])),
+            smallest_dt: points[0].0,
+            over_theory: omega.map(|w| points[2].0 * w / 2.0),
+        })
+    }
+
+    /// Whether the trials show a blow-up at every dt: a rate that shrinks as one positive
+    /// power of dt, at steps below the explicit limit.
+    fn every_dt(&self) -> bool {
+        let (abs, rel) = EXPONENT_TOLERANCE;
+        self.exponent > 0.0
+            && (self.local.0 - self.local.1).abs() <= abs.max(rel * self.exponent)
+            && self.over_theory.is_none_or(|b| b <= 1.0)
+    }
+}
 
 /// Rows kept per trial in the series (the balance itself is checked at every step).
 const ROWS_PER_TRIAL: usize = 200;
@@ -864,15 +942,39 @@ pub(super) fn measure(
             }
         }
     }
+    // A bracket is robust when trials a hair away from its ends agree with them.
+    let mut not_robust = Vec::new();
+    if let Some((lo, hi)) = bracket {
+        let ends = [(lo, true)].into_iter().chain(hi.map(|h| (h, false)));
+        for (end, stable) in ends {
+            for dt in [end * (1.0 - ROBUSTNESS), end * (1.0 + ROBUSTNESS)] {
+                if (lowest..=highest).contains(&dt) && search.stable(dt) != stable {
+                    not_robust.push(dt);
+                }
+            }
+        }
+    }
+    // Nothing stable and every trial a blow-up: does the growth shrink as dt does?
+    let every_unstable = |trials: &[Trial]| {
+        trials
+            .iter()
+            .all(|t| t.summary.outcome.status == OutcomeKind::Unstable)
+    };
+    let mut trend = None;
+    if bracket.is_none() && every_unstable(&search.trials) {
+        for k in [2.0, 4.0] {
+            if lowest * k <= highest {
+                search.stable(lowest * k);
+            }
+        }
+        trend = GrowthTrend::of(&search.trials, shared.omega);
+    }
     let trials = search.trials;
 
     let verdict = match bracket {
         Some((_, None)) => "stable-to-ceiling",
         Some((_, Some(_))) => "limit-found",
-        None if trials
-            .iter()
-            .all(|t| t.summary.outcome.status == OutcomeKind::Unstable) =>
-        {
+        None if every_unstable(&trials) && trend.is_some_and(|t| t.every_dt()) => {
             "unstable-at-every-dt"
         }
         None => "no-stable-dt-in-range",
@@ -930,18 +1032,60 @@ pub(super) fn measure(
     m.set("max_stable_dt", cell(bracket.map(|(lo, _)| lo)));
     m.set("first_unstable_dt", cell(bracket.and_then(|(_, hi)| hi)));
     m.set("non_monotone_dt", cell(non_monotone));
-    if verdict == "unstable-at-every-dt" {
-        m.set(
-            "energy_growth_rate",
-            cell(first_unstable.and_then(|t| t.summary.energy_growth_rate)),
-        );
-    }
+    m.set(
+        "energy_growth_rate",
+        cell(first_unstable.and_then(|t| t.summary.energy_growth.map(|g| g.rate))),
+    );
+    m.set("growth_exponent", cell(trend.map(|t| t.exponent)));
+    m.set(
+        "limit_robust",
+        match bracket {
+            None => String::new(),
+            Some(_) if not_robust.is_empty() => "yes".into(),
+            Some(_) => "no".into(),
+        },
+    );
     if verdict != "limit-found" && verdict != "stable-to-ceiling" {
+        let why = match (verdict, trend) {
+            ("unstable-at-every-dt", Some(t)) => format!(
+                "every trial blew up, and the energy's growth rate shrinks like dt^{:.2} as dt \
+                 shrinks (down to {} s{})",
+                t.exponent,
+                short(t.smallest_dt),
+                t.over_theory
+                    .map(|b| format!(", {b:.2} x 2/omega_max"))
+                    .unwrap_or_default()
+            ),
+            (_, Some(t)) => format!(
+                "no trial was stable, but that is not shown to hold at every dt: the growth rate \
+                 of the three smallest trials does not follow one power of dt (local exponents \
+                 {:.2} and {:.2}){}, so a limit may lie below the range",
+                t.local.0,
+                t.local.1,
+                t.over_theory
+                    .filter(|b| *b > 1.0)
+                    .map(|b| format!(
+                        " or they all lie above the explicit limit ({b:.2} x 2/omega_max)"
+                    ))
+                    .unwrap_or_default()
+            ),
+            _ => "no trial was stable".into(),
+        };
         m.message = format!(
-            "{verdict} in [{}, {}] s: {}",
+            "{verdict} in [{}, {}] s: {why}; {}",
             short(lowest),
             short(highest),
             m.message
+        );
+    } else if !not_robust.is_empty() {
+        m.message = format!(
+            "the bracket is not robust: trials at {} (within {ROBUSTNESS:e} of its ends) \
+             disagree with them",
+            not_robust
+                .iter()
+                .map(|d| format!("{d:e}"))
+                .collect::<Vec<_>>()
+                .join(", ")
         );
     } else if let Some(dt) = non_monotone {
         m.message = format!(
@@ -1079,6 +1223,9 @@ fn trial_table(trials: &[Trial]) -> Table {
         "stable",
         "outcome",
         "energy_excess_peak",
+        "energy_growth_rate",
+        "energy_growth_factor",
+        "energy_growth_r2",
         "newton_unconverged_steps",
         "wall_seconds",
         "message",
@@ -1096,6 +1243,9 @@ fn trial_table(trials: &[Trial]) -> Table {
                     t.stable().to_string(),
                     outcome,
                     cell(Some(t.summary.energy_excess_peak)),
+                    cell(t.summary.energy_growth.map(|g| g.rate)),
+                    cell(t.summary.energy_growth.map(|g| g.factor)),
+                    cell(t.summary.energy_growth.map(|g| g.r2)),
                     t.summary.newton_unconverged_steps.to_string(),
                     cell(Some(t.summary.totals.times.total)),
                     message,

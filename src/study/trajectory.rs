@@ -42,6 +42,8 @@ pub const COLUMNS: &[&str] = &[
     "newton_required",
     "newton_refactor_every",
     "energy_excess_peak",
+    "energy_growth_rate",
+    "energy_growth_factor",
     "energy_limit",
     "assemble_seconds",
     "factor_seconds",
@@ -197,8 +199,8 @@ impl Kind for Trajectory {
     fn energy_caption(&self) -> Option<&'static str> {
         Some(
             "Energy balance over time: |E(t) - E(0) - work done on the body| over the energy \
-             budget the blow-up check uses (the scene's energy scale plus the work put in), log \
-             scale.",
+             the body holds or exchanges, the scale the blow-up check judges it against (log \
+             scale).",
         )
     }
 
