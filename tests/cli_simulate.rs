@@ -162,8 +162,14 @@ fn explicit_methods_blow_up_on_the_armadillo_at_the_course_step_and_say_why() {
         ],
     );
     assert_eq!(result.status.code(), Some(1));
+    // Its first step gains far more than the body holds; a blow-up is growth, which one step
+    // cannot show, and the second step inverts an element (det F of order -1e10).
     let stderr = String::from_utf8_lossy(&result.stderr);
-    assert!(stderr.contains("ended unstable at step"), "{stderr}");
+    assert!(
+        stderr.contains("ended unstable at step")
+            || stderr.contains("ended left-material-domain at step 2"),
+        "{stderr}"
+    );
 }
 
 #[test]

@@ -126,10 +126,11 @@ fn an_unstable_lower_bound_widens_the_bracket_downward() {
     assert_eq!(runs.get(&row, "stability"), Some("limit-found"));
     let found = runs.number(&row, "max_stable_dt").unwrap();
     assert!((found / limit - 1.0).abs() < 0.01, "{found} vs {limit}");
-    // With the floor above the limit, every step in range gains energy, and the row says so
-    // with the range and the growth rate.
+    // With the floor above the limit, every step in range gains energy: the row says so with
+    // the range and the growth rate, and does not call the method unstable at every dt (its
+    // limit lies below the range).
     let (runs, row) = particle_stability("dt_min = 0.1\ndt_max = 1.0\ndt_floor = 0.05");
-    assert_eq!(runs.get(&row, "stability"), Some("unstable-at-every-dt"));
+    assert_eq!(runs.get(&row, "stability"), Some("no-stable-dt-in-range"));
     assert_eq!(runs.get(&row, "outcome"), Some("unstable"));
     assert_eq!(runs.get(&row, "max_stable_dt"), Some(""));
     assert_eq!(runs.number(&row, "lowest_dt"), Some(0.05));
@@ -137,7 +138,7 @@ fn an_unstable_lower_bound_widens_the_bracket_downward() {
     assert!(
         runs.get(&row, "message")
             .unwrap()
-            .starts_with("unstable-at-every-dt in [0.05, 1] s"),
+            .starts_with("no-stable-dt-in-range in [0.05, 1] s"),
         "{:?}",
         runs.get(&row, "message")
     );

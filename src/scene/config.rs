@@ -228,7 +228,7 @@ pub struct RunConfig {
     pub sample_every: usize,
     /// A run is a blow-up when the energy it gained beyond the work done on the body
     /// (time-dependent potentials, less damping) passes this many times the energy the body
-    /// holds or exchanges while still growing, or is still above it at the end; or when that
+    /// holds or exchanges while still growing (a level alone decides nothing); or when that
     /// gain grew exponentially over the run's last half (see `run::balance`). 0 turns the
     /// check off. Default 1.
     #[serde(default = "default_energy_limit")]

@@ -30,7 +30,7 @@ use super::kind::{Kind, RunInputs, SweepLine, Verdict, number, parse_quick};
 use super::measured::{
     Measured, build, cap_cells, outcome_of, picture_surface, run_observed, summary_cells,
 };
-use super::reference::{ReferenceSettings, ScoringSettings};
+use super::reference::{Reference, ReferenceSettings, ScoringSettings};
 use super::spec::{RunSpec, Study};
 use super::table::Table;
 use crate::integrate::State;
@@ -60,6 +60,15 @@ pub const COLUMNS: &[&str] = &[
     "energy_growth_rate",
     "growth_exponent",
     "limit_robust",
+    "dt_error_1pct",
+    "dt_error_1pct_bound",
+    "error_at_dt_error_1pct",
+    "energy_excess_at_dt_error_1pct",
+    "dt_error_10pct",
+    "dt_error_10pct_bound",
+    "error_at_dt_error_10pct",
+    "energy_excess_at_dt_error_10pct",
+    "error_dt_precision",
     "lowest_dt",
     "highest_dt",
     "horizon",
@@ -157,6 +166,8 @@ impl Kind for Stability {
             "energy_growth_rate",
             "growth_exponent",
             "limit_robust",
+            "dt_error_1pct",
+            "dt_error_10pct",
             "newton_unconverged_steps",
             "trials",
         ]
@@ -342,6 +353,24 @@ impl Kind for Stability {
                 },
             ));
         }
+        for (k, tolerance) in ERROR_TOLERANCES.iter().enumerate() {
+            let column = ERROR_COLUMNS[k][0];
+            if has(column) {
+                out.extend(findings::ranking(
+                    s,
+                    format!(
+                        "largest stable dt with a position error of at most {}% against the \
+                         reference (s)",
+                        tolerance * 100.0
+                    ),
+                    Better::Larger,
+                    &|r| {
+                        runs.number(r, column)
+                            .ok_or_else(|| "no stable step within it".to_owned())
+                    },
+                ));
+            }
+        }
         if has("cost_per_simulated_second") {
             out.extend(findings::ranking(
                 s,
@@ -468,6 +497,15 @@ fn check(
             ),
         ));
     }
+    if !(MIN_RELATIVE_PRECISION..1.0).contains(&s.error_dt_precision) {
+        return Err(bad(
+            "stability.error_dt_precision",
+            format!(
+                "must be in [{MIN_RELATIVE_PRECISION:e}, 1) (got {})",
+                s.error_dt_precision
+            ),
+        ));
+    }
     if !(positive(s.floor()) && s.floor() <= s.dt_min) {
         return Err(bad(
             "stability.dt_floor",
@@ -581,11 +619,12 @@ fn report_settings(out: &mut String, file: &StudyFile) {
              trial {ROBUSTNESS:e} (relative) on each side of each end of the bracket. A trial is \
              stable when it covers the {} s horizon in {} to {} steps with every step taken and \
              no blow-up: its energy gain beyond the work done on the body never passed {} x the \
-             energy the body holds or exchanges while growing ({GROWN:e} x its first half's), is \
-             not above it at the end, and did not grow exponentially over the last half (x{} \
-             with R^2 >= {}); so only steps in [{}, {}] s are judged. With no stable trial, \
+             energy the body holds or exchanges while growing ({GROWN:e} x its first half's) \
+             and did not grow exponentially over the last half (x{} with R^2 >= {}); so only steps in [{}, {}] s are judged. With no stable trial, \
              `unstable-at-every-dt` needs the three smallest trials' growth rates to follow \
-             one positive power of dt below 2/omega_max. Newton convergence {}.\n",
+             one positive power of dt below 2/omega_max. With a reference, the largest stable \
+             step within each error tolerance ({}) is searched to {}% precision. Newton \
+             convergence {}.\n",
             short(st.dt_max),
             short(st.dt_min),
             st.relative_precision * 100.0,
@@ -598,6 +637,12 @@ fn report_settings(out: &mut String, file: &StudyFile) {
             crate::run::growth::MIN_FIT_R2,
             short(st.lowest_dt()),
             short(st.highest_dt()),
+            ERROR_TOLERANCES
+                .iter()
+                .map(|t| format!("{}%", t * 100.0))
+                .collect::<Vec<_>>()
+                .join(", "),
+            st.error_dt_precision * 100.0,
             if st.require_newton_convergence {
                 "is required (an unconverged step fails as solver-failed)"
             } else {
@@ -628,8 +673,8 @@ pub struct StabilitySettings {
     pub horizon: f64,
     /// The trials' `run.energy_limit`: a trial blows up when the energy it gained beyond the
     /// work done on the body passes this many times the energy the body holds or exchanges
-    /// while growing, or is still above it at the end (see `run::balance`; sustained
-    /// exponential growth is a blow-up at any level). Default 1.
+    /// while growing (see `run::balance`; sustained exponential growth is a blow-up at any
+    /// level). Default 1.
     #[serde(default = "default_energy_factor")]
     pub energy_factor: f64,
     /// Bisection stops when `hi/lo - 1` is below this. Default 0.01.
@@ -662,6 +707,10 @@ pub struct StabilitySettings {
     /// (`error_at_stable_dt`); 0 turns the reference off. Default 10.
     #[serde(default = "default_error_samples")]
     pub error_samples: usize,
+    /// Relative precision of the search for the largest stable step within each error
+    /// tolerance (`dt_error_1pct`, `dt_error_10pct`). Default 0.1.
+    #[serde(default = "default_error_dt_precision")]
+    pub error_dt_precision: f64,
     /// How that reference is computed (defaults as in work-precision studies, with a default
     /// step of `horizon / 4000`; in quick mode never finer than `horizon / 400`).
     #[serde(default)]
@@ -682,6 +731,9 @@ fn default_min_steps() -> usize {
 }
 fn default_probes() -> usize {
     2
+}
+fn default_error_dt_precision() -> f64 {
+    0.1
 }
 fn default_error_samples() -> usize {
     10
@@ -723,14 +775,49 @@ pub const MIN_RELATIVE_PRECISION: f64 = 1e-9;
 /// The verdicts that answer the question (a limit, or stable up to the ceiling).
 const ANSWERED: [&str; 2] = ["limit-found", "stable-to-ceiling"];
 
+/// The error tolerances (relative L2 position error against the reference) at which the
+/// largest stable step is reported: `dt_error_1pct` and `dt_error_10pct`.
+pub const ERROR_TOLERANCES: [f64; 2] = [0.01, 0.1];
+
+/// Per tolerance: the step, what bounds it (`limit` when the largest stable step is within
+/// the tolerance, `error` when the error is), the error there, and the energy excess at the
+/// end of that trial over the energy the body holds or exchanges (signed: negative = lost).
+const ERROR_COLUMNS: [[&str; 4]; 2] = [
+    [
+        "dt_error_1pct",
+        "dt_error_1pct_bound",
+        "error_at_dt_error_1pct",
+        "energy_excess_at_dt_error_1pct",
+    ],
+    [
+        "dt_error_10pct",
+        "dt_error_10pct_bound",
+        "error_at_dt_error_10pct",
+        "energy_excess_at_dt_error_10pct",
+    ],
+];
+
+/// The largest stable step within an error tolerance.
+#[derive(Clone, Copy, Debug)]
+struct Within {
+    dt: f64,
+    bound: &'static str,
+    error: f64,
+    excess: f64,
+}
+
 /// Relative distance from a bracket's ends of the trials that check it is robust.
 pub const ROBUSTNESS: f64 = 1e-6;
+
+/// The smallest ratio of consecutive steps in a growth trend.
+const SPACING: f64 = 1.5;
 
 /// How far the two local exponents of the growth rate may differ (absolute, or this fraction
 /// of the fitted exponent if larger) for the growth to follow one power of dt.
 const EXPONENT_TOLERANCE: (f64, f64) = (0.5, 0.25);
 
-/// How the energy's growth rate changes with dt over the three smallest trials, when every
+/// How the energy's growth rate changes with dt over the three smallest trials (at least
+/// [`SPACING`] apart), when every
 /// trial blew up: `rate ∝ dt^exponent`. Explicit Euler's top mode grows at `omega² dt`
 /// (exponent 1) and explicit midpoint's at `omega⁴ dt³ / 4` (exponent 3) below the explicit
 /// limit; a method whose limit lies below the range grows ever more slowly as dt approaches
@@ -755,7 +842,15 @@ impl GrowthTrend {
             .map(|t| Some((t.dt, t.summary.energy_growth?.rate)))
             .collect::<Option<_>>()?;
         points.sort_by(|a, b| a.0.total_cmp(&b.0));
-        points.truncate(3);
+        // The smallest trial and the next ones at least 1.5x apart (the search runs 2x and 4x
+        // the smallest step): close steps make a local exponent noise.
+        let mut spaced: Vec<(f64, f64)> = Vec::with_capacity(3);
+        for p in points {
+            if spaced.len() < 3 && spaced.last().is_none_or(|l| p.0 >= SPACING * l.0) {
+                spaced.push(p);
+            }
+        }
+        let points = spaced;
         if points.len() < 3 || points.iter().any(|p| !(p.1 > 0.0)) {
             return None;
         }
@@ -969,6 +1064,20 @@ pub(super) fn measure(
         }
         trend = GrowthTrend::of(&search.trials, shared.omega);
     }
+    // The largest stable step within each error tolerance: what ranks methods that are stable
+    // up to the ceiling (and the rest at their limit's accuracy).
+    let mut within = Vec::new();
+    if let (Some((limit, _)), Some(reference)) = (bracket, shared.reference) {
+        for &tolerance in &ERROR_TOLERANCES {
+            within.push(search.largest_within(
+                limit,
+                lowest,
+                tolerance,
+                settings.error_dt_precision,
+                reference,
+            ));
+        }
+    }
     let trials = search.trials;
 
     let verdict = match bracket {
@@ -1037,6 +1146,17 @@ pub(super) fn measure(
         cell(first_unstable.and_then(|t| t.summary.energy_growth.map(|g| g.rate))),
     );
     m.set("growth_exponent", cell(trend.map(|t| t.exponent)));
+    for (k, name) in ERROR_COLUMNS.iter().enumerate() {
+        let found = within.get(k).copied().flatten();
+        m.set(name[0], cell(found.map(|w: Within| w.dt)));
+        m.set(name[1], found.map_or(String::new(), |w| w.bound.into()));
+        m.set(name[2], cell(found.map(|w| w.error)));
+        m.set(name[3], cell(found.map(|w| w.excess)));
+    }
+    m.set(
+        "error_dt_precision",
+        cell(Some(settings.error_dt_precision)),
+    );
     m.set(
         "limit_robust",
         match bracket {
@@ -1115,7 +1235,7 @@ pub(super) fn measure(
     m.set("trials", trials.len().to_string());
     let total: f64 = trials.iter().map(|t| t.summary.totals.times.total).sum();
     m.set("trials_wall_seconds", cell(Some(total)));
-    m.trials = Some(trial_table(&trials));
+    m.trials = Some(trial_table(&trials, shared.reference));
     m.snapshots = pictured.and_then(|dt| {
         let mut trials = trials;
         let t = trials.iter_mut().find(|t| t.dt == dt)?;
@@ -1197,6 +1317,68 @@ impl<F: FnMut(f64) -> Trial> Search<F> {
         None
     }
 
+    /// The error of the trial at `dt` against `reference` (run now, or recalled); `None` when
+    /// it is not stable or did not reach every sample time.
+    fn error(&mut self, dt: f64, reference: &Reference) -> Option<f64> {
+        if !self.stable(dt) {
+            return None;
+        }
+        let trial = self.trials.iter().find(|t| t.dt == dt)?;
+        reference.relative_l2_error(&trial.positions)
+    }
+
+    /// The largest stable step at most `limit` (the largest stable one) whose error is at most
+    /// `tolerance`: `limit` itself if it is, else by bisection in log dt (to `precision`)
+    /// between a step within the tolerance (found by quartering down to `lowest`) and one
+    /// beyond it. `None` when no step down to `lowest` is within it, or the tolerance is
+    /// below the reference's own accuracy (errors there are not scored).
+    fn largest_within(
+        &mut self,
+        limit: f64,
+        lowest: f64,
+        tolerance: f64,
+        precision: f64,
+        reference: &Reference,
+    ) -> Option<Within> {
+        if tolerance <= reference.floor() {
+            return None;
+        }
+        let within = |s: &mut Self, dt: f64| s.error(dt, reference).is_some_and(|e| e <= tolerance);
+        let (mut lo, mut hi) = (limit, None);
+        while !within(self, lo) {
+            hi = Some(lo);
+            lo /= 4.0;
+            if lo < lowest {
+                return None;
+            }
+        }
+        if let Some(mut hi) = hi {
+            for _ in 0..MAX_BISECTIONS {
+                if hi / lo - 1.0 <= precision {
+                    break;
+                }
+                let mid = (lo * hi).sqrt();
+                if within(self, mid) {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+        }
+        let trial = self.trials.iter().find(|t| t.dt == lo)?;
+        let scale = trial.summary.energy_scale.total();
+        let excess = trial
+            .rows
+            .last()
+            .map_or(0.0, |r| r.energy_excess / scale.max(f64::MIN_POSITIVE));
+        Some(Within {
+            dt: lo,
+            bound: if lo == limit { "limit" } else { "error" },
+            error: self.error(lo, reference)?,
+            excess,
+        })
+    }
+
     /// Bisect in log dt between a stable `lo` and an unstable `hi`.
     fn bisect(&mut self, mut lo: f64, mut hi: f64) -> (f64, Option<f64>) {
         for _ in 0..MAX_BISECTIONS {
@@ -1215,7 +1397,7 @@ impl<F: FnMut(f64) -> Trial> Search<F> {
 }
 
 /// `series/<id>-trials.csv`: every trial with its outcome.
-fn trial_table(trials: &[Trial]) -> Table {
+fn trial_table(trials: &[Trial], reference: Option<&Reference>) -> Table {
     let header = [
         "dt",
         "steps",
@@ -1226,6 +1408,7 @@ fn trial_table(trials: &[Trial]) -> Table {
         "energy_growth_rate",
         "energy_growth_factor",
         "energy_growth_r2",
+        "error",
         "newton_unconverged_steps",
         "wall_seconds",
         "message",
@@ -1246,6 +1429,11 @@ fn trial_table(trials: &[Trial]) -> Table {
                     cell(t.summary.energy_growth.map(|g| g.rate)),
                     cell(t.summary.energy_growth.map(|g| g.factor)),
                     cell(t.summary.energy_growth.map(|g| g.r2)),
+                    cell(
+                        reference
+                            .filter(|_| t.stable())
+                            .and_then(|r| r.relative_l2_error(&t.positions)),
+                    ),
                     t.summary.newton_unconverged_steps.to_string(),
                     cell(Some(t.summary.totals.times.total)),
                     message,
