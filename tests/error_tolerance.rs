@@ -102,3 +102,61 @@ fn unconditionally_stable_methods_are_ranked_by_the_largest_step_within_an_error
         "{report}"
     );
 }
+
+#[test]
+fn errors_are_scored_per_phase_next_to_statistics_that_survive_chaos() {
+    let tmp = TempDir::new("error-phases");
+    tmp.write("bar.toml", BAR);
+    let study = |name: &str, phases: &str| {
+        let path = tmp.write(
+            &format!("{name}.toml"),
+            &format!(
+                "name = \"{name}\"\nstudy = \"stability\"\nscenes = [\"bar.toml\"]\n\
+                 [grid]\n\"integrator.method\" = [\"backward-euler\"]\n\
+                 [stability]\ndt_min = 1e-3\ndt_max = 0.02\nhorizon = 0.5\nerror_samples = 20\n\
+                 {phases}\n"
+            ),
+        );
+        let out = tmp.path().join("results");
+        let o = common::run_study(&path, &out, &[]);
+        (o, out.join(name).join("runs.csv"))
+    };
+    // One phase over the whole horizon is the whole error.
+    let (o, csv) = study("whole", "phases = [[0.0, 0.5]]");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let runs = Table::read(&csv).unwrap().unwrap();
+    let r = &runs.rows[0];
+    let whole = runs.number(r, "error_at_stable_dt").unwrap();
+    let phase = runs.number(r, "error_phase1").unwrap();
+    assert!((phase / whole - 1.0).abs() < 1e-12, "{phase} vs {whole}");
+    assert!(runs.number(r, "reference_difference_phase1").unwrap() > 0.0);
+    assert_eq!(runs.get(r, "error_phase2"), Some(""));
+    // Two phases: each reported with the reference's own difference in it, and the
+    // statistics next to them.
+    let (o, csv) = study("two", "phases = [[0.0, 0.2], [0.2, 0.5]]");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let runs = Table::read(&csv).unwrap().unwrap();
+    let r = &runs.rows[0];
+    assert_eq!(runs.get(r, "phases"), Some("[0, 0.2] [0.2, 0.5]"));
+    for c in [
+        "error_phase1",
+        "error_phase2",
+        "reference_difference_phase1",
+        "reference_difference_phase2",
+        "centroid_error",
+        "bounding_box_error",
+    ] {
+        let v = runs.number(r, c).unwrap_or_else(|| panic!("{c}"));
+        assert!(v > 0.0 && v < 1.0, "{c} = {v}");
+    }
+    // A phase holding no sample time, or past the horizon, is refused with the key.
+    for (name, phases) in [
+        ("between", "phases = [[0.001, 0.002]]"),
+        ("past", "phases = [[0.0, 0.7]]"),
+    ] {
+        let (o, _) = study(name, phases);
+        assert_eq!(o.status.code(), Some(2), "{name}");
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert!(stderr.contains("stability.phases"), "{stderr}");
+    }
+}

@@ -158,9 +158,16 @@ impl Violation {
             } => format!(
                 "the energy gained beyond the work done on the body, {excess:.4e} J, passed \
                  run.energy_limit = {limit} times the energy the body holds or exchanges \
-                 ({scale:.4e} J) and grew {:.3e} times since the first half of the run (more \
-                 than {GROWN:e}: still growing)",
-                excess / since.max(f64::MIN_POSITIVE)
+                 ({scale:.4e} J) and is still growing: {}",
+                if *since > 0.0 {
+                    format!(
+                        "{:.3e} times the most it gained in the first half of the run (more \
+                         than {GROWN:e})",
+                        excess / since
+                    )
+                } else {
+                    "the first half of the run gained no energy at all".to_owned()
+                }
             ),
             Self::Sustained { excess, scale, fit } => format!(
                 "the energy gained beyond the work done on the body grew exponentially over \

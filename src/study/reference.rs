@@ -4,9 +4,13 @@
 //!
 //! A reference is computed twice, at its step and at half of it (or, with `same_dt`, twice at
 //! the runs' own step, the second at a 100× tighter Newton tolerance); their difference is
-//! the reference's own accuracy, and errors below `floor_factor` times it are not scored.
+//! the reference's own accuracy (its error bar), and errors below `floor_factor` times it are
+//! not scored. The same holds within each of a study's phases (time windows), so a scene whose
+//! late phase is chaotic is still scored where its reference converges; next to the pointwise
+//! error, statistics that survive chaos (the centroid, the bounding box) are compared.
 
-use super::measured::{build, outcome_of, run_observed};
+use super::format::{cell, short};
+use super::measured::{Measured, build, outcome_of, run_observed};
 use super::shared_store::{bits, from_bits};
 use super::spec::RunSpec;
 use crate::integrate::{Method, State};
@@ -29,12 +33,55 @@ pub struct ScoringSettings {
     /// Errors are measured at `horizon k / samples`, k = 1..samples. Default 4.
     #[serde(default = "default_samples")]
     pub samples: usize,
+    /// Time windows `[start, end]` (s) in which the error is also reported on its own
+    /// (`error_phase1`...), each against the reference's own difference in it: a scene whose
+    /// late phase is chaotic is scored where its reference converges. At most
+    /// [`MAX_PHASES`]; each must hold a sample time. Default none.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub phases: Vec<[f64; 2]>,
     #[serde(default)]
     pub reference: ReferenceSettings,
 }
 
 fn default_samples() -> usize {
     4
+}
+
+/// Phases a study may score apart.
+pub const MAX_PHASES: usize = 4;
+
+/// The runs.csv columns of the phases: the error in each (empty when not scored), the
+/// reference's own difference in it.
+pub const PHASE_COLUMNS: [[&str; 2]; MAX_PHASES] = [
+    ["error_phase1", "reference_difference_phase1"],
+    ["error_phase2", "reference_difference_phase2"],
+    ["error_phase3", "reference_difference_phase3"],
+    ["error_phase4", "reference_difference_phase4"],
+];
+
+/// Whether sample time `t` lies in `phase` (start excluded, end included, to round-off).
+fn in_phase(t: f64, phase: [f64; 2]) -> bool {
+    let eps = 1e-9 * phase[1].abs().max(1.0);
+    t > phase[0] + eps && t <= phase[1] + eps
+}
+
+/// `sqrt(sum |a_k - b_k|^2) / sqrt(sum |b_k - rest|^2)` over the sample indices `k` that
+/// `keep` selects; `None` when none is selected or `a` lacks one.
+fn relative_l2(
+    a: &[Vec<f64>],
+    b: &[Vec<f64>],
+    rest: &[f64],
+    keep: &dyn Fn(usize) -> bool,
+) -> Option<f64> {
+    let squared =
+        |x: &[f64], y: &[f64]| x.iter().zip(y).map(|(p, q)| (p - q) * (p - q)).sum::<f64>();
+    let (mut error, mut motion, mut count) = (0.0, 0.0, 0);
+    for (k, r) in b.iter().enumerate().filter(|(k, _)| keep(*k)) {
+        error += squared(a.get(k)?, r);
+        motion += squared(r, rest);
+        count += 1;
+    }
+    (count > 0).then(|| error.sqrt() / motion.sqrt().max(f64::MIN_POSITIVE))
 }
 
 /// How the reference solution is computed.
@@ -102,6 +149,9 @@ pub struct Reference {
     pub wall_seconds: f64,
     /// The sample times (s).
     times: Vec<f64>,
+    /// The study's phases (s), and the reference's own difference in each.
+    pub phases: Vec<[f64; 2]>,
+    pub phase_differences: Vec<f64>,
     /// Errors below `floor_factor * difference` are not scored.
     floor_factor: f64,
 }
@@ -127,20 +177,77 @@ impl Reference {
     /// positions, so it is relative to how far the body moves. `None` unless `positions`
     /// holds every sample time.
     pub fn relative_l2_error(&self, positions: &[Vec<f64>]) -> Option<f64> {
-        let reference = &self.snapshots.q;
-        if positions.len() != reference.len() || reference.is_empty() {
+        if positions.len() != self.snapshots.q.len() {
             return None;
         }
-        let squared =
-            |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>();
-        let error: f64 = positions
-            .iter()
-            .zip(reference)
-            .map(|(x, r)| squared(x, r))
-            .sum();
-        let motion: f64 = reference.iter().map(|r| squared(r, &self.rest)).sum();
-        Some(error.sqrt() / motion.sqrt().max(f64::MIN_POSITIVE))
+        relative_l2(positions, &self.snapshots.q, &self.rest, &|_| true)
     }
+
+    /// The relative L2 position error within each phase, `None` where it is within
+    /// `floor_factor` times the reference's own difference there (not scored) or `positions`
+    /// do not cover it.
+    pub fn phase_errors(&self, positions: &[Vec<f64>]) -> Vec<Option<f64>> {
+        self.phases
+            .iter()
+            .zip(&self.phase_differences)
+            .map(|(&phase, &difference)| {
+                let keep = |k: usize| self.times.get(k).is_some_and(|&t| in_phase(t, phase));
+                relative_l2(positions, &self.snapshots.q, &self.rest, &keep)
+                    .filter(|e| *e > self.floor_factor * difference)
+            })
+            .collect()
+    }
+
+    /// Errors of statistics that survive chaos, largest over the sample times and relative to
+    /// the diagonal of the rest shape's bounding box: of the vertex centroid, and of the
+    /// bounding box (its largest corner coordinate difference). `None` unless `positions`
+    /// hold every sample time.
+    pub fn statistic_errors(&self, positions: &[Vec<f64>]) -> Option<(f64, f64)> {
+        if positions.len() != self.snapshots.q.len() || positions.is_empty() {
+            return None;
+        }
+        let (rest_lo, rest_hi) = bounds(&self.rest);
+        let diagonal = (0..3)
+            .map(|i| (rest_hi[i] - rest_lo[i]).powi(2))
+            .sum::<f64>()
+            .sqrt()
+            .max(f64::MIN_POSITIVE);
+        let (mut centroid, mut bbox) = (0.0f64, 0.0f64);
+        for (q, r) in positions.iter().zip(&self.snapshots.q) {
+            let (c, cr) = (centre(q), centre(r));
+            let d = (0..3).map(|i| (c[i] - cr[i]).powi(2)).sum::<f64>().sqrt();
+            centroid = centroid.max(d / diagonal);
+            let ((lo, hi), (lo_r, hi_r)) = (bounds(q), bounds(r));
+            for i in 0..3 {
+                bbox = bbox.max((lo[i] - lo_r[i]).abs().max((hi[i] - hi_r[i]).abs()) / diagonal);
+            }
+        }
+        Some((centroid, bbox))
+    }
+}
+
+/// The smallest and largest coordinate per axis of the vertices `q` (x, y, z interleaved).
+fn bounds(q: &[f64]) -> ([f64; 3], [f64; 3]) {
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    for x in q.chunks_exact(3) {
+        for i in 0..3 {
+            lo[i] = lo[i].min(x[i]);
+            hi[i] = hi[i].max(x[i]);
+        }
+    }
+    (lo, hi)
+}
+
+/// The centroid of the vertices `q` (not mass-weighted: a statistic of the shape's motion).
+fn centre(q: &[f64]) -> [f64; 3] {
+    let n = (q.len() / 3).max(1) as f64;
+    let mut c = [0.0; 3];
+    for x in q.chunks_exact(3) {
+        for i in 0..3 {
+            c[i] += x[i] / n;
+        }
+    }
+    c
 }
 
 /// Records rows, and the state and energies every `stride` steps.
@@ -300,6 +407,17 @@ pub fn reference(
     };
     let (difference, energy_difference) =
         errors(&coarse, &fine, &rest).ok_or("the reference reached no sample time")?;
+    let times: Vec<f64> = (1..=settings.samples)
+        .map(|k| settings.horizon * k as f64 / settings.samples as f64)
+        .collect();
+    let phase_differences = settings
+        .phases
+        .iter()
+        .map(|&phase| {
+            let keep = |k: usize| times.get(k).is_some_and(|&t| in_phase(t, phase));
+            relative_l2(&coarse.q, &fine.q, &rest, &keep).unwrap_or(f64::NAN)
+        })
+        .collect();
     Ok(Reference {
         method,
         dt: if same_dt { dt } else { dt / 2.0 },
@@ -309,9 +427,9 @@ pub fn reference(
         difference,
         energy_difference,
         wall_seconds: t1 + t2,
-        times: (1..=settings.samples)
-            .map(|k| settings.horizon * k as f64 / settings.samples as f64)
-            .collect(),
+        times,
+        phases: settings.phases.clone(),
+        phase_differences,
         floor_factor: settings.reference.floor_factor,
     })
 }
@@ -345,6 +463,10 @@ pub(super) struct StoredReference {
     floor_factor: u64,
     #[serde(default)]
     same_dt: bool,
+    #[serde(default)]
+    phases: Vec<[u64; 2]>,
+    #[serde(default)]
+    phase_differences: Vec<u64>,
 }
 
 impl Reference {
@@ -368,6 +490,8 @@ impl Reference {
             times: all(&self.times),
             floor_factor: bits(self.floor_factor),
             same_dt: self.same_dt,
+            phases: self.phases.iter().map(|p| p.map(bits)).collect(),
+            phase_differences: all(&self.phase_differences),
         }
     }
 
@@ -401,6 +525,34 @@ impl Reference {
             times: all(&s.times),
             floor_factor: from_bits(s.floor_factor),
             same_dt: s.same_dt,
+            phases: s.phases.iter().map(|p| p.map(from_bits)).collect(),
+            phase_differences: all(&s.phase_differences),
         })
     }
+}
+
+/// The phase and statistic columns of a run whose positions at the sample times of
+/// `reference` are `positions`: `phases`, `error_phase<i>` and `reference_difference_phase<i>`,
+/// `centroid_error` and `bounding_box_error`.
+pub(super) fn set_phase_cells(m: &mut Measured, reference: &Reference, positions: &[Vec<f64>]) {
+    m.set(
+        "phases",
+        reference
+            .phases
+            .iter()
+            .map(|[a, b]| format!("[{}, {}]", short(*a), short(*b)))
+            .collect::<Vec<_>>()
+            .join(" "),
+    );
+    let errors = reference.phase_errors(positions);
+    for (i, [error, difference]) in PHASE_COLUMNS.iter().enumerate() {
+        m.set(*error, cell(errors.get(i).copied().flatten()));
+        m.set(
+            *difference,
+            cell(reference.phase_differences.get(i).copied()),
+        );
+    }
+    let stats = reference.statistic_errors(positions);
+    m.set("centroid_error", cell(stats.map(|s| s.0)));
+    m.set("bounding_box_error", cell(stats.map(|s| s.1)));
 }

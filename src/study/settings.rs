@@ -74,3 +74,50 @@ pub(super) fn check_reference(
     }
     Ok(())
 }
+
+/// `phases` (see [`super::reference::ScoringSettings::phases`]): at most `MAX_PHASES`
+/// windows `0 <= start < end <= horizon`, each holding a sample time `horizon k / samples`.
+pub(super) fn check_phases(
+    phases: &[[f64; 2]],
+    horizon: f64,
+    samples: usize,
+    table: &str,
+    bad: &dyn Fn(&str, String) -> StudyError,
+) -> Result<(), StudyError> {
+    use super::reference::MAX_PHASES;
+    let key = format!("{table}.phases");
+    if phases.len() > MAX_PHASES {
+        return Err(bad(
+            &key,
+            format!("at most {MAX_PHASES} phases (got {})", phases.len()),
+        ));
+    }
+    for &[start, end] in phases {
+        if !(start.is_finite() && end.is_finite() && 0.0 <= start && start < end && end <= horizon)
+        {
+            return Err(bad(
+                &key,
+                format!(
+                    "each phase is [start, end] with 0 <= start < end <= horizon = {horizon} s \
+                     (got [{start}, {end}])"
+                ),
+            ));
+        }
+        let holds = (1..=samples).any(|k| {
+            let t = horizon * k as f64 / samples as f64;
+            let eps = 1e-9 * end.abs().max(1.0);
+            t > start + eps && t <= end + eps
+        });
+        if !holds {
+            return Err(bad(
+                &key,
+                format!(
+                    "the phase [{start}, {end}] s holds none of the {samples} sample times \
+                     (every {} s): widen it or raise the sample count",
+                    horizon / samples.max(1) as f64
+                ),
+            ));
+        }
+    }
+    Ok(())
+}

@@ -69,6 +69,17 @@ pub const COLUMNS: &[&str] = &[
     "error_at_dt_error_10pct",
     "energy_excess_at_dt_error_10pct",
     "error_dt_precision",
+    "phases",
+    "error_phase1",
+    "reference_difference_phase1",
+    "error_phase2",
+    "reference_difference_phase2",
+    "error_phase3",
+    "reference_difference_phase3",
+    "error_phase4",
+    "reference_difference_phase4",
+    "centroid_error",
+    "bounding_box_error",
     "lowest_dt",
     "highest_dt",
     "horizon",
@@ -539,6 +550,7 @@ fn check(
         ));
     }
     super::settings::check_reference(&s.reference, NAME, false, &bad)?;
+    super::settings::check_phases(&s.phases, s.horizon, s.error_samples, NAME, &bad)?;
     Ok(())
 }
 
@@ -587,6 +599,7 @@ fn quick_table(file: &mut StudyFile, ctx: &Context) -> Result<(), StudyError> {
 fn reference_settings(file: &StudyFile) -> Option<ScoringSettings> {
     let s = settings(file)?;
     (s.error_samples > 0).then(|| ScoringSettings {
+        phases: s.phases.clone(),
         horizon: s.horizon,
         samples: s.error_samples,
         require_newton_convergence: true,
@@ -707,6 +720,11 @@ pub struct StabilitySettings {
     /// (`error_at_stable_dt`); 0 turns the reference off. Default 10.
     #[serde(default = "default_error_samples")]
     pub error_samples: usize,
+    /// Time windows `[start, end]` (s) in which the error at the largest stable step is also
+    /// reported on its own (`error_phase1`...), against the reference's own difference there.
+    /// Default none.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub phases: Vec<[f64; 2]>,
     /// Relative precision of the search for the largest stable step within each error
     /// tolerance (`dt_error_1pct`, `dt_error_10pct`). Default 0.1.
     #[serde(default = "default_error_dt_precision")]
@@ -1123,6 +1141,7 @@ pub(super) fn measure(
         );
         if let Some(reference) = shared.reference {
             m.set("reference_difference", cell(Some(reference.difference)));
+            super::reference::set_phase_cells(&mut m, reference, &best.positions);
             if let Some(error) = reference.relative_l2_error(&best.positions) {
                 let scored = error > reference.floor();
                 m.set("error_at_stable_dt", cell(Some(error)));

@@ -54,6 +54,17 @@ pub const COLUMNS: &[&str] = &[
     "step_seconds_median",
     "step_seconds_p95",
     "steps",
+    "phases",
+    "error_phase1",
+    "reference_difference_phase1",
+    "error_phase2",
+    "reference_difference_phase2",
+    "error_phase3",
+    "reference_difference_phase3",
+    "error_phase4",
+    "reference_difference_phase4",
+    "centroid_error",
+    "bounding_box_error",
     "energy_drift_max",
     "energy_excess_peak",
     "energy_growth_rate",
@@ -378,6 +389,7 @@ fn check(
         return Err(bad("work-precision.samples", "must be at least 1".into()));
     }
     super::settings::check_reference(&w.reference, NAME, true, &bad)?;
+    super::settings::check_phases(&w.phases, w.horizon, w.samples, NAME, &bad)?;
     if !file.grid.contains_key("run.dt")
         && !file
             .methods
@@ -515,6 +527,7 @@ pub fn measure(
             );
             m.set("error_unscored", cell((!scored).then_some(error)));
             m.set("energy_error", cell(Some(energy)));
+            super::reference::set_phase_cells(&mut m, reference, &snapshots.q);
             if !scored {
                 m.message = format!(
                     "error {error:.3e} is below {} x the reference's own difference {:.3e}: \
