@@ -215,3 +215,86 @@ fn a_work_precision_study_ranks_error_at_equal_cost_and_flags_an_order_above_the
         "{w}"
     );
 }
+
+#[test]
+fn costs_are_the_median_step_with_quartiles_and_overlapping_spreads_are_tied() {
+    // Three completed runs of 100 steps over 1 s: a and b have overlapping quartiles, c is
+    // apart. The cost is the median step times the steps per second (the first step, with
+    // its one-time setup, apart); wall_seconds is not what is ranked.
+    let header = [
+        "run_id",
+        "scene",
+        "method",
+        "linear_solver",
+        "outcome",
+        "final_time",
+        "steps",
+        "wall_seconds",
+        "step_seconds_median",
+        "step_seconds_q1",
+        "step_seconds_q3",
+    ];
+    let runs = table(
+        &header,
+        &[
+            &[
+                "s-a",
+                "s",
+                "bdf2",
+                "-",
+                "completed",
+                "1",
+                "100",
+                "9",
+                "0.010",
+                "0.009",
+                "0.012",
+            ],
+            &[
+                "s-b",
+                "s",
+                "backward-euler",
+                "-",
+                "completed",
+                "1",
+                "100",
+                "1",
+                "0.011",
+                "0.0105",
+                "0.013",
+            ],
+            &[
+                "s-c",
+                "s",
+                "implicit-midpoint",
+                "-",
+                "completed",
+                "1",
+                "100",
+                "2",
+                "0.020",
+                "0.019",
+                "0.021",
+            ],
+        ],
+    );
+    let f = compute_findings("trajectory", &runs, &[], &BTreeMap::new()).unwrap();
+    let cost = f
+        .rankings
+        .iter()
+        .find(|r| r.metric.starts_with("cost per simulated second"))
+        .unwrap();
+    let names: Vec<&str> = cost.ranked.iter().map(|r| r.0.as_str()).collect();
+    assert_eq!(names, ["bdf2", "backward-euler", "implicit-midpoint"]);
+    assert!((cost.ranked[0].1 - 1.0).abs() < 1e-12);
+    let (lo, hi) = cost.spreads[0].unwrap();
+    assert!((lo - 0.9).abs() < 1e-12 && (hi - 1.2).abs() < 1e-12, "{lo} {hi}");
+    assert!(cost.tied_with_previous(1) && !cost.tied_with_previous(2));
+    let mut text = String::new();
+    softbench::study::findings::write(&mut text, &f);
+    assert!(
+        text.contains("bdf2 (1), tied with backward-euler (spreads overlap)"),
+        "{text}"
+    );
+    assert!(text.contains("≈ backward-euler 1.1 [1.05, 1.3]"), "{text}");
+}

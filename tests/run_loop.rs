@@ -129,3 +129,36 @@ fn the_progress_bar_follows_every_step_and_passes_everything_on() {
         "t = 0.0005 of 0.001 s"
     );
 }
+
+#[test]
+fn the_first_step_is_timed_apart_and_the_others_have_quartiles() {
+    let mut model = block(true, true);
+    let mut state = State::at_rest(&model);
+    let mut integrator = IntegratorSettings {
+        method: Method::from_name("backward-euler").unwrap(),
+        ..Default::default()
+    }
+    .build();
+    let config = RunConfig {
+        dt: 0.01,
+        steps: 40,
+        sample_every: 10,
+        energy_limit: 1.0,
+    };
+    let s = run(
+        &mut model,
+        integrator.as_mut(),
+        &mut state,
+        &config,
+        &mut |_: &Sample| Ok(()),
+    )
+    .unwrap();
+    assert!(s.first_step_seconds > 0.0);
+    assert!(
+        s.step_seconds_q1 <= s.step_seconds_median
+            && s.step_seconds_median <= s.step_seconds_q3
+            && s.step_seconds_q3 <= s.step_seconds_p95,
+        "{s:?}"
+    );
+    assert!(s.step_seconds_q1 > 0.0);
+}

@@ -122,7 +122,7 @@ impl Envelope {
             sty += (t - mean_t) * (y - mean_y);
             syy += (y - mean_y).powi(2);
         }
-        if !(stt > 0.0) || !syy.is_finite() {
+        if stt <= 0.0 || stt.is_nan() || !syy.is_finite() {
             return None;
         }
         let rate = sty / stt;

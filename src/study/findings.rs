@@ -32,6 +32,9 @@ pub struct Ranking {
     pub better: Better,
     /// (run label, value), best first.
     pub ranked: Vec<(String, f64)>,
+    /// The spread of each ranked value where it was measured (`spreads[i]` is `ranked[i]`'s:
+    /// the interquartile range of a timing); two neighbours whose spreads overlap are tied.
+    pub spreads: Vec<Option<(f64, f64)>>,
     /// Runs left out and why.
     pub left_out: Vec<(String, String)>,
 }
@@ -61,6 +64,21 @@ pub(super) fn ranking(
     better: Better,
     value: &dyn Fn(&[String]) -> Result<f64, String>,
 ) -> Option<Ranking> {
+    ranking_with_spread(s, metric, better, value, &|_| None)
+}
+
+/// A row's spread `(low, high)`, when measured.
+pub(super) type Spread<'a> = dyn Fn(&[String]) -> Option<(f64, f64)> + 'a;
+
+/// [`ranking`] with each value's spread (`(low, high)`, e.g. a timing's quartiles), so
+/// neighbours whose spreads overlap are reported tied.
+pub(super) fn ranking_with_spread(
+    s: &SceneRows,
+    metric: String,
+    better: Better,
+    value: &dyn Fn(&[String]) -> Result<f64, String>,
+    spread: &Spread<'_>,
+) -> Option<Ranking> {
     let (runs, params) = (s.runs, s.params);
     if s.rows.iter().all(|r| value(r).is_err()) {
         return None;
@@ -69,7 +87,7 @@ pub(super) fn ranking(
     let mut left_out = Vec::new();
     for r in s.rows {
         match value(r) {
-            Ok(v) if v.is_finite() => ranked.push((label(runs, params, r), v)),
+            Ok(v) if v.is_finite() => ranked.push((label(runs, params, r), v, spread(r))),
             Ok(v) => left_out.push((label(runs, params, r), format!("value {v}"))),
             Err(why) => left_out.push((label(runs, params, r), why)),
         }
@@ -82,9 +100,25 @@ pub(super) fn ranking(
         scene: s.scene.to_owned(),
         metric,
         better,
-        ranked,
+        spreads: ranked.iter().map(|r| r.2).collect(),
+        ranked: ranked.into_iter().map(|(l, v, _)| (l, v)).collect(),
         left_out,
     })
+}
+
+impl Ranking {
+    /// Whether the `i`-th ranked run is tied with the one before it: both spreads measured
+    /// and overlapping.
+    pub fn tied_with_previous(&self, i: usize) -> bool {
+        match (
+            i.checked_sub(1)
+                .and_then(|p| self.spreads.get(p).copied().flatten()),
+            self.spreads.get(i).copied().flatten(),
+        ) {
+            (Some(a), Some(b)) => a.0 <= b.1 && b.0 <= a.1,
+            _ => false,
+        }
+    }
 }
 
 /// The outcome of a row, for why it is left out of a ranking.
@@ -92,21 +126,40 @@ pub(super) fn outcome(runs: &Table, row: &[String]) -> String {
     runs.get(row, "outcome").unwrap_or("?").to_owned()
 }
 
-/// Cost per simulated second, wall time over simulated time, of the completed runs.
+/// Cost per simulated second of the completed runs: the median step's wall time times the
+/// steps per simulated second (the first step's setup apart), with the quartiles as its
+/// spread; wall time over simulated time where the step times are not in the table.
 pub(super) fn cost_per_simulated_second(s: &SceneRows) -> Option<Ranking> {
     let runs = s.runs;
-    ranking(
+    let per_second = |r: &[String]| match (runs.number(r, "steps"), runs.number(r, "final_time")) {
+        (Some(n), Some(t)) if t > 0.0 => Some(n / t),
+        _ => None,
+    };
+    let median = |r: &[String]| Some(runs.number(r, "step_seconds_median")? * per_second(r)?);
+    ranking_with_spread(
         s,
-        "cost per simulated second (wall s / simulated s)".into(),
+        "cost per simulated second (wall s / simulated s: median step, quartiles as spread; \
+         first step apart)"
+            .into(),
         Better::Smaller,
         &|r| {
             if !completed(runs, r) {
                 return Err(outcome(runs, r));
             }
+            if let Some(cost) = median(r) {
+                return Ok(cost);
+            }
             match (runs.number(r, "wall_seconds"), runs.number(r, "final_time")) {
                 (Some(w), Some(t)) if t > 0.0 => Ok(w / t),
                 _ => Err("no time measured".into()),
             }
+        },
+        &|r| {
+            let k = per_second(r)?;
+            Some((
+                runs.number(r, "step_seconds_q1")? * k,
+                runs.number(r, "step_seconds_q3")? * k,
+            ))
         },
     )
 }
@@ -156,14 +209,34 @@ pub fn write(out: &mut String, f: &Findings) {
             "| scene | metric | best | ranking (best first) |\n|---|---|---|---|"
         );
         for r in &f.rankings {
-            let best = r
+            let mut best = r
                 .ranked
                 .first()
                 .map_or("-".to_owned(), |(l, v)| format!("{l} ({})", short(*v)));
+            // Runs tied with the first share the place.
+            let tied: Vec<&str> = (1..r.ranked.len())
+                .take_while(|&i| r.tied_with_previous(i))
+                .map(|i| r.ranked[i].0.as_str())
+                .collect();
+            if !tied.is_empty() {
+                best = format!("{best}, tied with {} (spreads overlap)", tied.join(", "));
+            }
             let mut list: Vec<String> = r
                 .ranked
                 .iter()
-                .map(|(l, v)| format!("{l} {}", short(*v)))
+                .enumerate()
+                .map(|(i, (l, v))| {
+                    let spread = r
+                        .spreads
+                        .get(i)
+                        .copied()
+                        .flatten()
+                        .map_or(String::new(), |(a, b)| {
+                            format!(" [{}, {}]", short(a), short(b))
+                        });
+                    let tie = if r.tied_with_previous(i) { "≈ " } else { "" };
+                    format!("{tie}{l} {}{spread}", short(*v))
+                })
                 .collect();
             for (l, why) in &r.left_out {
                 list.push(format!("*{l}: not ranked, {why}*"));

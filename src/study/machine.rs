@@ -1,4 +1,5 @@
-//! What a study ran on, for `meta.json`: CPU, cores, OS, compiler, commit.
+//! What a study ran on, for `meta.json`: CPU, cores, OS, compiler, commit, and the machine's
+//! load when the study started (timings are only comparable on a quiet machine).
 
 /// The machine and build of a study.
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
@@ -9,6 +10,10 @@ pub struct Machine {
     pub cpu: String,
     pub cores: usize,
     pub os: String,
+    /// The load average over 1, 5 and 15 minutes when this was read (the study's start), from
+    /// `/proc/loadavg`; `None` where there is none.
+    #[serde(default)]
+    pub load_average: Option<[f64; 3]>,
 }
 
 impl Machine {
@@ -21,8 +26,15 @@ impl Machine {
             cpu: cpu_model().unwrap_or_else(|| std::env::consts::ARCH.into()),
             cores: std::thread::available_parallelism().map_or(1, |n| n.get()),
             os: os_name(),
+            load_average: load_average(),
         }
     }
+}
+
+fn load_average() -> Option<[f64; 3]> {
+    let text = std::fs::read_to_string("/proc/loadavg").ok()?;
+    let mut fields = text.split_whitespace().map(|f| f.parse::<f64>().ok());
+    Some([fields.next()??, fields.next()??, fields.next()??])
 }
 
 fn cpu_model() -> Option<String> {

@@ -546,9 +546,9 @@ pub(super) fn set_phase_cells(m: &mut Measured, reference: &Reference, positions
     );
     let errors = reference.phase_errors(positions);
     for (i, [error, difference]) in PHASE_COLUMNS.iter().enumerate() {
-        m.set(*error, cell(errors.get(i).copied().flatten()));
+        m.set(error, cell(errors.get(i).copied().flatten()));
         m.set(
-            *difference,
+            difference,
             cell(reference.phase_differences.get(i).copied()),
         );
     }

@@ -80,7 +80,7 @@ fn render(
     let _ = writeln!(
         out,
         "Study file `{}`; {} runs in `runs.csv` ({reused} reused from an earlier invocation). \
-         softbench {} (commit `{}`), {}; {} ({} cores), {}. Started {}, finished {}, {} s.\n",
+         softbench {} (commit `{}`), {}; {} ({} cores{}), {}. Started {}, finished {}, {} s.\n",
         s.file.display(),
         runs.rows.len(),
         m.softbench_version,
@@ -88,6 +88,10 @@ fn render(
         m.rustc,
         m.cpu,
         m.cores,
+        m.load_average.map_or(String::new(), |l| format!(
+            ", load average {:.2} / {:.2} / {:.2} over 1 / 5 / 15 min at the start",
+            l[0], l[1], l[2]
+        )),
         m.os,
         meta.started,
         meta.finished.as_deref().unwrap_or("-"),

@@ -52,6 +52,8 @@ pub const COLUMNS: &[&str] = &[
     "dt_theory",
     "stable_over_theory",
     "cost_per_simulated_second",
+    "cost_per_simulated_second_q1",
+    "cost_per_simulated_second_q3",
     "evaluations_per_simulated_second",
     "error_at_stable_dt",
     "error_scored",
@@ -93,7 +95,11 @@ pub const COLUMNS: &[&str] = &[
     "trials",
     "newton_iterations_per_step",
     "step_seconds_median",
+    "step_seconds_q1",
+    "step_seconds_q3",
     "step_seconds_p95",
+    "first_step_seconds",
+    "setup_seconds",
     "steps",
     "wall_seconds",
     "trials_wall_seconds",
@@ -383,13 +389,21 @@ impl Kind for Stability {
             }
         }
         if has("cost_per_simulated_second") {
-            out.extend(findings::ranking(
+            out.extend(findings::ranking_with_spread(
                 s,
-                "cost per simulated second at the largest stable dt (wall s / simulated s)".into(),
+                "cost per simulated second at the largest stable dt (wall s / simulated s: \
+                 median step, quartiles as spread; first step apart)"
+                    .into(),
                 Better::Smaller,
                 &|r| {
                     runs.number(r, "cost_per_simulated_second")
                         .ok_or_else(|| "not measured".into())
+                },
+                &|r| {
+                    Some((
+                        runs.number(r, "cost_per_simulated_second_q1")?,
+                        runs.number(r, "cost_per_simulated_second_q3")?,
+                    ))
                 },
             ));
         } else if has("wall_seconds") && has("final_time") {
@@ -869,7 +883,7 @@ impl GrowthTrend {
             }
         }
         let points = spaced;
-        if points.len() < 3 || points.iter().any(|p| !(p.1 > 0.0)) {
+        if points.len() < 3 || points.iter().any(|p| p.1 <= 0.0 || p.1.is_nan()) {
             return None;
         }
         let logs: Vec<(f64, f64)> = points.iter().map(|(d, r)| (d.ln(), r.ln())).collect();
@@ -1130,9 +1144,21 @@ pub(super) fn measure(
         m.cells = summary_cells(&best.summary);
         let simulated = best.covered.max(f64::MIN_POSITIVE);
         let totals = &best.summary.totals;
+        // The steady cost: the median step (its quartiles as the spread), the first step's
+        // setup apart (setup_seconds).
+        let s = &best.summary;
+        let per_second = s.steps_completed as f64 / simulated;
         m.set(
             "cost_per_simulated_second",
-            cell(Some(totals.times.total / simulated)),
+            cell(Some(s.step_seconds_median * per_second)),
+        );
+        m.set(
+            "cost_per_simulated_second_q1",
+            cell(Some(s.step_seconds_q1 * per_second)),
+        );
+        m.set(
+            "cost_per_simulated_second_q3",
+            cell(Some(s.step_seconds_q3 * per_second)),
         );
         let evaluations = totals.evaluations.gradient + totals.evaluations.hessian;
         m.set(

@@ -52,7 +52,11 @@ pub const COLUMNS: &[&str] = &[
     "reference_dt",
     "reference_difference",
     "step_seconds_median",
+    "step_seconds_q1",
+    "step_seconds_q3",
     "step_seconds_p95",
+    "first_step_seconds",
+    "setup_seconds",
     "steps",
     "phases",
     "error_phase1",
@@ -733,6 +737,7 @@ fn error_at_equal_cost(
             short(cost)
         ),
         better: Better::Smaller,
+        spreads: vec![None; ranked.len()],
         ranked,
         left_out,
     })
