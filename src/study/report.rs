@@ -295,7 +295,9 @@ fn units_note(kind: &dyn Kind, runs: &Table, columns: &[&str]) -> String {
     let mut parts = vec!["time steps and times in s".to_owned()];
     if shown("energy_drift_max") || shown("energy_drift_final") {
         parts.push(
-            "energy drifts relative to the initial internal energy plus the work of gravity".into(),
+            "energy drifts are the energy gained or lost beyond the work done on the body and \
+             the energy damping removed, over the energy the body holds or exchanges"
+                .into(),
         );
     }
     parts.extend(kind.unit_notes(runs, &shown));
@@ -363,7 +365,7 @@ fn replace_findings(report: &str, findings: &str) -> String {
 
 /// The findings of `runs`, a table of a study whose runs a registered `kind` measured (a
 /// sweep's inner kind): per scene, the kind's rankings; then the warnings. `damped` names the
-/// scenes with damping (and how), whose energy loss is the damping's as much as the method's.
+/// scenes with damping (and how), named in the drift ranking, which accounts their loss.
 /// `None` when no kind of that name is registered.
 pub fn compute_findings(
     kind: &str,
@@ -390,14 +392,6 @@ pub fn compute_findings(
         let how = damped.get(&scene);
         f.rankings
             .extend(kind.rankings(&of_scene, how.map(String::as_str)));
-        if let Some(how) = how
-            && runs.column("energy_drift_max").is_some()
-        {
-            f.warnings.push(format!(
-                "{scene} is damped ({how}): its energy drift includes the energy damping \
-                 removes, so it measures the damping as much as the method."
-            ));
-        }
     }
     f.warnings.extend(kind.table_warnings(runs));
     // Per-run warnings.
