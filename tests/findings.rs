@@ -216,3 +216,41 @@ fn a_work_precision_study_ranks_error_at_equal_cost_and_flags_an_order_above_the
         "{w}"
     );
 }
+
+/// Issue 24: a run that completed with inverted elements (the cow's feet) gets a warning; one
+/// without, or one that stopped early (already warned about), does not.
+#[test]
+fn a_completed_run_with_inverted_elements_is_warned_about() {
+    let runs = table(
+        &[
+            "run_id",
+            "scene",
+            "method",
+            "outcome",
+            "final_time",
+            "wall_seconds",
+            "inverted_elements_max",
+        ],
+        &[
+            &["cow-rk4", "cow", "rk4", "completed", "5", "1", "12"],
+            &["cow-mid", "cow", "midpoint", "completed", "5", "1", "0"],
+            &[
+                "cow-se",
+                "cow",
+                "symplectic-euler",
+                "unstable",
+                "1",
+                "1",
+                "3",
+            ],
+        ],
+    );
+    let f = compute_findings("trajectory", &runs, &[], &BTreeMap::new()).unwrap();
+    let w = f.warnings.join("\n");
+    assert!(
+        w.contains("`cow-rk4`: up to 12 tets inverted (det F <= 0)"),
+        "{w}"
+    );
+    assert!(!w.contains("`cow-mid`"), "{w}");
+    assert!(!w.contains("`cow-se`: up to"), "{w}");
+}

@@ -216,3 +216,41 @@ fn the_energy_drift_is_the_balance_excess_over_its_scale() {
         );
     }
 }
+
+/// Issue 24: a run can complete with inverted elements (the cow's feet); the summary says how
+/// many tets were inverted at worst.
+#[test]
+fn a_run_that_completes_with_inverted_elements_reports_them() {
+    let mut model = block(true, false);
+    let mut state = State::at_rest(&model);
+    let mut integ = IntegratorSettings {
+        method: Method::from_name("backward-euler").unwrap(),
+        ..Default::default()
+    }
+    .build();
+    let quiet = run(
+        &mut model,
+        integ.as_mut(),
+        &mut state.clone(),
+        &config(1e-3, 5),
+        &mut |_: &Sample| Ok(()),
+    )
+    .unwrap();
+    assert_eq!(quiet.inverted_elements_max, 0);
+    // The far corner pushed back through the block: Stable Neo-Hookean is defined there,
+    // and the run completes.
+    let far = (0..state.q.len() / 3)
+        .max_by(|&a, &b| state.q[3 * a].total_cmp(&state.q[3 * b]))
+        .unwrap();
+    state.q[3 * far] -= 0.2;
+    let summary = run(
+        &mut model,
+        integ.as_mut(),
+        &mut state,
+        &config(1e-4, 3),
+        &mut |_: &Sample| Ok(()),
+    )
+    .unwrap();
+    assert!(summary.outcome.is_completed(), "{:?}", summary.outcome);
+    assert!(summary.inverted_elements_max > 0, "{summary:?}");
+}

@@ -198,6 +198,9 @@ pub struct RunSummary {
     pub dissipated: f64,
     /// Steps whose Newton solve stopped unconverged at the iteration cap.
     pub newton_unconverged_steps: u64,
+    /// The most elastic tets with `det F <= 0` in any state of the run (the initial one and
+    /// after every step taken): a run can complete with inverted elements, which this says.
+    pub inverted_elements_max: usize,
     /// The adaptive controller's accepted internal steps over the whole run (`None` for
     /// fixed-step methods).
     pub internal_dt: Option<StepSizes>,
@@ -342,6 +345,7 @@ pub fn run(
         driven_work: 0.0,
         dissipated: 0.0,
         newton_unconverged_steps: 0,
+        inverted_elements_max: 0,
         internal_dt: None,
         step_seconds_median: 0.0,
         step_seconds_p95: 0.0,
@@ -358,6 +362,7 @@ pub fn run(
         }
     };
     summary.initial_energy = initial;
+    summary.inverted_elements_max = model.inverted_elements(&state.q).unwrap_or(0);
     let scale = match EnergyScale::of(model, &initial) {
         Ok(s) => s,
         Err(e) => {
@@ -412,6 +417,9 @@ pub fn run(
                 }
                 summary.steps_completed = step;
                 summary.final_time = state.t;
+                if let Ok(n) = model.inverted_elements(&state.q) {
+                    summary.inverted_elements_max = summary.inverted_elements_max.max(n);
+                }
                 observer.after_step(step, model, state)?;
             }
             Err(e) => {

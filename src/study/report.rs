@@ -414,6 +414,15 @@ pub fn compute_findings(
                 runs.get(r, "newton_required").unwrap_or("?"),
             ));
         }
+        if let Some(n) = runs.number(r, "inverted_elements_max").filter(|n| *n > 0.0)
+            && !kind.stopped_early(runs, r)
+        {
+            f.warnings.push(format!(
+                "`{id}`: up to {n} tets inverted (det F <= 0) in one state of a run that was not \
+                 stopped for it (inverted_elements_max): its result is not a valid deformation \
+                 there."
+            ));
+        }
         if kind.stopped_early(runs, r) {
             let outcome = runs.get(r, "outcome").unwrap_or_default();
             let at = runs

@@ -70,6 +70,7 @@ pub const COLUMNS: &[&str] = &[
     "newton_max_iterations",
     "newton_required",
     "newton_unconverged_steps",
+    "inverted_elements_max",
     "trials",
     "newton_iterations_per_step",
     "step_seconds_median",

@@ -38,6 +38,7 @@ pub const COLUMNS: &[&str] = &[
     "newton_iterations",
     "newton_iterations_per_step",
     "newton_unconverged_steps",
+    "inverted_elements_max",
     "newton_max_iterations",
     "newton_required",
     "newton_refactor_every",

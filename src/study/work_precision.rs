@@ -59,6 +59,7 @@ pub const COLUMNS: &[&str] = &[
     "energy_growth_rate",
     "energy_growth_factor",
     "newton_unconverged_steps",
+    "inverted_elements_max",
     "newton_max_iterations",
     "newton_required",
     "assemble_seconds",
