@@ -254,3 +254,54 @@ fn a_completed_run_with_inverted_elements_is_warned_about() {
     assert!(!w.contains("`cow-mid`"), "{w}");
     assert!(!w.contains("`cow-se`: up to"), "{w}");
 }
+
+/// Issue 24: rankings name the step when a scene's runs of one method differ in it (the `dt`
+/// column stands for the swept `run.dt`), and leave out a swept value every run shares.
+#[test]
+fn ranking_labels_name_the_dt_that_tells_runs_apart() {
+    let runs = table(
+        &[
+            "run_id",
+            "scene",
+            "method",
+            "linear_solver",
+            "material.model",
+            "outcome",
+            "dt",
+            "final_time",
+            "wall_seconds",
+        ],
+        &[
+            &[
+                "a",
+                "beam",
+                "rk4",
+                "-",
+                "stvk",
+                "completed",
+                "0.002",
+                "1",
+                "1",
+            ],
+            &[
+                "b",
+                "beam",
+                "rk4",
+                "-",
+                "stvk",
+                "completed",
+                "0.001",
+                "1",
+                "2",
+            ],
+        ],
+    );
+    let params = vec!["run.dt".to_owned(), "material.model".to_owned()];
+    let f = compute_findings("trajectory", &runs, &params, &BTreeMap::new()).unwrap();
+    let labels: Vec<&str> = f.rankings[0]
+        .ranked
+        .iter()
+        .map(|(l, _)| l.as_str())
+        .collect();
+    assert_eq!(labels, ["rk4 dt=0.002", "rk4 dt=0.001"]);
+}

@@ -605,3 +605,39 @@ fn a_work_precision_study_pictures_each_method_at_its_least_accurate_completed_s
         "{report}"
     );
 }
+
+/// Issue 24: runs of one method that differ only in dt are told apart in the picture rows and
+/// in the findings (the step has a `dt` column, not a parameter column, and was left out).
+#[test]
+fn rows_of_one_method_at_two_steps_are_labelled_with_their_dt() {
+    let dir = TempDir::new("render-dt-labels");
+    let study = dir.path().join("steps.toml");
+    std::fs::write(
+        &study,
+        format!(
+            "name = \"steps\"\nstudy = \"trajectory\"\nscenes = [{:?}]\n\
+             [grid]\n\"integrator.method\" = [\"backward-euler\"]\n\
+             \"run.dt\" = [0.002, 0.001]\n\
+             [set]\n\"run.steps\" = 10\n\"run.sample_every\" = 5\n",
+            scene("soft_beam.toml")
+        ),
+    )
+    .unwrap();
+    common::run_study_ok(&study, dir.path(), &[]);
+    let report = std::fs::read_to_string(dir.path().join("steps/report.md")).unwrap();
+    let pictures = report
+        .lines()
+        .find(|l| l.starts_with("One row per run"))
+        .expect("the pictures' caption");
+    assert!(
+        pictures.contains("backward-euler / cholesky dt=2e-3")
+            && pictures.contains("backward-euler / cholesky dt=1e-3"),
+        "{pictures}"
+    );
+    let findings = &report[report.find("## Findings").unwrap()..report.find("Study file").unwrap()];
+    assert!(
+        findings.contains("backward-euler / cholesky dt=2e-3")
+            && findings.contains("backward-euler / cholesky dt=1e-3"),
+        "{findings}"
+    );
+}

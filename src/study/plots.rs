@@ -4,7 +4,7 @@
 //! and the pictures of the bodies.
 
 pub use super::charts::Plot;
-use super::charts::{SceneRows, label, scenes, slug, smallest_dt_rows};
+use super::charts::{SceneRows, distinguishing, label, scenes, slug, smallest_dt_rows};
 use super::config::SWEEP;
 use super::kind::Kind;
 use super::meta::StudyMeta;
@@ -59,11 +59,12 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
             .filter(|r| runs.get(r, "scene") == Some(scene))
             .collect();
         let slug = slug(scene);
+        let distinct = distinguishing(runs, params, &rows);
         let of_scene = SceneRows {
             scene,
             slug: &slug,
             runs,
-            params,
+            params: &distinct,
             rows: &rows,
         };
         kind.scene_charts(&of_scene, &mut emit)?;
@@ -421,7 +422,8 @@ fn phase_chart(
         let (true, Some(wall)) = (steps > 0.0, wall) else {
             continue;
         };
-        let mut label = label(runs, params, r, &[]);
+        // The step is named once, from the kind's dt column.
+        let mut label = label(runs, params, r, &["run.dt"]);
         if let Some(dt) = dt_columns.iter().find_map(|c| runs.number(r, c)) {
             label.push_str(&format!(" dt={}", super::format::short(dt)));
         }

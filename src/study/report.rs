@@ -1,7 +1,7 @@
 //! `report.md`: what was run, on what, a summary table, the plots, and one line per run that
 //! did not end well.
 
-use super::charts::{Plot, SceneRows, scenes, slug};
+use super::charts::{Plot, SceneRows, distinguishing, scenes, slug};
 use super::config::SWEEP;
 use super::findings::Findings;
 use super::format::short;
@@ -382,11 +382,13 @@ pub fn compute_findings(
             .filter(|r| runs.get(r, "scene") == Some(&scene))
             .collect();
         let slug = slug(&scene);
+        // Labels name what tells this scene's runs apart (issue 24: dt included).
+        let params = distinguishing(runs, params, &rows);
         let of_scene = SceneRows {
             scene: &scene,
             slug: &slug,
             runs,
-            params,
+            params: &params,
             rows: &rows,
         };
         let how = damped.get(&scene);
