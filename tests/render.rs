@@ -641,3 +641,29 @@ fn rows_of_one_method_at_two_steps_are_labelled_with_their_dt() {
         "{findings}"
     );
 }
+
+/// Issue 24: a failed run's last valid state, which has no det F recorded, was painted in the
+/// plain body colour, a blue that the det F scale uses for "compressed". It is magenta now.
+#[test]
+fn a_failed_runs_last_state_is_not_painted_in_a_det_f_colour() {
+    use softbench::render::film::FAILED_BODY;
+    let mut s = box_snapshots(2);
+    let last = s.frames.last_mut().unwrap();
+    last.last_valid = true;
+    last.j.clear();
+    last.energy_density.clear();
+    let frame = s.frames.last().unwrap();
+    let camera = Camera::framing(&Bounds::of(&frame.positions).unwrap(), s.up, 160, 120);
+    let mut canvas = Canvas::new(160, 120);
+    for coloring in [Coloring::VolumeRatio, Coloring::EnergyDensity] {
+        softbench::render::film::draw_frame(&mut canvas, &camera, &s, frame, coloring);
+        let centre = canvas.pixel(80, 60);
+        // Shading scales the colour: it keeps magenta's balance (red = blue, green low),
+        // which no det F colour (blue compressed, white, red stretched, black) has.
+        let [r, g, b] = centre.map(i32::from);
+        assert!(
+            (r - b).abs() <= 2 && g < r / 2 && r > 40,
+            "{coloring:?}: {centre:?}, expected a shade of {FAILED_BODY:?}"
+        );
+    }
+}

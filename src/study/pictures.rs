@@ -89,7 +89,8 @@ pub fn draw(
             title: format!("The body over time: {scene}"),
             caption: format!(
                 "{rows_are}, at 0, 1/5, ..., 5/5 of the horizon, one camera for all{}. A \
-                 run that ended early shows its last valid state framed in red with the cause. \
+                 run that ended early shows its last valid state framed in red with the cause, \
+                 the body magenta where its det F was not recorded. \
                  The runs side by side as an animation: [{stem}.gif]({stem}.gif).",
                 match coloring {
                     Coloring::VolumeRatio => {
