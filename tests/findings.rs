@@ -305,3 +305,129 @@ fn ranking_labels_name_the_dt_that_tells_runs_apart() {
         .collect();
     assert_eq!(labels, ["rk4 dt=0.002", "rk4 dt=0.001"]);
 }
+
+/// Issue 24, local_solvers: XPBD conserved energy best but converged 14 % away from the step
+/// it approximates, and was named best by drift; the study's equal-cost comparison was missing
+/// because every iteration count was taken for a line of its own.
+#[test]
+fn drift_is_ranked_near_the_reference_and_iteration_lines_are_compared_at_equal_cost() {
+    let header = [
+        "run_id",
+        "scene",
+        "method",
+        "linear_solver",
+        "integrator.vbd.iterations",
+        "integrator.xpbd.substeps",
+        "outcome",
+        "dt",
+        "final_time",
+        "error",
+        "energy_error",
+        "scored",
+        "wall_seconds",
+        "energy_drift_max",
+    ];
+    let rows: Vec<[&str; 14]> = vec![
+        [
+            "v1",
+            "box",
+            "vbd",
+            "-",
+            "50",
+            "",
+            "completed",
+            "0.01",
+            "0.1",
+            "0.1",
+            "0.2",
+            "yes",
+            "1",
+            "0.4",
+        ],
+        [
+            "v2",
+            "box",
+            "vbd",
+            "-",
+            "400",
+            "",
+            "completed",
+            "0.01",
+            "0.1",
+            "0.006",
+            "0.008",
+            "yes",
+            "8",
+            "0.3",
+        ],
+        [
+            "x1",
+            "box",
+            "xpbd",
+            "-",
+            "",
+            "50",
+            "completed",
+            "0.01",
+            "0.1",
+            "0.049",
+            "0.15",
+            "yes",
+            "2",
+            "0.1",
+        ],
+        [
+            "x2",
+            "box",
+            "xpbd",
+            "-",
+            "",
+            "100",
+            "completed",
+            "0.01",
+            "0.1",
+            "0.049",
+            "0.14",
+            "yes",
+            "4",
+            "0.002",
+        ],
+    ];
+    let rows: Vec<&[&str]> = rows.iter().map(|r| r.as_slice()).collect();
+    let runs = table(&header, &rows);
+    let params = vec![
+        "integrator.vbd.iterations".to_owned(),
+        "integrator.xpbd.substeps".to_owned(),
+    ];
+    let f = compute_findings("work-precision", &runs, &params, &BTreeMap::new()).unwrap();
+    let drift = f
+        .rankings
+        .iter()
+        .find(|r| r.metric.starts_with("energy drift"))
+        .unwrap();
+    assert!(
+        drift.metric.contains("within 0.01 of the reference"),
+        "{}",
+        drift.metric
+    );
+    assert_eq!(drift.ranked, vec![("vbd iterations=400".to_owned(), 0.3)]);
+    assert!(
+        drift
+            .left_out
+            .iter()
+            .any(|(l, why)| l == "xpbd substeps=100" && why == "error 0.049 from the reference"),
+        "{:?}",
+        drift.left_out
+    );
+    let eq = f
+        .rankings
+        .iter()
+        .find(|r| r.metric.starts_with("error at equal cost"))
+        .expect("an equal-cost ranking of the two lines");
+    // The lines share costs 2 to 4 s: at their geometric middle, 2.83 s, VBD's error is
+    // sqrt(0.1 * 0.006) = 0.0245 (halfway in log cost from 1 to 8 s), XPBD's 0.049.
+    assert!(eq.metric.contains("at 2.828 s"), "{}", eq.metric);
+    let names: Vec<&str> = eq.ranked.iter().map(|(l, _)| l.as_str()).collect();
+    assert_eq!(names, ["vbd", "xpbd"]);
+    assert!((eq.ranked[0].1 - (0.1f64 * 0.006).sqrt()).abs() < 1e-12);
+}
