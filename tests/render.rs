@@ -667,3 +667,25 @@ fn a_failed_runs_last_state_is_not_painted_in_a_det_f_colour() {
         );
     }
 }
+
+/// Issue 24: the energy chart plots |excess| on a log axis, which hid whether energy was gained
+/// or lost; its legend now says. Backward Euler on an undamped beam only loses energy.
+#[test]
+fn the_energy_chart_says_whether_energy_was_gained_or_lost() {
+    let dir = TempDir::new("plot-energy-sign");
+    let study = dir.path().join("sign.toml");
+    std::fs::write(
+        &study,
+        format!(
+            "name = \"sign\"\nstudy = \"trajectory\"\nscenes = [{:?}]\n\
+             [grid]\n\"integrator.method\" = [\"backward-euler\"]\n\
+             [set]\n\"run.dt\" = 0.002\n\"run.steps\" = 20\n\"run.sample_every\" = 5\n",
+            scene("soft_beam.toml")
+        ),
+    )
+    .unwrap();
+    common::run_study_ok(&study, dir.path(), &[]);
+    let svg = std::fs::read_to_string(dir.path().join("sign/energy-soft_beam.svg")).unwrap();
+    assert!(svg.contains("backward-euler (lost)"), "no '(lost)' legend");
+    assert!(!svg.contains("(gained)") && !svg.contains(", gained"));
+}

@@ -373,7 +373,8 @@ impl Kind for Stability {
         Some(
             "Energy balance over time of each method's trial at its largest stable dt (or its \
              failing trial): |E(t) - E(0) - work done| over the energy the body holds or \
-             exchanges, the scale the blow-up check judges it against (log scale).",
+             exchanges, the scale the blow-up check judges it against (log scale); the legend \
+             says whether energy was gained or lost.",
         )
     }
 

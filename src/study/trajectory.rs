@@ -201,7 +201,8 @@ impl Kind for Trajectory {
         Some(
             "Energy balance over time: |E(t) - E(0) - work done on the body| over the energy \
              the body holds or exchanges, the scale the blow-up check judges it against (log \
-             scale).",
+             scale); the legend says whether energy was gained or lost (a run whose excess \
+             changed sign has a line for each).",
         )
     }
 
