@@ -93,3 +93,34 @@ fn element_measures_refuse_a_state_of_the_wrong_length() {
         "{err:?}"
     );
 }
+
+/// `inverted_elements` counts the tets whose det F (as `element_measures` gives it) is <= 0:
+/// none at rest, and every tet of a free vertex pushed through its neighbours' faces.
+#[test]
+fn inverted_elements_counts_the_tets_with_nonpositive_det_f() {
+    let model = Model::new(ModelSpec::elastic(
+        box_mesh([2, 2, 2], [0.2, 0.2, 0.2]),
+        material(),
+        1000.0,
+    ))
+    .unwrap();
+    let rest = model.rest_state();
+    assert_eq!(model.inverted_elements(&rest).unwrap(), 0);
+    // The centre vertex (0.1, 0.1, 0.1) moved far out through one side: the tets around it
+    // on that side invert.
+    let centre = (0..rest.len() / 3)
+        .find(|&v| (0..3).all(|k| (rest[3 * v + k] - 0.1).abs() < 1e-12))
+        .expect("a centre vertex");
+    let mut q = rest.clone();
+    q[3 * centre] += 0.25;
+    let m = model.tets().len();
+    let (mut det_f, mut energy) = (vec![0.0; m], vec![0.0; m]);
+    model.element_measures(&q, &mut det_f, &mut energy).unwrap();
+    let expected = det_f.iter().filter(|j| **j <= 0.0).count();
+    assert!(expected > 0 && expected < m, "{expected} of {m}");
+    assert_eq!(model.inverted_elements(&q).unwrap(), expected);
+    assert!(matches!(
+        model.inverted_elements(&q[1..]),
+        Err(ModelError::StateLength { .. })
+    ));
+}

@@ -606,3 +606,87 @@ fn a_work_precision_study_pictures_each_method_at_its_least_accurate_completed_s
         "{report}"
     );
 }
+
+/// Issue 24: runs of one method that differ only in dt are told apart in the picture rows and
+/// in the findings (the step has a `dt` column, not a parameter column, and was left out).
+#[test]
+fn rows_of_one_method_at_two_steps_are_labelled_with_their_dt() {
+    let dir = TempDir::new("render-dt-labels");
+    let study = dir.path().join("steps.toml");
+    std::fs::write(
+        &study,
+        format!(
+            "name = \"steps\"\nstudy = \"trajectory\"\nscenes = [{:?}]\n\
+             [grid]\n\"integrator.method\" = [\"backward-euler\"]\n\
+             \"run.dt\" = [0.002, 0.001]\n\
+             [set]\n\"run.steps\" = 10\n\"run.sample_every\" = 5\n",
+            scene("soft_beam.toml")
+        ),
+    )
+    .unwrap();
+    common::run_study_ok(&study, dir.path(), &[]);
+    let report = std::fs::read_to_string(dir.path().join("steps/report.md")).unwrap();
+    let pictures = report
+        .lines()
+        .find(|l| l.starts_with("One row per run"))
+        .expect("the pictures' caption");
+    assert!(
+        pictures.contains("backward-euler / cholesky dt=2e-3")
+            && pictures.contains("backward-euler / cholesky dt=1e-3"),
+        "{pictures}"
+    );
+    let findings = &report[report.find("## Findings").unwrap()..report.find("Study file").unwrap()];
+    assert!(
+        findings.contains("backward-euler / cholesky dt=2e-3")
+            && findings.contains("backward-euler / cholesky dt=1e-3"),
+        "{findings}"
+    );
+}
+
+/// Issue 24: a failed run's last valid state, which has no det F recorded, was painted in the
+/// plain body colour, a blue that the det F scale uses for "compressed". It is magenta now.
+#[test]
+fn a_failed_runs_last_state_is_not_painted_in_a_det_f_colour() {
+    use softbench::render::film::FAILED_BODY;
+    let mut s = box_snapshots(2);
+    let last = s.frames.last_mut().unwrap();
+    last.last_valid = true;
+    last.j.clear();
+    last.energy_density.clear();
+    let frame = s.frames.last().unwrap();
+    let camera = Camera::framing(&Bounds::of(&frame.positions).unwrap(), s.up, 160, 120);
+    let mut canvas = Canvas::new(160, 120);
+    for coloring in [Coloring::VolumeRatio, Coloring::EnergyDensity] {
+        softbench::render::film::draw_frame(&mut canvas, &camera, &s, frame, coloring);
+        let centre = canvas.pixel(80, 60);
+        // Shading scales the colour: it keeps magenta's balance (red = blue, green low),
+        // which no det F colour (blue compressed, white, red stretched, black) has.
+        let [r, g, b] = centre.map(i32::from);
+        assert!(
+            (r - b).abs() <= 2 && g < r / 2 && r > 40,
+            "{coloring:?}: {centre:?}, expected a shade of {FAILED_BODY:?}"
+        );
+    }
+}
+
+/// Issue 24: the energy chart plots |excess| on a log axis, which hid whether energy was gained
+/// or lost; its legend now says. Backward Euler on an undamped beam only loses energy.
+#[test]
+fn the_energy_chart_says_whether_energy_was_gained_or_lost() {
+    let dir = TempDir::new("plot-energy-sign");
+    let study = dir.path().join("sign.toml");
+    std::fs::write(
+        &study,
+        format!(
+            "name = \"sign\"\nstudy = \"trajectory\"\nscenes = [{:?}]\n\
+             [grid]\n\"integrator.method\" = [\"backward-euler\"]\n\
+             [set]\n\"run.dt\" = 0.002\n\"run.steps\" = 20\n\"run.sample_every\" = 5\n",
+            scene("soft_beam.toml")
+        ),
+    )
+    .unwrap();
+    common::run_study_ok(&study, dir.path(), &[]);
+    let svg = std::fs::read_to_string(dir.path().join("sign/energy-soft_beam.svg")).unwrap();
+    assert!(svg.contains("backward-euler (lost)"), "no '(lost)' legend");
+    assert!(!svg.contains("(gained)") && !svg.contains(", gained"));
+}

@@ -1,9 +1,10 @@
 //! Per-element measures for output (frames, diagnostics): the elastic tets as the model uses
-//! them, and per tet the volume ratio `J = det F` and the elastic energy `volume * psi(F)`.
-//! Not on any hot path: evaluated sequentially, not counted in [`super::EvalCounters`].
+//! them, per tet the volume ratio `J = det F` and the elastic energy `volume * psi(F)`, and the
+//! number of inverted tets (which the run loop counts after every step). Evaluated
+//! sequentially, not counted in [`super::EvalCounters`].
 
 use super::{FIXED, Model, ModelError};
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
 
 impl Model {
     /// The elastic tets (0-based vertex indices), after any reorientation of inverted rest tets;
@@ -38,6 +39,42 @@ impl Model {
         let Some(body) = &self.elastic else {
             return Ok(());
         };
+        self.for_each_deformation_gradient(q, |e, f| {
+            det_f[e] = f.determinant();
+            energy[e] = body
+                .material
+                .energy_density(f)
+                .map_or(f64::NAN, |psi| body.rest[e].volume * psi);
+        });
+        Ok(())
+    }
+
+    /// The number of elastic tets with `det F <= 0` (inverted or flat) in state `q`; 0 without
+    /// an elastic material. Cheap enough to call after every step (one F per tet, nothing
+    /// allocated). Fails only when `q` has the wrong length.
+    pub fn inverted_elements(&self, q: &[f64]) -> Result<usize, ModelError> {
+        if q.len() != self.num_dofs() {
+            return Err(ModelError::StateLength {
+                got: q.len(),
+                expected: self.num_dofs(),
+            });
+        }
+        let mut inverted = 0;
+        self.for_each_deformation_gradient(q, |_, f| {
+            // A non-finite F is not counted: the run loop stops on a non-finite state.
+            if f.determinant() <= 0.0 {
+                inverted += 1;
+            }
+        });
+        Ok(inverted)
+    }
+
+    /// Calls `each(e, F)` for every elastic tet `e` (in [`Self::tets`] order) in state `q`
+    /// (of the right length): the one place measures compute F.
+    fn for_each_deformation_gradient(&self, q: &[f64], mut each: impl FnMut(usize, &Matrix3<f64>)) {
+        let Some(body) = &self.elastic else {
+            return;
+        };
         let position = |v: usize| match self.dofs.free_index(v) {
             FIXED => self.positions[v],
             f => {
@@ -46,13 +83,7 @@ impl Model {
             }
         };
         for (e, (tet, rest)) in body.tets.iter().zip(&body.rest).enumerate() {
-            let f = rest.deformation_gradient(&tet.map(position));
-            det_f[e] = f.determinant();
-            energy[e] = body
-                .material
-                .energy_density(&f)
-                .map_or(f64::NAN, |psi| rest.volume * psi);
+            each(e, &rest.deformation_gradient(&tet.map(position)));
         }
-        Ok(())
     }
 }

@@ -4,7 +4,8 @@
 //!
 //! Times are fractions of the requested horizon, so columns of different runs show the same
 //! simulated time. A run that ended early shows its last valid state from then on, framed in
-//! red with the cause written under it.
+//! red with the cause written under it, and painted [`FAILED_BODY`] where it has no values to
+//! colour by.
 
 use std::path::Path;
 
@@ -26,6 +27,12 @@ const CAPTION: u32 = 34;
 const LABEL: u32 = 230;
 /// Frame colour of a run's last valid state.
 const FAILED: Rgb = [200, 30, 30];
+/// Body colour of a failed run's last valid state when it has no per-face values to colour
+/// by (its det F and energies are not recorded): magenta, which neither the det F scale
+/// (blue, white, red, black) nor the energy scale (white, orange, dark red) uses, and which
+/// the GIF palette holds exactly. It used to be the plain body colour, a blue that read as
+/// "compressed".
+pub const FAILED_BODY: Rgb = [204, 51, 204];
 
 /// How the body is coloured.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -118,6 +125,8 @@ pub fn draw_frame_scaled(
             j_color(frame.j[i])
         } else if by_energy {
             super::raster::energy_color(frame.energy_density[i], max_energy)
+        } else if frame.last_valid {
+            FAILED_BODY
         } else {
             BODY
         };

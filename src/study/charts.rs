@@ -21,7 +21,8 @@ pub(super) struct SceneRows<'a> {
     /// The scene's name as it appears in file stems.
     pub slug: &'a str,
     pub runs: &'a Table,
-    /// The swept parameters' columns, which distinguish runs of one method in labels.
+    /// The swept parameters whose values differ among `rows` ([`distinguishing`]), which
+    /// tell runs of one method apart in labels.
     pub params: &'a [String],
     pub rows: &'a [&'a Vec<String>],
 }
@@ -116,7 +117,47 @@ pub(super) fn slug(s: &str) -> String {
         .collect()
 }
 
-/// "method / solver" plus any other swept parameter except `skip`.
+/// The cell of swept parameter `name` in `row`: its own column, or for `run.dt` the `dt`
+/// column (kinds with a `dt` column give the time step no parameter column).
+pub(super) fn parameter_value<'t>(
+    runs: &'t Table,
+    row: &'t [String],
+    name: &str,
+) -> Option<&'t str> {
+    if name == "run.dt" && runs.column(name).is_none() {
+        return runs.get(row, "dt");
+    }
+    runs.get(row, name)
+}
+
+/// The swept parameters and the time step whose values differ among `rows`, a run that
+/// does not set one counting as a value of its own: what tells the rows of one method apart
+/// in a label. A parameter all rows share is left out (a legend or title can say it once).
+pub(super) fn distinguishing(
+    runs: &Table,
+    params: &[String],
+    rows: &[&Vec<String>],
+) -> Vec<String> {
+    // The step is a candidate wherever the table has it, swept or not (a kind with a `dt`
+    // column gives the swept `run.dt` no column, so the study's parameters may omit it).
+    let dt = (runs.column("dt").is_some() && !params.iter().any(|p| p == "run.dt"))
+        .then(|| "run.dt".to_owned());
+    params
+        .iter()
+        .chain(dt.as_ref())
+        .filter(|p| {
+            let mut values = rows
+                .iter()
+                .map(|r| parameter_value(runs, r, p).unwrap_or(""));
+            let first = values.next();
+            values.any(|v| Some(v) != first)
+        })
+        .cloned()
+        .collect()
+}
+
+/// "method / solver" plus the value of every parameter of `params` except `skip` (`run.dt`
+/// read from the `dt` column where it has none: see [`parameter_value`]).
 pub(super) fn label(runs: &Table, params: &[String], row: &[String], skip: &[&str]) -> String {
     let mut label = runs.get(row, "method").unwrap_or("?").to_owned();
     if let Some(solver) = runs
@@ -127,7 +168,7 @@ pub(super) fn label(runs: &Table, params: &[String], row: &[String], skip: &[&st
         label.push_str(solver);
     }
     for name in params.iter().filter(|p| !skip.contains(&p.as_str())) {
-        if let Some(value) = runs.get(row, name).filter(|v| !v.is_empty()) {
+        if let Some(value) = parameter_value(runs, row, name).filter(|v| !v.is_empty()) {
             let short = name.rsplit('.').next().unwrap_or(name);
             label.push_str(&format!(" {short}={value}"));
         }

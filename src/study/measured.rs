@@ -115,6 +115,7 @@ pub fn summary_cells(s: &RunSummary) -> Vec<(&'static str, String)> {
             "newton_unconverged_steps",
             s.newton_unconverged_steps.to_string(),
         ),
+        ("inverted_elements_max", s.inverted_elements_max.to_string()),
         ("energy_excess_peak", f(s.energy_excess_peak)),
         ("energy_growth_rate", cell(s.energy_growth.map(|g| g.rate))),
         (

@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use super::charts::{Plot, label, least_accurate_per_line, scenes, slug};
+use super::charts::{Plot, distinguishing, label, least_accurate_per_line, scenes, slug};
 use super::table::Table;
 use crate::render::{self, Coloring, RenderError, RunPictures, Snapshots};
 
@@ -43,14 +43,17 @@ pub fn draw(
             .filter(|r| runs.get(r, "scene") == Some(&scene))
             .filter(|r| snapshot_path(dir, &r[0]).exists())
             .collect();
+        // Rows are labelled by what tells this scene's runs apart, dt included (issue 24).
+        let params = distinguishing(runs, params, &of_scene);
         let shown = match which {
             PictureRows::All => of_scene,
-            PictureRows::LeastAccuratePerLine => least_accurate_per_line(runs, params, &of_scene),
+            PictureRows::LeastAccuratePerLine => least_accurate_per_line(runs, &params, &of_scene),
         };
         let mut loaded: Vec<(String, Snapshots)> = Vec::new();
         for row in shown {
-            let mut name = label(runs, params, row, &[]);
-            if which == PictureRows::LeastAccuratePerLine
+            let mut name = label(runs, &params, row, &["run.dt"]);
+            let dt_differs = params.iter().any(|p| p == "run.dt");
+            if (dt_differs || which == PictureRows::LeastAccuratePerLine)
                 && let Some(dt) = runs.get(row, "dt").filter(|d| !d.is_empty())
             {
                 name.push_str(&format!(" dt={dt}"));
@@ -70,23 +73,24 @@ pub fn draw(
         let stem = format!("pictures-{}", slug(&scene));
         render::panel(&dir.join(format!("{stem}.png")), &pictures, coloring)?;
         render::animation(&dir.join(format!("{stem}.gif")), &pictures, coloring)?;
+        let names = loaded
+            .iter()
+            .map(|(l, _)| l.as_str())
+            .collect::<Vec<_>>()
+            .join("; ");
         let rows_are = match which {
-            PictureRows::All => "One row per run".to_owned(),
+            PictureRows::All => format!("One row per run (rows: {names})"),
             PictureRows::LeastAccuratePerLine => format!(
                 "One row per method, each at its least accurate setting that completed (the \
-                 largest dt, fewest iterations or loosest tolerance of its line; rows: {})",
-                loaded
-                    .iter()
-                    .map(|(l, _)| l.as_str())
-                    .collect::<Vec<_>>()
-                    .join("; ")
+                 largest dt, fewest iterations or loosest tolerance of its line; rows: {names})"
             ),
         };
         out.push(Plot {
             title: format!("The body over time: {scene}"),
             caption: format!(
                 "{rows_are}, at 0, 1/5, ..., 5/5 of the horizon, one camera for all{}. A \
-                 run that ended early shows its last valid state framed in red with the cause. \
+                 run that ended early shows its last valid state framed in red with the cause, \
+                 the body magenta where its det F was not recorded. \
                  The runs side by side as an animation: [{stem}.gif]({stem}.gif).",
                 match coloring {
                     Coloring::VolumeRatio => {

@@ -4,7 +4,7 @@
 //! and the pictures of the bodies.
 
 pub use super::charts::Plot;
-use super::charts::{SceneRows, label, scenes, slug, smallest_dt_rows};
+use super::charts::{SceneRows, distinguishing, label, scenes, slug, smallest_dt_rows};
 use super::config::SWEEP;
 use super::kind::Kind;
 use super::meta::StudyMeta;
@@ -59,11 +59,12 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
             .filter(|r| runs.get(r, "scene") == Some(scene))
             .collect();
         let slug = slug(scene);
+        let distinct = distinguishing(runs, params, &rows);
         let of_scene = SceneRows {
             scene,
             slug: &slug,
             runs,
-            params,
+            params: &distinct,
             rows: &rows,
         };
         kind.scene_charts(&of_scene, &mut emit)?;
@@ -266,36 +267,75 @@ fn load_series(
     (series, common.join(", "))
 }
 
+/// The energy balance of each run over time, `|excess| / scale` on a log axis, with the sign
+/// in the legend: a run whose excess kept one sign is one line, "(gained)" or "(lost)"; one
+/// whose excess changed sign is two lines, ", gained" and ", lost", each broken where the
+/// other holds (so a log axis still shows which way the energy went).
 fn energy_chart(scene: &str, series: &[RunSeries]) -> LineChart {
+    let mut lines = Vec::new();
+    for s in series {
+        let t = &s.table;
+        let signed: Vec<(f64, f64)> =
+            match ["t", "energy_excess", "energy_scale"].map(|c| t.column(c)) {
+                [Some(ct), Some(ce), Some(cb)] => {
+                    let num = |r: &Vec<String>, c: usize| r[c].parse::<f64>().unwrap_or(f64::NAN);
+                    t.rows
+                        .iter()
+                        .skip(1)
+                        .map(|r| (num(r, ct), num(r, ce) / num(r, cb)))
+                        .collect()
+                }
+                _ => Vec::new(),
+            };
+        let gained = |y: f64| y > 0.0;
+        let lost = |y: f64| y < 0.0;
+        let has = |sign: &dyn Fn(f64) -> bool| signed.iter().any(|p| sign(p.1));
+        let part = |sign: &dyn Fn(f64) -> bool| -> Vec<(f64, f64)> {
+            signed
+                .iter()
+                .map(|&(x, y)| (x, if sign(y) { y.abs() } else { f64::NAN }))
+                .collect()
+        };
+        let (label, ended) = (&s.label, s.ended);
+        match (has(&gained), has(&lost)) {
+            (true, true) => {
+                lines.push(Series {
+                    label: format!("{label}, gained"),
+                    points: part(&gained),
+                    ended: false,
+                });
+                lines.push(Series {
+                    label: format!("{label}, lost"),
+                    points: part(&lost),
+                    ended: false,
+                });
+                // The end marker goes on the sign the run ended with.
+                let last_gained = signed
+                    .iter()
+                    .rev()
+                    .find(|p| p.1 != 0.0)
+                    .is_some_and(|p| p.1 > 0.0);
+                let n = lines.len();
+                lines[if last_gained { n - 2 } else { n - 1 }].ended = ended;
+            }
+            (g, l) => lines.push(Series {
+                label: match (g, l) {
+                    (true, _) => format!("{label} (gained)"),
+                    (_, true) => format!("{label} (lost)"),
+                    _ => label.clone(),
+                },
+                points: signed.iter().map(|&(x, y)| (x, y.abs())).collect(),
+                ended,
+            }),
+        }
+    }
     LineChart {
         title: format!("Energy balance over time: {scene}"),
         x_label: "time t (s)".into(),
-        y_label: "|E(t) - E(0) - work| / energy held or exchanged".into(),
+        y_label: "|E(t) - E(0) - work| / energy held or exchanged (sign in the legend)".into(),
         x_log: spans_decades(series),
         y_log: true,
-        series: series
-            .iter()
-            .map(|s| {
-                let t = &s.table;
-                let points = match ["t", "energy_excess", "energy_scale"].map(|c| t.column(c)) {
-                    [Some(ct), Some(ce), Some(cb)] => {
-                        let num =
-                            |r: &Vec<String>, c: usize| r[c].parse::<f64>().unwrap_or(f64::NAN);
-                        t.rows
-                            .iter()
-                            .skip(1)
-                            .map(|r| (num(r, ct), num(r, ce).abs() / num(r, cb)))
-                            .collect()
-                    }
-                    _ => Vec::new(),
-                };
-                Series {
-                    label: s.label.clone(),
-                    points,
-                    ended: s.ended,
-                }
-            })
-            .collect(),
+        series: lines,
     }
 }
 
@@ -421,7 +461,8 @@ fn phase_chart(
         let (true, Some(wall)) = (steps > 0.0, wall) else {
             continue;
         };
-        let mut label = label(runs, params, r, &[]);
+        // The step is named once, from the kind's dt column.
+        let mut label = label(runs, params, r, &["run.dt"]);
         if let Some(dt) = dt_columns.iter().find_map(|c| runs.number(r, c)) {
             label.push_str(&format!(" dt={}", super::format::short(dt)));
         }

@@ -1,7 +1,7 @@
 //! `report.md`: what was run, on what, a summary table, the plots, and one line per run that
 //! did not end well.
 
-use super::charts::{Plot, SceneRows, scenes, slug};
+use super::charts::{Plot, SceneRows, distinguishing, scenes, slug};
 use super::config::SWEEP;
 use super::findings::Findings;
 use super::format::short;
@@ -299,7 +299,9 @@ fn units_note(kind: &dyn Kind, runs: &Table, columns: &[&str]) -> String {
     let mut parts = vec!["time steps and times in s".to_owned()];
     if shown("energy_drift_max") || shown("energy_drift_final") {
         parts.push(
-            "energy drifts relative to the initial internal energy plus the work of gravity".into(),
+            "energy drifts are the energy gained or lost beyond the work done on the body and \
+             the energy damping removed, over the energy the body holds or exchanges"
+                .into(),
         );
     }
     parts.extend(kind.unit_notes(runs, &shown));
@@ -367,7 +369,7 @@ fn replace_findings(report: &str, findings: &str) -> String {
 
 /// The findings of `runs`, a table of a study whose runs a registered `kind` measured (a
 /// sweep's inner kind): per scene, the kind's rankings; then the warnings. `damped` names the
-/// scenes with damping (and how), whose energy loss is the damping's as much as the method's.
+/// scenes with damping (and how), named in the drift ranking, which accounts their loss.
 /// `None` when no kind of that name is registered.
 pub fn compute_findings(
     kind: &str,
@@ -384,24 +386,18 @@ pub fn compute_findings(
             .filter(|r| runs.get(r, "scene") == Some(&scene))
             .collect();
         let slug = slug(&scene);
+        // Labels name what tells this scene's runs apart (issue 24: dt included).
+        let params = distinguishing(runs, params, &rows);
         let of_scene = SceneRows {
             scene: &scene,
             slug: &slug,
             runs,
-            params,
+            params: &params,
             rows: &rows,
         };
         let how = damped.get(&scene);
         f.rankings
             .extend(kind.rankings(&of_scene, how.map(String::as_str)));
-        if let Some(how) = how
-            && runs.column("energy_drift_max").is_some()
-        {
-            f.warnings.push(format!(
-                "{scene} is damped ({how}): its energy drift includes the energy damping \
-                 removes, so it measures the damping as much as the method."
-            ));
-        }
     }
     f.warnings.extend(kind.table_warnings(runs));
     // Per-run warnings.
@@ -422,6 +418,15 @@ pub fn compute_findings(
                  in {n} steps.",
                 runs.get(r, "newton_max_iterations").unwrap_or("?"),
                 runs.get(r, "newton_required").unwrap_or("?"),
+            ));
+        }
+        if let Some(n) = runs.number(r, "inverted_elements_max").filter(|n| *n > 0.0)
+            && !kind.stopped_early(runs, r)
+        {
+            f.warnings.push(format!(
+                "`{id}`: up to {n} tets inverted (det F <= 0) in one state of a run that was not \
+                 stopped for it (inverted_elements_max): its result is not a valid deformation \
+                 there."
             ));
         }
         if kind.stopped_early(runs, r) {

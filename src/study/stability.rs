@@ -92,6 +92,7 @@ pub const COLUMNS: &[&str] = &[
     "newton_max_iterations",
     "newton_required",
     "newton_unconverged_steps",
+    "inverted_elements_max",
     "trials",
     "newton_iterations_per_step",
     "step_seconds_median",
@@ -426,7 +427,8 @@ impl Kind for Stability {
         Some(
             "Energy balance over time of each method's trial at its largest stable dt (or its \
              failing trial): |E(t) - E(0) - work done| over the energy the body holds or \
-             exchanges, the scale the blow-up check judges it against (log scale).",
+             exchanges, the scale the blow-up check judges it against (log scale); the legend \
+             says whether energy was gained or lost.",
         )
     }
 

@@ -42,6 +42,7 @@ pub const COLUMNS: &[&str] = &[
     "newton_iterations",
     "newton_iterations_per_step",
     "newton_unconverged_steps",
+    "inverted_elements_max",
     "newton_max_iterations",
     "newton_required",
     "newton_refactor_every",
@@ -204,7 +205,8 @@ impl Kind for Trajectory {
         Some(
             "Energy balance over time: |E(t) - E(0) - work done on the body| over the energy \
              the body holds or exchanges, the scale the blow-up check judges it against (log \
-             scale).",
+             scale); the legend says whether energy was gained or lost (a run whose excess \
+             changed sign has a line for each).",
         )
     }
 

@@ -74,6 +74,7 @@ pub const COLUMNS: &[&str] = &[
     "energy_growth_rate",
     "energy_growth_factor",
     "newton_unconverged_steps",
+    "inverted_elements_max",
     "newton_max_iterations",
     "newton_required",
     "assemble_seconds",
@@ -272,10 +273,16 @@ impl Kind for WorkPrecision {
         scene_charts(s, emit)
     }
 
-    /// Energy drift, and error at equal cost.
+    /// Cost, energy drift among the runs close to the reference, and error at equal cost.
     fn rankings(&self, s: &SceneRows, damped: Option<&str>) -> Vec<Ranking> {
         let has = |c: &str| s.runs.column(c).is_some();
-        let mut out = findings::cost_and_drift(s, damped);
+        let mut out = Vec::new();
+        if has("wall_seconds") && has("final_time") {
+            out.extend(findings::cost_per_simulated_second(s));
+        }
+        if has("energy_drift_max") {
+            out.extend(drift_near_the_reference(s, damped));
+        }
         if has("error") && has("wall_seconds") {
             out.extend(error_at_equal_cost(s.runs, s.params, s.scene, s.rows));
         }
@@ -668,23 +675,20 @@ pub(super) fn observed_orders(runs: &Table) -> Vec<(String, String, f64)> {
     out
 }
 
-/// Error at equal cost in one scene: every method line's log error interpolated (in log cost)
-/// at one cost inside all lines' cost ranges, the geometric middle of their overlap.
+/// Error at equal cost in one scene: every method line's (its label without the accuracy
+/// knobs: [`ACCURACY_KNOBS`]) log error interpolated in log cost at one cost, the geometric
+/// middle of the cost interval that the most lines' measured ranges share; a line whose range
+/// misses it is left out with its range. `None` when no two lines share a cost.
 fn error_at_equal_cost(
     runs: &Table,
     params: &[String],
     scene: &str,
     rows: &[&Vec<String>],
 ) -> Option<Ranking> {
-    let knobs: Vec<String> = params
-        .iter()
-        .filter(|p| !matches!(p.as_str(), "run.dt" | "integrator.adaptive.tolerance"))
-        .cloned()
-        .collect();
     let mut lines: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
     let mut left_out = Vec::new();
     for r in rows {
-        let name = findings::label(runs, &knobs, r);
+        let name = label(runs, params, r, &ACCURACY_KNOBS);
         match (runs.number(r, "wall_seconds"), runs.number(r, "error")) {
             (Some(c), Some(e)) if c > 0.0 && e > 0.0 && findings::completed(runs, r) => {
                 lines.entry(name).or_default().push((c, e))
@@ -703,9 +707,18 @@ fn error_at_equal_cost(
             ranges.push((pts[0].0, pts[pts.len() - 1].0));
         }
     }
-    let lo = ranges.iter().map(|r| r.0).fold(f64::NEG_INFINITY, f64::max);
-    let hi = ranges.iter().map(|r| r.1).fold(f64::INFINITY, f64::min);
-    if ranges.len() < 2 || lo > hi {
+    // The interval between consecutive range ends that the most ranges cover (the cheapest
+    // of equals), and its geometric middle.
+    let mut ends: Vec<f64> = ranges.iter().flat_map(|r| [r.0, r.1]).collect();
+    ends.sort_by(f64::total_cmp);
+    let covering = |lo: f64, hi: f64| ranges.iter().filter(|r| r.0 <= lo && hi <= r.1).count();
+    let (lo, hi) = ends
+        .windows(2)
+        .map(|w| (w[0], w[1]))
+        .chain(ends.iter().map(|&e| (e, e)))
+        // Most lines, then an interval rather than a single cost, then the cheapest.
+        .max_by_key(|&(lo, hi)| (covering(lo, hi), hi > lo, std::cmp::Reverse(lo.to_bits())))?;
+    if covering(lo, hi) < 2 {
         return None;
     }
     let cost = (lo * hi).sqrt();
@@ -718,6 +731,15 @@ fn error_at_equal_cost(
             .windows(2)
             .position(|w| w[0].0 <= cost && cost <= w[1].0)
         else {
+            left_out.push((
+                name.clone(),
+                format!(
+                    "its runs cost {} to {} s, not {} s",
+                    short(pts[0].0),
+                    short(pts[pts.len() - 1].0),
+                    short(cost)
+                ),
+            ));
             continue;
         };
         let ((c0, e0), (c1, e1)) = (pts[i], pts[i + 1]);
@@ -732,13 +754,44 @@ fn error_at_equal_cost(
     Some(Ranking {
         scene: scene.to_owned(),
         metric: format!(
-            "error at equal cost (interpolated in log-log at {} s of wall time, inside every \
-             line's measured range)",
+            "error at equal cost (interpolated in log-log at {} s of wall time, inside the \
+             measured range of every line ranked)",
             short(cost)
         ),
         better: Better::Smaller,
         spreads: vec![None; ranked.len()],
         ranked,
         left_out,
+    })
+}
+
+/// How far (relative position and energy error) a run may be from the reference for its
+/// energy drift to be ranked: a method that conserves energy while converging to another
+/// answer (XPBD at 14 % from the converged step) is not "best" by drift.
+pub const DRIFT_RANKED_WITHIN: f64 = 0.01;
+
+/// Energy drift among the runs whose scored errors against the reference, position and
+/// energy, are both within [`DRIFT_RANKED_WITHIN`]; the others are left out with their error.
+fn drift_near_the_reference(s: &SceneRows, damped: Option<&str>) -> Option<Ranking> {
+    let runs = s.runs;
+    let among = format!(
+        ", among runs within {} of the reference (position and energy)",
+        short(DRIFT_RANKED_WITHIN)
+    );
+    findings::energy_drift_of(s, damped, &among, &|r| {
+        if runs.get(r, "scored") == Some("no") {
+            return Ok(());
+        }
+        let error = |c: &str| runs.number(r, c);
+        match (error("error"), error("energy_error")) {
+            (Some(e), _) if e > DRIFT_RANKED_WITHIN => {
+                Err(format!("error {} from the reference", short(e)))
+            }
+            (_, Some(e)) if e > DRIFT_RANKED_WITHIN => {
+                Err(format!("energy error {} from the reference", short(e)))
+            }
+            (None, _) => Err("error not measured".into()),
+            _ => Ok(()),
+        }
     })
 }
