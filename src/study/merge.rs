@@ -135,11 +135,17 @@ pub(super) fn merge_study(
         1,
         &Progress::new(false, 0),
     )?;
+    // The runs' load is each shard's, in its record; the merge's own moment says nothing
+    // about the timings (and merging again must give the same files).
+    let machine = Machine {
+        load_average: None,
+        ..Machine::current()
+    };
     let mut meta = Meta::of(
         study,
         records.iter().map(|r| r.jobs).max().unwrap_or(1),
         None,
-        &Machine::current(),
+        &machine,
         &super::format::now_utc(),
         None,
     );
