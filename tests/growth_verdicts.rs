@@ -321,3 +321,43 @@ fn verdicts_do_not_move_when_the_horizon_the_step_cap_and_the_energy_limit_are_f
         "{words:?}"
     );
 }
+
+#[test]
+fn slow_growth_below_a_bracket_is_not_a_limit_whatever_the_horizon() {
+    // Explicit midpoint grows at every dt (omega^4 dt^3 / 4 per second), so slowly at small
+    // steps that a trial completes without sustained growth within the horizon: a bracket
+    // found there is the horizon's. Its largest "stable" trial still grew, and the growth
+    // above it follows dt^3: unstable at every dt, for the horizon and four times it.
+    let tmp = TempDir::new("growth-detection");
+    let (text, omega) = clamped_box([4, 2, 2], [0.3, 0.12, 0.12], "neo-hookean", 5e5, 9.81);
+    for k in [1.0, 4.0] {
+        let runs = stability(
+            &tmp,
+            &format!("detect{k}"),
+            &text,
+            &["midpoint", "rk4"],
+            &format!(
+                "dt_min = {:e}\ndt_max = {:e}\nhorizon = {}\nmax_steps = {}\n\
+                 relative_precision = 0.01",
+                0.02 / omega,
+                2.0 / omega,
+                0.3 * k,
+                (20000.0 * k) as usize
+            ),
+        );
+        let r = row(&runs, "midpoint");
+        assert_eq!(
+            runs.get(r, "stability"),
+            Some("unstable-at-every-dt"),
+            "horizon x{k}: {:?}",
+            runs.get(r, "message")
+        );
+        let fitted = runs.number(r, "growth_exponent").unwrap();
+        eprintln!("midpoint, horizon x{k}: growth exponent {fitted:.3}");
+        assert!((fitted - 3.0).abs() < 0.5, "{fitted}");
+        assert_eq!(runs.get(r, "max_stable_dt"), Some(""));
+        // RK4's limit is a limit: nothing grows below it.
+        let r = row(&runs, "rk4");
+        assert_eq!(runs.get(r, "stability"), Some("limit-found"));
+    }
+}

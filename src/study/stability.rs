@@ -16,8 +16,10 @@
 //! The verdict (`stability`): `limit-found` (a bracket: `max_stable_dt`, `first_unstable_dt`),
 //! `stable-to-ceiling`, `unstable-at-every-dt` (every trial blew up and the growth rate of the
 //! three smallest shrinks as one positive power of dt, `growth_exponent`, below 2/omega_max:
-//! see [`GrowthTrend`]) or `no-stable-dt-in-range` (no trial was stable, which says nothing
-//! about steps below the range). The `outcome` column is how the first unstable trial ended.
+//! see [`GrowthTrend`]; also when the trials below a bracket still grew, only too slowly to
+//! show within the horizon, and the growth above it follows such a power) or
+//! `no-stable-dt-in-range` (no trial was stable, which says nothing about steps below the
+//! range). The `outcome` column is how the first unstable trial ended.
 
 use super::charts::{Emit, SceneRows, label};
 use super::config::StudyFile;
@@ -843,6 +845,11 @@ struct Within {
 /// Relative distance from a bracket's ends of the trials that check it is robust.
 pub const ROBUSTNESS: f64 = 1e-6;
 
+/// How much the excess of the largest stable trial must have grown over its last half for
+/// the bracket to be questioned as detection-limited (a stable method's excess stays
+/// bounded; at a true limit it does not grow below it).
+const GROWING_BELOW: f64 = 10.0;
+
 /// The smallest ratio of consecutive steps in a growth trend.
 const SPACING: f64 = 1.5;
 
@@ -870,9 +877,8 @@ struct GrowthTrend {
 
 impl GrowthTrend {
     /// The trend of the three smallest trials, if each has a positive growth rate.
-    fn of(trials: &[Trial], omega: Option<f64>) -> Option<Self> {
+    fn of<'a>(trials: impl Iterator<Item = &'a Trial>, omega: Option<f64>) -> Option<Self> {
         let mut points: Vec<(f64, f64)> = trials
-            .iter()
             .map(|t| Some((t.dt, t.summary.energy_growth?.rate)))
             .collect::<Option<_>>()?;
         points.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -1096,8 +1102,43 @@ pub(super) fn measure(
                 search.stable(lowest * k);
             }
         }
-        trend = GrowthTrend::of(&search.trials, shared.omega);
+        trend = GrowthTrend::of(search.trials.iter(), shared.omega);
     }
+    // A bracket below which the excess still grows, only too slowly to be sustained growth
+    // within the horizon, is where growth became detectable, not where it starts: if the
+    // growth above it follows one power of dt below 2/omega_max (explicit midpoint's dt^3),
+    // the method blows up at every dt and the bracket is the horizon's, not the method's.
+    let mut growing_below = None;
+    if let Some((lo, Some(hi))) = bracket {
+        let below = search
+            .trials
+            .iter()
+            .find(|t| t.dt == lo)
+            .and_then(|t| t.summary.energy_growth)
+            .filter(|g| g.rate > 0.0 && g.factor >= GROWING_BELOW);
+        if let Some(below) = below {
+            for k in [SPACING, SPACING * SPACING] {
+                if hi * k <= highest {
+                    search.stable(hi * k);
+                }
+            }
+            let above = search
+                .trials
+                .iter()
+                .filter(|t| t.dt >= hi && t.summary.outcome.status == OutcomeKind::Unstable);
+            let t = GrowthTrend::of(above, shared.omega);
+            if t.is_some_and(|t| t.every_dt()) {
+                trend = t;
+                growing_below = Some((lo, below.factor));
+            }
+        }
+    }
+    // Then no step is stable: the trials below only did not show it within the horizon.
+    let bracket = if growing_below.is_some() {
+        None
+    } else {
+        bracket
+    };
     // The largest stable step within each error tolerance: what ranks methods that are stable
     // up to the ceiling (and the rest at their limit's accuracy).
     let mut within = Vec::new();
@@ -1117,7 +1158,9 @@ pub(super) fn measure(
     let verdict = match bracket {
         Some((_, None)) => "stable-to-ceiling",
         Some((_, Some(_))) => "limit-found",
-        None if every_unstable(&trials) && trend.is_some_and(|t| t.every_dt()) => {
+        None if (every_unstable(&trials) || growing_below.is_some())
+            && trend.is_some_and(|t| t.every_dt()) =>
+        {
             "unstable-at-every-dt"
         }
         None => "no-stable-dt-in-range",
@@ -1215,12 +1258,22 @@ pub(super) fn measure(
     if verdict != "limit-found" && verdict != "stable-to-ceiling" {
         let why = match (verdict, trend) {
             ("unstable-at-every-dt", Some(t)) => format!(
-                "every trial blew up, and the energy's growth rate shrinks like dt^{:.2} as dt \
-                 shrinks (down to {} s{})",
+                "{}, and the energy's growth rate shrinks like dt^{:.2} as dt shrinks (fitted \
+                 from {} s{})",
+                match growing_below {
+                    Some((lo, factor)) => format!(
+                        "trials up to {} s completed, but their energy still grew (x{} over \
+                         the last half of the largest), only too slowly to be sustained \
+                         growth within the horizon",
+                        short(lo),
+                        short(factor)
+                    ),
+                    None => "every trial blew up".to_owned(),
+                },
                 t.exponent,
                 short(t.smallest_dt),
                 t.over_theory
-                    .map(|b| format!(", {b:.2} x 2/omega_max"))
+                    .map(|b| format!(", up to {b:.2} x 2/omega_max"))
                     .unwrap_or_default()
             ),
             (_, Some(t)) => format!(
