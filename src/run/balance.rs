@@ -321,6 +321,16 @@ impl EnergyBalance {
         self.peak
     }
 
+    /// The latest excess over the scale, signed.
+    pub fn latest(&self) -> f64 {
+        let scale = self.scale.total();
+        if scale > 0.0 {
+            self.latest / scale
+        } else {
+            0.0
+        }
+    }
+
     /// The exponential fitted to the excess over the last half of the run so far (see
     /// [`super::growth`]); `None` before two windows.
     pub fn growth(&self) -> Option<GrowthFit> {
