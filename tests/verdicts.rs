@@ -5,7 +5,7 @@
 mod common;
 
 use common::bodies::{block, block_with_moving_anchor, clamped_at_min_x, omega_max};
-use common::{TempDir, run_study_ok, scene, simulate};
+use common::{TempDir, run_study, scene, simulate};
 use softbench::integrate::{IntegratorSettings, Method, State};
 use softbench::material::{LameParameters, MaterialModel};
 use softbench::mesh::generate::box_mesh;
@@ -294,6 +294,21 @@ fn beam_stability(
     settings: &str,
     extra: &[&str],
 ) -> Table {
+    let o = beam_stability_output(tmp, name, methods, settings, extra);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    Table::read(&tmp.path().join("results").join(name).join("runs.csv"))
+        .unwrap()
+        .unwrap()
+}
+
+/// The beam's stability study of `methods` run as `name`, whatever its exit.
+fn beam_stability_output(
+    tmp: &TempDir,
+    name: &str,
+    methods: &[&str],
+    settings: &str,
+    extra: &[&str],
+) -> std::process::Output {
     tmp.write("beam.toml", BEAM);
     let list: Vec<String> = methods.iter().map(|m| format!("\"{m}\"")).collect();
     let study = tmp.write(
@@ -304,11 +319,7 @@ fn beam_stability(
             list.join(", ")
         ),
     );
-    let out = tmp.path().join("results");
-    run_study_ok(&study, &out, extra);
-    Table::read(&out.join(name).join("runs.csv"))
-        .unwrap()
-        .unwrap()
+    run_study(&study, &tmp.path().join("results"), extra)
 }
 
 #[test]
@@ -345,11 +356,13 @@ fn explicit_euler_stability_verdict_does_not_change_with_the_step_cap() {
 }
 
 #[test]
-fn a_quick_study_never_reports_a_dt_its_full_mode_calls_unstable() {
+fn a_quick_study_gives_the_full_verdict_class_and_never_a_dt_full_calls_unstable() {
     let tmp = TempDir::new("verdict-quick");
     let settings = "dt_min = 1e-5\ndt_max = 0.01\nhorizon = 0.3\nmax_steps = 20000\n\
                     error_samples = 0\nrelative_precision = 0.02\n\
-                    [quick]\nmax_steps = 1000\nrelative_precision = 0.1";
+                    [quick]\nrelative_precision = 0.1";
+    // One method per verdict class the beam can give: unstable at every dt (explicit Euler,
+    // undamped), a limit inside the range (symplectic Euler, RK4), stable to the ceiling.
     let methods = [
         "explicit-euler",
         "symplectic-euler",
@@ -358,17 +371,40 @@ fn a_quick_study_never_reports_a_dt_its_full_mode_calls_unstable() {
     ];
     let full = beam_stability(&tmp, "full", &methods, settings, &[]);
     let quick = beam_stability(&tmp, "quick", &methods, settings, &["--quick"]);
-    // The comparison below is not vacuous: quick mode found stable steps to compare.
-    assert!(
-        quick
-            .rows
+    let classes = |t: &Table| -> Vec<String> {
+        t.rows
             .iter()
-            .filter(|q| quick.number(q, "max_stable_dt").is_some())
-            .count()
-            >= 2
+            .map(|r| t.get(r, "stability").unwrap().to_owned())
+            .collect()
+    };
+    assert_eq!(classes(&quick), classes(&full));
+    // Not vacuous: the four classes the beam gives are all there.
+    let mut seen = classes(&full);
+    seen.sort();
+    seen.dedup();
+    assert_eq!(
+        seen,
+        ["limit-found", "stable-to-ceiling", "unstable-at-every-dt"],
+        "{:?}",
+        classes(&full)
     );
     for (f, q) in full.rows.iter().zip(&quick.rows) {
         let method = full.get(f, "method").unwrap();
+        // Quick mode judges the same range and skips the robustness trials, and says so.
+        assert_eq!(quick.number(q, "lowest_dt"), full.number(f, "lowest_dt"));
+        assert_eq!(quick.number(q, "highest_dt"), full.number(f, "highest_dt"));
+        if full.get(f, "stability") == Some("limit-found") {
+            assert_eq!(
+                quick.get(q, "limit_robust"),
+                Some("not-checked"),
+                "{method}"
+            );
+            assert_eq!(full.get(f, "limit_robust"), Some("yes"), "{method}");
+        }
+        assert!(
+            quick.number(q, "trials").unwrap() <= full.number(f, "trials").unwrap(),
+            "{method}: quick mode ran more trials"
+        );
         let Some(q_dt) = quick.number(q, "max_stable_dt") else {
             continue;
         };
@@ -397,13 +433,22 @@ fn a_quick_study_never_reports_a_dt_its_full_mode_calls_unstable() {
             );
         }
     }
-    // Quick mode keeps the horizon and min_steps: no trial of one or two steps counts as
-    // stable, and it judges only steps of at least horizon / (its max_steps).
-    for q in &quick.rows {
-        assert_eq!(quick.number(q, "horizon"), Some(0.3));
-        assert_eq!(quick.number(q, "lowest_dt"), Some(0.3 / 1000.0));
-        if let Some(dt) = quick.number(q, "max_stable_dt") {
-            assert!(0.3 / dt >= 20.0 - 1e-9, "{dt}");
-        }
+}
+
+#[test]
+fn quick_mode_refuses_a_shorter_horizon_or_fewer_steps_in_a_stability_study() {
+    let tmp = TempDir::new("verdict-quick-refused");
+    for (key, value) in [("max_steps", "1000"), ("horizon", "0.1")] {
+        let settings = format!(
+            "dt_min = 1e-5\ndt_max = 0.01\nhorizon = 0.3\nerror_samples = 0\n\
+             [quick]\n{key} = {value}"
+        );
+        let o = beam_stability_output(&tmp, key, &["rk4"], &settings, &["--quick"]);
+        assert_eq!(o.status.code(), Some(2), "{key}");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            err.contains(&format!("quick.{key}")) && err.contains("judged range"),
+            "{err}"
+        );
     }
 }

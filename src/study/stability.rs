@@ -136,17 +136,25 @@ struct FileTable {
     stability: Option<StabilitySettings>,
 }
 
-/// The `[quick]` keys a stability study reads.
+/// The `[quick]` keys a stability study reads. Quick mode keeps the horizon, the judged range
+/// of steps and the criterion, so every quick trial is the full study's trial at that step
+/// and a quick verdict is of the full study's class; it is quicker by searching coarser and
+/// skipping the robustness trials.
 #[derive(Default, serde::Serialize, serde::Deserialize)]
 struct Quick {
-    /// Steps per trial at most, so only larger steps are judged (default: the study's, at
-    /// most 2000).
-    max_steps: Option<usize>,
-    /// The bisection precision (default 0.05).
+    /// The bisection precision (default: the study's, at least 0.1).
     relative_precision: Option<f64>,
+    /// The precision of the error-tolerance search (default: the study's, at least 0.5).
+    error_dt_precision: Option<f64>,
     /// Refused: a stability study keeps its horizon (see `check_quick`).
     horizon: Option<f64>,
+    /// Refused: a stability study keeps its judged range (see `check_quick`).
+    max_steps: Option<usize>,
 }
+
+/// Quick mode's default bisection precision and error-tolerance precision.
+const QUICK_PRECISION: f64 = 0.1;
+const QUICK_ERROR_DT_PRECISION: f64 = 0.5;
 
 /// The study's `[stability]` table as resolved at load.
 fn settings(file: &StudyFile) -> Option<StabilitySettings> {
@@ -217,8 +225,9 @@ impl Kind for Stability {
     }
 
     fn quick_notice(&self) -> &'static str {
-        "the same horizon and criterion, but only the larger steps are judged and the \
-         bisection is coarser (a verdict at a step is the full study's)"
+        "the same horizon, judged range and criterion (a verdict at a step is the full \
+         study's, and a run's verdict of the same class), but coarser searches and no \
+         robustness trials"
     }
 
     fn check(
@@ -231,7 +240,12 @@ impl Kind for Stability {
     }
 
     fn quick_keys(&self) -> &'static [&'static str] {
-        &["max_steps", "relative_precision", "horizon"]
+        &[
+            "relative_precision",
+            "error_dt_precision",
+            "horizon",
+            "max_steps",
+        ]
     }
 
     fn parse_quick(
@@ -246,16 +260,15 @@ impl Kind for Stability {
         file: &StudyFile,
         bad: &dyn Fn(&str, String) -> StudyError,
     ) -> Result<(), StudyError> {
-        if file.quick.get::<usize>("max_steps") == Some(0) {
-            return Err(bad("quick.max_steps", "must be at least 1".into()));
-        }
-        if let Some(p) = file.quick.get::<f64>("relative_precision")
-            && !(MIN_RELATIVE_PRECISION..1.0).contains(&p)
-        {
-            return Err(bad(
-                "quick.relative_precision",
-                format!("must be in [{MIN_RELATIVE_PRECISION:e}, 1) (got {p})"),
-            ));
+        for key in ["relative_precision", "error_dt_precision"] {
+            if let Some(p) = file.quick.get::<f64>(key)
+                && !(MIN_RELATIVE_PRECISION..1.0).contains(&p)
+            {
+                return Err(bad(
+                    &format!("quick.{key}"),
+                    format!("must be in [{MIN_RELATIVE_PRECISION:e}, 1) (got {p})"),
+                ));
+            }
         }
         Ok(())
     }
@@ -572,42 +585,42 @@ fn check(
     Ok(())
 }
 
-/// A stability study keeps its horizon in quick mode.
+/// A stability study keeps its horizon and its judged range in quick mode: the range decides
+/// a verdict's class (a limit below it is `no-stable-dt-in-range`), so a quick study that
+/// judged fewer steps would answer a different question.
 fn check_quick(file: &StudyFile, ctx: &Context) -> Result<(), StudyError> {
-    if file.quick.get::<f64>("horizon").is_some() {
-        return Err(StudyError::Invalid {
-            path: ctx.path.to_owned(),
-            line: ctx.line_of_key("horizon"),
-            key: "quick.horizon".into(),
-            message: "a stability study keeps its horizon in quick mode, so a quick verdict at a \
-                      step is the full study's verdict at that step; set [quick] max_steps to \
-                      judge fewer (larger) steps instead"
-                .into(),
-        });
+    for key in ["horizon", "max_steps"] {
+        let set = match key {
+            "horizon" => file.quick.get::<f64>(key).is_some(),
+            _ => file.quick.get::<usize>(key).is_some(),
+        };
+        if set {
+            return Err(StudyError::Invalid {
+                path: ctx.path.to_owned(),
+                line: ctx.line_of_key(key),
+                key: format!("quick.{key}"),
+                message: "a stability study keeps its horizon and its judged range of steps in \
+                          quick mode, so every quick trial is the full study's trial at that \
+                          step and every quick verdict of the full study's class; [quick] may \
+                          set relative_precision and error_dt_precision (coarser searches)"
+                    .into(),
+            });
+        }
     }
     Ok(())
 }
 
-/// `[quick]` applied to the `[stability]` table.
-fn quick_table(file: &mut StudyFile, ctx: &Context) -> Result<(), StudyError> {
+/// `[quick]` applied to the `[stability]` table: coarser searches, no robustness trials.
+fn quick_table(file: &mut StudyFile, _: &Context) -> Result<(), StudyError> {
     if let Some(mut s) = settings(file) {
-        // Same horizon and criterion, fewer and larger steps judged: every quick trial is the
-        // trial the full study would run at that step.
         let q = &file.quick;
-        s.max_steps = q.get("max_steps").unwrap_or(s.max_steps.min(2000));
-        s.relative_precision = q.get("relative_precision").unwrap_or(0.05);
-        if s.lowest_dt() > s.highest_dt() {
-            return Err(ctx.invalid(
-                0,
-                "quick.max_steps",
-                format!(
-                    "in quick mode no step can be judged: horizon / max_steps = {:e} s is above \
-                     the ceiling {:e} s (horizon / min_steps); raise [quick] max_steps",
-                    s.horizon / s.max_steps as f64,
-                    s.highest_dt()
-                ),
-            ));
-        }
+        s.relative_precision = q
+            .get("relative_precision")
+            .unwrap_or(s.relative_precision.max(QUICK_PRECISION));
+        s.error_dt_precision = q
+            .get("error_dt_precision")
+            .unwrap_or(s.error_dt_precision.max(QUICK_ERROR_DT_PRECISION));
+        s.robustness_trials = false;
         file.set_settings(NAME, &s);
     }
     Ok(())
@@ -646,20 +659,30 @@ fn report_settings(out: &mut String, file: &StudyFile) {
         let _ = writeln!(
             out,
             "Stability search: first trial at {} s, bisection down to a presumed-stable {} s or \
-             widening up (x4) to the ceiling, to {}% precision, then {} smaller probe(s) and a \
-             trial {ROBUSTNESS:e} (relative) on each side of each end of the bracket. A trial is \
+             widening up (x4) to the ceiling, to {}% precision, then {} smaller probe(s){}. A trial is \
              stable when it covers the {} s horizon in {} to {} steps with every step taken and \
              no blow-up: its energy gain beyond the work done on the body never passed {} x the \
              energy the body holds or exchanges while growing ({GROWN:e} x its first half's) \
              and did not grow exponentially over the last half (x{} with R^2 >= {}); so only steps in [{}, {}] s are judged. With no stable trial, \
              `unstable-at-every-dt` needs the three smallest trials' growth rates to follow \
-             one positive power of dt below 2/omega_max. With a reference, the largest stable \
+             one positive power of dt below 2/omega_max; a bracket whose largest stable trial's \
+             excess grew more than {GROWING_BELOW} x, and above which the growth rates follow \
+             such a power, is the horizon's and reported as `unstable-at-every-dt` too. With a \
+             reference, the largest stable \
              step within each error tolerance ({}) is searched to {}% precision. Newton \
              convergence {}.\n",
             short(st.dt_max),
             short(st.dt_min),
             st.relative_precision * 100.0,
             st.probes,
+            if st.robustness_trials {
+                format!(
+                    " and a trial {ROBUSTNESS:e} (relative) on each side of each end of the \
+                     bracket"
+                )
+            } else {
+                " (no robustness trials: `limit_robust` is `not-checked`)".to_owned()
+            },
             short(st.horizon),
             st.min_steps,
             st.max_steps,
@@ -747,6 +770,10 @@ pub struct StabilitySettings {
     /// tolerance (`dt_error_1pct`, `dt_error_10pct`). Default 0.1.
     #[serde(default = "default_error_dt_precision")]
     pub error_dt_precision: f64,
+    /// Whether trials [`ROBUSTNESS`] (relative) on each side of each end of a bracket check
+    /// it (`limit_robust`); quick mode turns them off (`not-checked`). Default true.
+    #[serde(default = "yes")]
+    pub robustness_trials: bool,
     /// How that reference is computed (defaults as in work-precision studies, with a default
     /// step of `horizon / 4000`; in quick mode never finer than `horizon / 400`).
     #[serde(default)]
@@ -1079,7 +1106,7 @@ pub(super) fn measure(
     }
     // A bracket is robust when trials a hair away from its ends agree with them.
     let mut not_robust = Vec::new();
-    if let Some((lo, hi)) = bracket {
+    if let Some((lo, hi)) = bracket.filter(|_| settings.robustness_trials) {
         let ends = [(lo, true)].into_iter().chain(hi.map(|h| (h, false)));
         for (end, stable) in ends {
             for dt in [end * (1.0 - ROBUSTNESS), end * (1.0 + ROBUSTNESS)] {
@@ -1251,6 +1278,7 @@ pub(super) fn measure(
         "limit_robust",
         match bracket {
             None => String::new(),
+            Some(_) if !settings.robustness_trials => "not-checked".into(),
             Some(_) if not_robust.is_empty() => "yes".into(),
             Some(_) => "no".into(),
         },
