@@ -101,6 +101,41 @@ fn run_quick(name: &str, out: &Path) -> std::process::Output {
 
 const IDENTITY: [&str; 4] = ["run_id", "scene", "method", "linear_solver"];
 
+/// Quick mode gives the full study's verdict class: each run of a quick `table` has the
+/// `stability` verdict of the same run in the committed full run `results/<study>/runs.csv`
+/// (rerun when the verdicts change, so it is the full mode of this code). Returns how many
+/// runs were compared, so a caller can see the comparison is not empty.
+fn assert_full_verdict_classes(study: &str, quick: &Table) -> usize {
+    let committed = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("results")
+        .join(study)
+        .join("runs.csv");
+    let full = Table::read(&committed)
+        .unwrap()
+        .expect("committed runs.csv");
+    let mut compared = 0;
+    // Rows a `--only` run left out have no verdict.
+    for q in quick
+        .rows
+        .iter()
+        .filter(|q| quick.get(q, "stability") != Some(""))
+    {
+        let id = quick.get(q, "run_id").unwrap();
+        let f = full
+            .rows
+            .iter()
+            .find(|f| full.get(f, "run_id") == Some(id))
+            .unwrap_or_else(|| panic!("{id} is not in {}", committed.display()));
+        assert_eq!(
+            quick.get(q, "stability"),
+            full.get(f, "stability"),
+            "{id}: quick mode's verdict class differs from the full study's"
+        );
+        compared += 1;
+    }
+    compared
+}
+
 #[test]
 fn quickstart_quick_writes_every_output() {
     let tmp = TempDir::new("study-quickstart");
@@ -255,8 +290,10 @@ fn stiffness_sweep_quick_writes_every_output() {
         "dt_theory",
     ]);
     let dir = tmp.path().join("stiffness_sweep");
-    assert_complete(&dir, &columns);
+    let runs = assert_complete(&dir, &columns);
     assert!(dir.join("sweep-max_stable_dt.png").is_file());
+    // Every run, with limits found and methods stable to the ceiling among them.
+    assert_eq!(assert_full_verdict_classes("stiffness_sweep", &runs), 20);
 }
 
 #[test]
@@ -265,7 +302,15 @@ fn armadillo_stability_quick_writes_every_output() {
         return;
     }
     let tmp = TempDir::new("study-arma");
-    run_quick("armadillo_stability.toml", tmp.path());
+    // The four Euler methods on both scenes with the course material: every verdict class
+    // the full study gives them (no stable step in range, a limit, stable to the ceiling) in
+    // a minute; the whole quick study takes far longer, as its explicit trials are
+    // microseconds apart (results/README.md compares it to the full one).
+    run_study_ok(
+        &study("armadillo_stability.toml"),
+        tmp.path(),
+        &["--quick", "--only", "armadillo_*-*euler*-model=neo-hookean"],
+    );
     let mut columns = IDENTITY.to_vec();
     columns.extend([
         "stability",
@@ -284,6 +329,8 @@ fn armadillo_stability_quick_writes_every_output() {
     // The explicit limit of the course armadillo is a few microseconds.
     let theory = runs.number(&runs.rows[0], "dt_theory").unwrap();
     assert!((1e-7..1e-4).contains(&theory), "2/omega_max = {theory}");
+    // Quick mode gives each of them the committed full study's verdict.
+    assert_eq!(assert_full_verdict_classes("armadillo_stability", &runs), 8);
 }
 
 #[test]

@@ -388,7 +388,7 @@ pub fn reference(
             let (status, message) = outcome_of(&summary.outcome);
             return Err(format!(
                 "the reference ({} at dt = {dt:e} s) {status}: {message}; choose another \
-                 [work-precision.reference] method or dt",
+                 reference method or dt (the study's `[<kind>.reference]` table)",
                 method.name()
             ));
         }

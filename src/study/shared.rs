@@ -214,7 +214,7 @@ impl SharedWork {
                             "reference for {} failed, so error_at_stable_dt is left empty: {m}",
                             spec.scene
                         ));
-                        failed_references.insert(key(spec), (spec.scene.clone(), m));
+                        failed_references.insert(key(spec), (reference_label(spec, None), m));
                         continue;
                     }
                     Err(m) => return Err(RunError::Run(format!("scene {}: {m}", spec.scene))),
@@ -237,13 +237,7 @@ impl SharedWork {
                     reference.difference,
                     reference.wall_seconds
                 ));
-                // Same-dt references differ by material and dt within a scene: say which.
-                let label = match &spec.loaded.config.material {
-                    Some(m) if reference.same_dt => {
-                        format!("{} ({}, dt = {} s)", spec.scene, m.model, reference.dt)
-                    }
-                    _ => spec.scene.clone(),
-                };
+                let label = reference_label(spec, reference.same_dt.then_some(reference.dt));
                 references.insert(key(spec), (label, reference));
             }
         }
@@ -275,4 +269,14 @@ fn item_key(what: &serde_json::Value) -> String {
         "what": what,
     });
     format!("{:016x}", super::fnv1a(document.to_string().as_bytes()))
+}
+
+/// How the report names a reference: its scene and material (references differ by material
+/// within a scene), and the runs' dt for a same-dt reference.
+fn reference_label(spec: &RunSpec, same_dt: Option<f64>) -> String {
+    match (&spec.loaded.config.material, same_dt) {
+        (Some(m), Some(dt)) => format!("{} ({}, dt = {} s)", spec.scene, m.model, dt),
+        (Some(m), None) => format!("{} ({})", spec.scene, m.model),
+        (None, _) => spec.scene.clone(),
+    }
 }
