@@ -92,22 +92,40 @@ fn settings_with(ordering: Ordering, threads: usize, scheduler: Scheduler) -> Di
     }
 }
 
-/// One timed configuration: a scheduler on a pool of `threads`.
+/// One timed configuration: a scheduler on a pool of `threads`, with METIS and threads
+/// forced, or `defaults`: the settings a scene gets when it sets nothing (ordering `auto`,
+/// the flops rule for threads), as `softbench simulate` runs it.
 struct Timed {
     scheduler: Scheduler,
+    defaults: bool,
     threads: usize,
     pool: rayon::ThreadPool,
     solver: CholeskySolver,
+    analysis_seconds: f64,
     seconds: Vec<f64>,
 }
 
 impl Timed {
-    fn new(a: &SymmetricMatrix, scheduler: Scheduler, threads: usize) -> anyhow::Result<Self> {
+    fn new(
+        a: &SymmetricMatrix,
+        scheduler: Scheduler,
+        threads: usize,
+        defaults: bool,
+    ) -> anyhow::Result<Self> {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()?;
-        let mut solver = CholeskySolver::new(settings_with(Ordering::Metis, threads, scheduler));
+        let mut solver = CholeskySolver::new(if defaults {
+            DirectSettings {
+                parallelism: Parallelism::Rayon,
+                ..DirectSettings::default()
+            }
+        } else {
+            settings_with(Ordering::Metis, threads, scheduler)
+        });
+        let start = Instant::now();
         pool.install(|| solver.analyze(a.pattern()))?;
+        let analysis_seconds = start.elapsed().as_secs_f64();
         anyhow::ensure!(
             solver.stats().factor_scheduler == scheduler.name(),
             "expected scheduler {}, got {}",
@@ -116,9 +134,11 @@ impl Timed {
         );
         let mut timed = Self {
             scheduler,
+            defaults,
             threads,
             pool,
             solver,
+            analysis_seconds,
             seconds: Vec::new(),
         };
         timed.factor(a)?; // warm-up: first touch of the factor's pages
@@ -175,7 +195,10 @@ fn export(dir: &Path, source: &Source, repeats: usize) -> anyhow::Result<()> {
         (Scheduler::Subtrees, 1),
         (Scheduler::Subtrees, 2),
     ] {
-        configs.push(Timed::new(&a, scheduler, threads)?);
+        configs.push(Timed::new(&a, scheduler, threads, false)?);
+    }
+    for threads in [1, 2] {
+        configs.push(Timed::new(&a, Scheduler::default(), threads, true)?);
     }
     for _ in 0..repeats {
         for c in &mut configs {
@@ -184,6 +207,7 @@ fn export(dir: &Path, source: &Source, repeats: usize) -> anyhow::Result<()> {
     }
     let mut timings = Vec::new();
     let mut by_scheduler = Vec::new();
+    let mut defaults = Vec::new();
     for c in &mut configs {
         let list = c
             .seconds
@@ -192,6 +216,22 @@ fn export(dir: &Path, source: &Source, repeats: usize) -> anyhow::Result<()> {
             .collect::<Vec<_>>()
             .join(", ");
         let med = median(&mut c.seconds.clone());
+        if c.defaults {
+            let ordering = c.solver.stats().ordering;
+            eprintln!(
+                "{name}: default settings (ordering auto chose {ordering}), {} thread(s): \
+                 analysis {:.4} s, factorization median {med:.4} s",
+                c.threads, c.analysis_seconds
+            );
+            defaults.push(format!(
+                "\"{}\": {{\"ordering\": \"{ordering}\", \"factor_nnz\": {}, \
+                 \"analysis_seconds\": {:.6}, \"median_seconds\": {med:.6}, \"seconds\": [{list}]}}",
+                c.threads,
+                c.solver.stats().factor_nnz,
+                c.analysis_seconds
+            ));
+            continue;
+        }
         eprintln!(
             "{name}: METIS, scheduler {}, {} thread(s): median {med:.4} s",
             c.scheduler.name(),
@@ -222,12 +262,14 @@ fn export(dir: &Path, source: &Source, repeats: usize) -> anyhow::Result<()> {
     let json = format!(
         "{{\n  \"mesh\": \"{name}\",\n  \"n\": {},\n  \"nnz_lower\": {},\n  \"orderings\": {{{}}},\n  \
          \"factor_metis_threads\": {{{}}},\n  \"factor_metis_schedulers\": {{{}}},\n  \
+         \"factor_defaults\": {{{}}},\n  \
          \"repeats\": {repeats},\n  \"load_average_1min_after\": {load}\n}}\n",
         a.dim(),
         (a.pattern().nnz() + a.dim()) / 2,
         orderings.join(", "),
         timings.join(", "),
-        schedulers
+        schedulers,
+        defaults.join(", ")
     );
     let path = dir.join(format!("{name}.softbench.json"));
     softbench::io::write_atomic(&path, |w| w.write_all(json.as_bytes()))

@@ -220,3 +220,26 @@ fn metis_orderings_computed_at_once_on_several_threads_equal_the_ordering_alone(
         });
     }
 }
+
+/// The fast path is the default: a solver built from `DirectSettings::default()` (what a
+/// scene gets when it sets nothing) asks for `auto` and ends with the ordering of fewer
+/// predicted flops, never the other one — METIS on a 3D box, where AMD costs 1.5× the flops.
+#[test]
+fn the_default_ordering_is_auto_and_keeps_the_cheaper_one() {
+    assert_eq!(DirectSettings::default().ordering, Ordering::Auto);
+    let a = fem_box([20, 10, 10]).matrix;
+    let mut s = CholeskySolver::new(DirectSettings::default());
+    s.analyze(a.pattern()).unwrap();
+    let chosen = s.stats().clone();
+    let (amd, nd) = (stats(&a, Ordering::Amd), stats(&a, Ordering::Metis));
+    assert!(
+        nd.factor_flops < amd.factor_flops,
+        "premise: METIS is cheaper here"
+    );
+    assert_eq!(chosen.ordering, "metis");
+    assert_eq!(chosen.factor_flops, nd.factor_flops);
+    assert_eq!(chosen.factor_nnz, nd.factor_nnz);
+    // A scene file without solver settings resolves to the same default.
+    let config: softbench::solve::SolverSettings = toml::from_str("").unwrap();
+    assert_eq!(config.direct.ordering, Ordering::Auto);
+}

@@ -89,6 +89,11 @@ def main():
                 f"softbench_{name}_s": times[str(threads)]["median_seconds"]
                 for name, times in ours.get("factor_metis_schedulers", {}).items()
             }
+            # The settings a scene gets by default (ordering `auto`, the flops rule for
+            # threads), when the export has them.
+            defaults = ours.get("factor_defaults", {}).get(str(threads))
+            if defaults:
+                per_scheduler["softbench_defaults_s"] = defaults["median_seconds"]
             rows.append(
                 {
                     "mesh": mesh,
@@ -102,6 +107,15 @@ def main():
                     "speedup": theirs_t / ours_t,
                     "repeats": f'{ours["repeats"]}/{repeats}',
                     **per_scheduler,
+                    **(
+                        {
+                            "defaults_ordering": defaults["ordering"],
+                            "defaults_nnz_l": defaults["factor_nnz"],
+                            "cholmod_over_defaults": theirs_t / defaults["median_seconds"],
+                        }
+                        if defaults
+                        else {}
+                    ),
                 }
             )
             print(f"{mesh} {threads}t: softbench {ours_t:.4f} s, CHOLMOD {theirs_t:.4f} s", file=sys.stderr)
@@ -123,6 +137,16 @@ def main():
             f'| {r["mesh"]} | {r["n"]} | {r["threads"]} | {r["softbench_nnz_l"]:,} | {r["cholmod_nnz_l"]:,} '
             f'| {r["nnz_ratio"]:.3f} | {r["softbench_factor_s"]:.3f} |{extra} {r["cholmod_factor_s"]:.3f} | {r["speedup"]:.2f}× |'
         )
+    if any("defaults_ordering" in r for r in rows):
+        print()
+        print("| mesh | threads | default ordering (auto chose) | nnz(L) | factor, defaults (s) | CHOLMOD (s) | CHOLMOD / defaults |")
+        print("|---" * 7 + "|")
+        for r in rows:
+            if "defaults_ordering" in r:
+                print(
+                    f'| {r["mesh"]} | {r["threads"]} | {r["defaults_ordering"]} | {r["defaults_nnz_l"]:,} '
+                    f'| {r["softbench_defaults_s"]:.3f} | {r["cholmod_factor_s"]:.3f} | {r["cholmod_over_defaults"]:.2f}× |'
+                )
 
 
 if __name__ == "__main__":

@@ -60,7 +60,7 @@ impl Scheduler {
 impl Default for DirectSettings {
     fn default() -> Self {
         Self {
-            ordering: Ordering::Amd,
+            ordering: Ordering::Auto,
             supernodal: Supernodal::Auto,
             parallelism: Parallelism::Sequential,
             parallel_min_flops: PARALLEL_MIN_FLOPS,

@@ -18,11 +18,12 @@ use crate::sparse::SparsityPattern;
 #[serde(rename_all = "lowercase")]
 pub enum Ordering {
     /// Approximate minimum degree (faer's).
-    #[default]
     Amd,
     /// METIS nested dissection (`METIS_NodeND`) on the vertex graph.
     Metis,
-    /// Both analyses, keeping the one with fewer predicted factorization flops.
+    /// Both analyses, keeping the one with fewer predicted factorization flops (the
+    /// default: neither ordering wins on every mesh, and the prediction is exact).
+    #[default]
     Auto,
     /// The caller's ordering (for tests and comparisons).
     Identity,
