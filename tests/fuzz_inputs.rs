@@ -22,7 +22,8 @@
 //!     cargo test --release --test fuzz_inputs -- --nocapture
 //! ```
 //!
-//! A failure's message names `SOFTBENCH_FUZZ_SEED`, the target and the case, which replay it.
+//! A failure's message names `SOFTBENCH_FUZZ_SEED`, the target and the case, which replay it;
+//! `SOFTBENCH_FUZZ_REPLAY=target:file` runs one file (of a one-file target) as its only case.
 
 #[path = "support/fuzz_seeds.rs"]
 mod fuzz_seeds;
@@ -363,9 +364,26 @@ fn run<F>(target: Target<F>, cases: u64)
 where
     F: Fn(&[Vec<u8>]) -> Result<(), String> + Send + 'static,
 {
-    if selected(target.name) {
-        fuzz(target, seed(), cases, CASE_CAP);
+    if !selected(target.name) {
+        return;
     }
+    // SOFTBENCH_FUZZ_REPLAY=target:file runs that one file, unmutated, under the watchdog.
+    let replay = std::env::var("SOFTBENCH_FUZZ_REPLAY").ok();
+    if let Some((_, file)) = replay
+        .as_deref()
+        .and_then(|r| r.split_once(':'))
+        .filter(|(t, _)| *t == target.name)
+    {
+        let data = std::fs::read(file).expect("cannot read SOFTBENCH_FUZZ_REPLAY's file");
+        let target = Target {
+            seeds: vec![vec![data]],
+            mutate: |_: &mut Rng, d: &[u8]| d.to_vec(),
+            ..target
+        };
+        fuzz(target, seed(), 1, CASE_CAP);
+        return;
+    }
+    fuzz(target, seed(), cases, CASE_CAP);
 }
 
 /// A file's bytes as text, or the error a text reader gives.

@@ -1,6 +1,7 @@
 //! The tets among VTK cells, which both VTK formats list the same way (connectivity, offsets,
 //! cell types): cells of type 10 (`VTK_TETRA`) become the tets; other linear cells (vertices,
-//! lines, triangles) are read past; quadratic tets (24) are refused.
+//! lines, triangles) are read past; quadratic tets (24) are refused, and so is a type that is
+//! not an exact integer from 0 to 255, or offsets that do not end at the connectivity's end.
 
 use std::path::Path;
 

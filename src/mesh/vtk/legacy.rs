@@ -1,6 +1,8 @@
 //! Legacy ASCII VTK (`.vtk`) unstructured grids of linear tets: `DATASET UNSTRUCTURED_GRID`,
 //! the `CELLS n size` layout of versions up to 4.2 and the `OFFSETS`/`CONNECTIVITY` layout of
-//! 5.1. `BINARY` files are refused with a message saying so.
+//! 5.1. `BINARY` files are refused with a message saying so, and so is a second `POINTS`,
+//! `CELLS` or `CELL_TYPES`, a 4.2 cell list whose counts do not use exactly its announced
+//! size, and 5.1 `OFFSETS` that do not start at 0.
 
 use std::path::Path;
 

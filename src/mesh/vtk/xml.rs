@@ -3,6 +3,12 @@
 //! either byte order (softbench's own frames and meshio's files). Appended data is refused
 //! with a message saying so.
 //!
+//! Sizes are checked before work: the `Piece` counts against the mesh budget, then every
+//! array's declared size (a zlib block table included, and what its compressed bytes can
+//! inflate to) against what `NumberOfPoints` and `NumberOfCells` allow, before it is
+//! inflated or converted to f64. Arrays softbench does not use are read past undecoded; a
+//! second `<Points>`, `<Cells>` or mesh array is refused.
+//!
 //! Point data with three components (softbench writes `velocity` and `displacement`) and the
 //! field `TimeValue` are kept by [`read_vtu_frame`], so a run can start from an exported frame.
 
