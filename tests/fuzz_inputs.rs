@@ -234,6 +234,9 @@ fn mutate_vtu(rng: &mut Rng, data: &[u8]) -> Vec<u8> {
     fuzz_seeds::mutate_vtu(rng, data, mutate_text)
 }
 
+/// How a seed file is mutated.
+type Mutator = fn(&mut Rng, &[u8]) -> Vec<u8>;
+
 /// A case's files (one, or TetGen's two).
 type Files = Vec<Vec<u8>>;
 
@@ -248,7 +251,7 @@ enum Outcome {
 struct Target<F> {
     name: &'static str,
     seeds: Vec<Files>,
-    mutate: fn(&mut Rng, &[u8]) -> Vec<u8>,
+    mutate: Mutator,
     check: F,
 }
 
@@ -492,7 +495,7 @@ fn mesh_targets(n: u64) {
         MeshReport::for_tet_mesh(&m);
         Ok(())
     };
-    let gmsh_targets: [(&str, Vec<Files>, fn(&mut Rng, &[u8]) -> Vec<u8>); 3] = [
+    let gmsh_targets: [(&str, Vec<Files>, Mutator); 3] = [
         ("gmsh22", text_seed(fuzz_seeds::MSH22), mutate_text),
         ("gmsh41", text_seed(fuzz_seeds::MSH41), mutate_text),
         (
@@ -638,7 +641,7 @@ fn study_target(n: u64) {
             mutate: mutate_text,
             check: move |f: &[Vec<u8>]| {
                 std::fs::write(&path, &f[0]).unwrap();
-                let quick = f[0].len() % 2 == 0;
+                let quick = f[0].len().is_multiple_of(2);
                 named(
                     softbench::study::load(&path, quick, &DataPaths::from_env()),
                     "fuzz.toml",
