@@ -1,28 +1,44 @@
-//! A seeded mutation fuzzer over every input softbench parses: the four mesh readers (MEDIT
-//! `.mesh`, TetGen `.node`/`.ele`, plain v/t `.mesh`, OBJ), scene files (parsed, validated and
-//! built) and study files (loaded: grid expanded, every scene checked and built).
+//! A seeded mutation fuzzer over every input softbench parses: every mesh reader (MEDIT
+//! `.mesh`, TetGen `.node`/`.ele`, plain v/t `.mesh`, OBJ, Gmsh 2.2 and 4.1 ASCII and binary,
+//! VTU ascii, base64 and zlib, legacy VTK 4.2 and 5.1 ASCII — legacy binary is refused by the
+//! reader, and the fuzzer inserts `BINARY` among its tokens), scene files (parsed, validated and
+//! built) and study files of every kind (loaded: grid expanded, every scene checked and built).
 //!
-//! Each case takes a valid seed file, applies a few random mutations (bytes flipped, tokens
-//! replaced by hostile ones such as `18446744073709551615`, `nan`, `1e308` or `-1`, lines
-//! duplicated, dropped or cut) and asserts: no panic (`catch_unwind`), an error that names the
-//! file, and bounded time and memory — by size budgets lowered for the run (see
-//! `softbench::limits`), a generous per-case sanity cap, and the process's peak memory at the
-//! end.
+//! Each case takes a valid seed file, applies a few random mutations (tokens replaced by
+//! hostile ones such as `18446744073709551615`, `nan`, `1e308` or `-1`, lines duplicated,
+//! dropped or cut; for binary files, hostile 4- and 8-byte words written over the data and, in
+//! a `.vtu`, the base64 payloads decoded, mutated and encoded again) and asserts: no panic
+//! (`catch_unwind`), an error that names the file, and bounded time and memory — by size
+//! budgets lowered for the run (see `softbench::limits`), a watchdog that fails the test when a
+//! case is still running after [`CASE_CAP`] (naming the target, seed, case and input, while the
+//! case runs: it runs on a worker thread), and the process's peak memory at the end.
 //!
-//! CI runs a few thousand cases in seconds. For a long run:
+//! The default (`cargo test`) is the CI slice: [`DEFAULT_CASES`] cases per target, seed 13.
+//! The long mode is the same test with more cases; targets can be picked (comma-separated) to
+//! run them apart:
 //!
 //! ```text
-//! SOFTBENCH_FUZZ_CASES=1000000 SOFTBENCH_FUZZ_SEED=7 cargo test --release --test fuzz_inputs -- --nocapture
+//! SOFTBENCH_FUZZ_CASES=1000000 SOFTBENCH_FUZZ_SEED=7 SOFTBENCH_FUZZ_TARGETS=gmsh22,vtu-zlib \
+//!     cargo test --release --test fuzz_inputs -- --nocapture
 //! ```
+//!
+//! A failure's message names `SOFTBENCH_FUZZ_SEED`, the target and the case, which replay it;
+//! `SOFTBENCH_FUZZ_REPLAY=target:file` runs one file (of a one-file target) as its only case.
 
+#[path = "support/fuzz_seeds.rs"]
+mod fuzz_seeds;
+
+use fuzz_seeds::below;
 use softbench::data::DataPaths;
-use softbench::mesh::{MeshReport, medit, obj, plain, tetgen};
+use softbench::mesh::{MeshReport, gmsh, medit, obj, plain, tetgen, vtk};
 use softbench::parallel::Parallelism;
 use softbench::rng::Rng;
 use softbench::scene;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::{Path, PathBuf};
-use std::time::{Duration, Instant};
+use std::sync::Arc;
+use std::sync::mpsc::{self, RecvTimeoutError};
+use std::time::Duration;
 
 /// Cases per target in CI (the study target runs a quarter of them: each builds scenes).
 const DEFAULT_CASES: u64 = 1500;
@@ -84,6 +100,17 @@ const HOSTILE: &[&str] = &[
     "\u{0}",
     "\u{feff}",
     "é",
+    "BINARY",
+    "POINTS",
+    "CELLS",
+    "CELL_TYPES",
+    "OFFSETS",
+    "$Nodes",
+    "$EndNodes",
+    "$Elements",
+    "<Points>",
+    "</Cells>",
+    "<DataArray format=\"binary\">",
 ];
 
 fn cases() -> u64 {
@@ -100,8 +127,11 @@ fn seed() -> u64 {
         .unwrap_or(13)
 }
 
-fn below(rng: &mut Rng, n: usize) -> usize {
-    (rng.next_u64() % n.max(1) as u64) as usize
+/// The targets to run: `SOFTBENCH_FUZZ_TARGETS` (comma-separated names), or all.
+fn selected(target: &str) -> bool {
+    std::env::var("SOFTBENCH_FUZZ_TARGETS")
+        .map(|v| v.split(',').any(|t| t.trim() == target))
+        .unwrap_or(true)
 }
 
 /// A char boundary at or before `i`.
@@ -190,44 +220,178 @@ fn mutate(rng: &mut Rng, text: &str) -> String {
     s
 }
 
+/// [`mutate`] for a text seed given as bytes.
+fn mutate_text(rng: &mut Rng, data: &[u8]) -> Vec<u8> {
+    mutate(
+        rng,
+        std::str::from_utf8(data).expect("text seeds are UTF-8"),
+    )
+    .into_bytes()
+}
+
+/// A `.vtu` mutation: text, or a binary payload decoded, mutated and encoded again.
+fn mutate_vtu(rng: &mut Rng, data: &[u8]) -> Vec<u8> {
+    fuzz_seeds::mutate_vtu(rng, data, mutate_text)
+}
+
+/// How a seed file is mutated.
+type Mutator = fn(&mut Rng, &[u8]) -> Vec<u8>;
+
+/// A case's files (one, or TetGen's two).
+type Files = Vec<Vec<u8>>;
+
+/// How one case ended on the worker.
+enum Outcome {
+    Accepted,
+    Refused(String),
+    Panicked,
+}
+
+/// One fuzz target: its seeds, how a seed is mutated, and the check of a mutated case.
+struct Target<F> {
+    name: &'static str,
+    seeds: Vec<Files>,
+    mutate: Mutator,
+    check: F,
+}
+
 thread_local! {
     /// Whether a fuzz case is running (its panics are reported with the input instead).
     static IN_CASE: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
 }
 
-/// Runs `check` on `cases` mutations of `seeds`; panics (naming the seed and case) on a panic
-/// inside softbench, an error that does not name `must_name`, or a case over the time cap.
-fn fuzz<F>(target: &str, seeds: &[Vec<String>], cases: u64, mut check: F)
+/// Runs `target.check` on `cases` mutations of its seeds on a worker thread, under a
+/// watchdog; panics (naming the seed, target and case, with the input) on a panic inside
+/// softbench, an error without a message, or a case still running after `cap` — reported
+/// while it runs, so a hang is a failure, not a stuck test (the stuck worker is left behind
+/// and ends with the process).
+fn fuzz<F>(target: Target<F>, seed: u64, cases: u64, cap: Duration) -> FuzzCount
 where
-    F: FnMut(&[String]) -> Result<(), String>,
+    F: Fn(&[Vec<u8>]) -> Result<(), String> + Send + 'static,
 {
-    let mut rng = Rng::new(seed() ^ softbench::study::fnv1a(target.as_bytes()));
-    let (mut ok, mut err) = (0u64, 0u64);
+    let Target {
+        name,
+        seeds,
+        mutate,
+        check,
+    } = target;
+    let mut rng = Rng::new(seed ^ softbench::study::fnv1a(name.as_bytes()));
+    let (to_worker, inbox) = mpsc::channel::<Arc<Files>>();
+    let (outbox, from_worker) = mpsc::channel::<Outcome>();
+    let worker = std::thread::Builder::new()
+        .name(format!("fuzz-{name}"))
+        .spawn(move || {
+            for files in inbox {
+                IN_CASE.set(true);
+                let outcome = catch_unwind(AssertUnwindSafe(|| check(&files)));
+                IN_CASE.set(false);
+                let outcome = match outcome {
+                    Ok(Ok(())) => Outcome::Accepted,
+                    Ok(Err(message)) => Outcome::Refused(message),
+                    Err(_) => Outcome::Panicked,
+                };
+                if outbox.send(outcome).is_err() {
+                    break;
+                }
+            }
+        })
+        .expect("cannot start a fuzz worker");
+    let show = |files: &Files| -> Vec<String> {
+        files
+            .iter()
+            .map(|f| String::from_utf8_lossy(f).escape_debug().to_string())
+            .collect()
+    };
+    let replay = |case: u64| {
+        format!(
+            "{name} case {case} (replay: SOFTBENCH_FUZZ_SEED={seed} SOFTBENCH_FUZZ_TARGETS={name} \
+             SOFTBENCH_FUZZ_CASES={})",
+            case + 1
+        )
+    };
+    let mut count = FuzzCount::default();
+    let start = std::time::Instant::now();
     for case in 0..cases {
         let seed_files = &seeds[below(&mut rng, seeds.len())];
         // Mutate one of the seed's files (TetGen has two).
         let mut files = seed_files.clone();
         let which = below(&mut rng, files.len());
         files[which] = mutate(&mut rng, &files[which]);
-        let start = Instant::now();
-        IN_CASE.set(true);
-        let outcome = catch_unwind(AssertUnwindSafe(|| check(&files)));
-        IN_CASE.set(false);
-        let elapsed = start.elapsed();
-        match outcome {
-            Ok(Ok(())) => ok += 1,
-            Ok(Err(message)) if message.is_empty() => {
-                panic!("{target} case {case}: an error without a message; input:\n{files:?}")
+        let files = Arc::new(files);
+        to_worker
+            .send(Arc::clone(&files))
+            .expect("the fuzz worker is gone");
+        match from_worker.recv_timeout(cap) {
+            Ok(Outcome::Accepted) => count.accepted += 1,
+            Ok(Outcome::Refused(message)) if message.is_empty() => panic!(
+                "{}: an error without a message; input:\n{:?}",
+                replay(case),
+                show(&files)
+            ),
+            Ok(Outcome::Refused(_)) => count.refused += 1,
+            Ok(Outcome::Panicked) => {
+                panic!("{} panicked; input:\n{:?}", replay(case), show(&files))
             }
-            Ok(Err(_)) => err += 1,
-            Err(_) => panic!("{target} case {case} panicked; input:\n{files:?}"),
+            Err(RecvTimeoutError::Timeout) => panic!(
+                "{} is still running after {cap:?}: a hang; input:\n{:?}",
+                replay(case),
+                show(&files)
+            ),
+            Err(RecvTimeoutError::Disconnected) => {
+                panic!("{}: the fuzz worker died", replay(case))
+            }
         }
-        assert!(
-            elapsed < CASE_CAP,
-            "{target} case {case} took {elapsed:?}; input:\n{files:?}"
-        );
     }
-    eprintln!("fuzz {target}: {cases} cases, {ok} accepted, {err} refused with an error");
+    drop(to_worker);
+    worker.join().expect("the fuzz worker panicked");
+    let seconds = start.elapsed().as_secs_f64();
+    eprintln!(
+        "fuzz {name}: {cases} cases in {seconds:.1} s ({:.0} cases/s), {} accepted, {} refused \
+         with an error",
+        cases as f64 / seconds.max(1e-9),
+        count.accepted,
+        count.refused
+    );
+    count
+}
+
+/// What a fuzz run saw.
+#[derive(Default)]
+struct FuzzCount {
+    accepted: u64,
+    refused: u64,
+}
+
+/// Runs `target` if it is [`selected`], with the seed and number of cases of this run.
+fn run<F>(target: Target<F>, cases: u64)
+where
+    F: Fn(&[Vec<u8>]) -> Result<(), String> + Send + 'static,
+{
+    if !selected(target.name) {
+        return;
+    }
+    // SOFTBENCH_FUZZ_REPLAY=target:file runs that one file, unmutated, under the watchdog.
+    let replay = std::env::var("SOFTBENCH_FUZZ_REPLAY").ok();
+    if let Some((_, file)) = replay
+        .as_deref()
+        .and_then(|r| r.split_once(':'))
+        .filter(|(t, _)| *t == target.name)
+    {
+        let data = std::fs::read(file).expect("cannot read SOFTBENCH_FUZZ_REPLAY's file");
+        let target = Target {
+            seeds: vec![vec![data]],
+            mutate: |_: &mut Rng, d: &[u8]| d.to_vec(),
+            ..target
+        };
+        fuzz(target, seed(), 1, CASE_CAP);
+        return;
+    }
+    fuzz(target, seed(), cases, CASE_CAP);
+}
+
+/// A file's bytes as text, or the error a text reader gives.
+fn utf8<'a>(bytes: &'a [u8], file: &str) -> Result<&'a str, String> {
+    std::str::from_utf8(bytes).map_err(|_| format!("{file}: not UTF-8 text"))
 }
 
 /// `Err(message)` if `result` is an error, checking the message names `file`.
@@ -246,35 +410,152 @@ fn named<T, E: std::fmt::Display>(result: Result<T, E>, file: &str) -> Result<T,
     })
 }
 
+fn text_seed(s: &str) -> Vec<Files> {
+    vec![vec![s.as_bytes().to_vec()]]
+}
+
 fn mesh_targets(n: u64) {
-    fuzz("medit", &[vec![MEDIT.into()]], n, |f| {
-        let m = named(medit::parse(&f[0], Path::new("fuzz.mesh")), "fuzz.mesh")?;
+    run(
+        Target {
+            name: "medit",
+            seeds: text_seed(MEDIT),
+            mutate: mutate_text,
+            check: |f: &[Vec<u8>]| {
+                let m = named(
+                    medit::parse(utf8(&f[0], "fuzz.mesh")?, Path::new("fuzz.mesh")),
+                    "fuzz.mesh",
+                )?;
+                MeshReport::for_tet_mesh(&m);
+                Ok(())
+            },
+        },
+        n,
+    );
+    run(
+        Target {
+            name: "plain",
+            seeds: text_seed(PLAIN),
+            mutate: mutate_text,
+            check: |f: &[Vec<u8>]| {
+                let m = named(
+                    plain::parse(utf8(&f[0], "fuzz.mesh")?, Path::new("fuzz.mesh")),
+                    "fuzz.mesh",
+                )?;
+                MeshReport::for_tet_mesh(&m);
+                Ok(())
+            },
+        },
+        n,
+    );
+    run(
+        Target {
+            name: "tetgen",
+            seeds: vec![vec![NODE.into(), ELE.into()]],
+            mutate: mutate_text,
+            check: |f: &[Vec<u8>]| {
+                let (node, ele) = (Path::new("fuzz.node"), Path::new("fuzz.ele"));
+                let m = tetgen::parse(
+                    utf8(&f[0], "fuzz.node")?,
+                    node,
+                    utf8(&f[1], "fuzz.ele")?,
+                    ele,
+                )
+                .map_err(|e| {
+                    let message = e.to_string();
+                    assert!(
+                        message.contains("fuzz.node") || message.contains("fuzz.ele"),
+                        "{message}"
+                    );
+                    message
+                })?;
+                MeshReport::for_tet_mesh(&m);
+                Ok(())
+            },
+        },
+        n,
+    );
+    run(
+        Target {
+            name: "obj",
+            seeds: text_seed(OBJ),
+            mutate: mutate_text,
+            check: |f: &[Vec<u8>]| {
+                let m = named(
+                    obj::parse(utf8(&f[0], "fuzz.obj")?, Path::new("fuzz.obj")),
+                    "fuzz.obj",
+                )?;
+                MeshReport::for_surface(&m);
+                Ok(())
+            },
+        },
+        n,
+    );
+    let gmsh_check = |f: &[Vec<u8>]| {
+        let m = named(gmsh::parse(&f[0], Path::new("fuzz.msh")), "fuzz.msh")?;
         MeshReport::for_tet_mesh(&m);
         Ok(())
-    });
-    fuzz("plain", &[vec![PLAIN.into()]], n, |f| {
-        let m = named(plain::parse(&f[0], Path::new("fuzz.mesh")), "fuzz.mesh")?;
-        MeshReport::for_tet_mesh(&m);
+    };
+    let gmsh_targets: [(&str, Vec<Files>, Mutator); 3] = [
+        ("gmsh22", text_seed(fuzz_seeds::MSH22), mutate_text),
+        ("gmsh41", text_seed(fuzz_seeds::MSH41), mutate_text),
+        (
+            "gmsh-binary",
+            vec![
+                vec![fuzz_seeds::msh22_binary()],
+                vec![fuzz_seeds::msh41_binary()],
+            ],
+            fuzz_seeds::mutate_bytes,
+        ),
+    ];
+    for (name, seeds, mutate) in gmsh_targets {
+        run(
+            Target {
+                name,
+                seeds,
+                mutate,
+                check: gmsh_check,
+            },
+            n,
+        );
+    }
+    let vtu_check = |f: &[Vec<u8>]| {
+        let frame = named(vtk::parse_vtu(&f[0], Path::new("fuzz.vtu")), "fuzz.vtu")?;
+        MeshReport::for_tet_mesh(&frame.mesh);
         Ok(())
-    });
-    fuzz("tetgen", &[vec![NODE.into(), ELE.into()]], n, |f| {
-        let (node, ele) = (Path::new("fuzz.node"), Path::new("fuzz.ele"));
-        let m = tetgen::parse(&f[0], node, &f[1], ele).map_err(|e| {
-            let message = e.to_string();
-            assert!(
-                message.contains("fuzz.node") || message.contains("fuzz.ele"),
-                "{message}"
-            );
-            message
-        })?;
-        MeshReport::for_tet_mesh(&m);
-        Ok(())
-    });
-    fuzz("obj", &[vec![OBJ.into()]], n, |f| {
-        let m = named(obj::parse(&f[0], Path::new("fuzz.obj")), "fuzz.obj")?;
-        MeshReport::for_surface(&m);
-        Ok(())
-    });
+    };
+    let vtu_targets: [(&str, Vec<u8>); 3] = [
+        ("vtu-ascii", fuzz_seeds::VTU_ASCII.into()),
+        ("vtu-base64", fuzz_seeds::vtu_base64()),
+        ("vtu-zlib", fuzz_seeds::vtu_zlib()),
+    ];
+    for (name, seed) in vtu_targets {
+        run(
+            Target {
+                name,
+                seeds: vec![vec![seed]],
+                mutate: mutate_vtu,
+                check: vtu_check,
+            },
+            n,
+        );
+    }
+    run(
+        Target {
+            name: "legacy-vtk",
+            seeds: vec![
+                vec![fuzz_seeds::VTK42.into()],
+                vec![fuzz_seeds::VTK51.into()],
+            ],
+            mutate: mutate_text,
+            check: |f: &[Vec<u8>]| {
+                let text = utf8(&f[0], "fuzz.vtk")?;
+                let m = named(vtk::parse_legacy(text, Path::new("fuzz.vtk")), "fuzz.vtk")?;
+                MeshReport::for_tet_mesh(&m);
+                Ok(())
+            },
+        },
+        n,
+    );
 }
 
 fn shipped(folder: &str) -> Vec<(PathBuf, String)> {
@@ -295,34 +576,56 @@ fn shipped(folder: &str) -> Vec<(PathBuf, String)> {
         .collect()
 }
 
-fn scene_target(n: u64) {
-    let seeds: Vec<Vec<String>> = shipped("experiments/scenes")
+/// The shipped files of `folder` as seeds.
+fn shipped_seeds(folder: &str) -> Vec<Files> {
+    shipped(folder)
         .into_iter()
-        .map(|(_, t)| vec![t])
-        .collect();
+        .map(|(_, t)| vec![t.into_bytes()])
+        .collect()
+}
+
+fn scene_target(n: u64) {
     // Relative mesh files resolve next to the (fake) scene path, in the shipped scenes
     // folder; meshes from SOFTBENCH_DATA are used if it is set.
     let fake = Path::new(env!("CARGO_MANIFEST_DIR")).join("experiments/scenes/fuzz.toml");
     let data = DataPaths::from_env();
-    fuzz("scene", &seeds, n, |f| {
-        let config = named(scene::parse(&f[0], &fake, &[]), "fuzz.toml")?;
-        let loaded = scene::LoadedScene {
-            path: fake.clone(),
-            config,
-        };
-        named(
-            scene::build(&loaded, &data, Parallelism::Sequential),
-            "fuzz.toml",
-        )?;
-        Ok(())
-    });
+    run(
+        Target {
+            name: "scene",
+            seeds: shipped_seeds("experiments/scenes"),
+            mutate: mutate_text,
+            check: move |f: &[Vec<u8>]| {
+                let text = utf8(&f[0], "fuzz.toml")?;
+                let config = named(scene::parse(text, &fake, &[]), "fuzz.toml")?;
+                let loaded = scene::LoadedScene {
+                    path: fake.clone(),
+                    config,
+                };
+                named(
+                    scene::build(&loaded, &data, Parallelism::Sequential),
+                    "fuzz.toml",
+                )?;
+                Ok(())
+            },
+        },
+        n,
+    );
 }
 
 fn study_target(n: u64) {
-    let seeds: Vec<Vec<String>> = shipped("experiments")
-        .into_iter()
-        .map(|(_, t)| vec![t])
-        .collect();
+    let seeds = shipped_seeds("experiments");
+    // Every study kind (and a sweep) is among the seeds.
+    let kinds = softbench::study::kinds();
+    let names = kinds.iter().map(|k| k.name).chain(["sweep"]);
+    for kind in names {
+        let line = format!("study = \"{kind}\"");
+        assert!(
+            seeds
+                .iter()
+                .any(|f| String::from_utf8_lossy(&f[0]).contains(&line)),
+            "no shipped study of kind `{kind}` to fuzz from"
+        );
+    }
     // The study is written next to a copy of the shipped scenes, so its scene paths resolve.
     let dir = std::env::temp_dir().join(format!("softbench-fuzz-study-{}", std::process::id()));
     let scenes = dir.join("scenes");
@@ -331,16 +634,58 @@ fn study_target(n: u64) {
         std::fs::write(scenes.join(path.file_name().unwrap()), text).unwrap();
     }
     let path = dir.join("fuzz.toml");
-    fuzz("study", &seeds, n, |f| {
-        std::fs::write(&path, &f[0]).unwrap();
-        let quick = f[0].len() % 2 == 0;
-        named(
-            softbench::study::load(&path, quick, &softbench::data::DataPaths::from_env()),
-            "fuzz.toml",
-        )?;
-        Ok(())
-    });
+    run(
+        Target {
+            name: "study",
+            seeds,
+            mutate: mutate_text,
+            check: move |f: &[Vec<u8>]| {
+                std::fs::write(&path, &f[0]).unwrap();
+                let quick = f[0].len().is_multiple_of(2);
+                named(
+                    softbench::study::load(&path, quick, &DataPaths::from_env()),
+                    "fuzz.toml",
+                )?;
+                Ok(())
+            },
+        },
+        n,
+    );
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The watchdog's own check: a case that sleeps past the cap fails the run with its name,
+/// seed and input while it is still running.
+fn watchdog_reports_a_hang() {
+    let target = Target {
+        name: "watchdog",
+        seeds: text_seed("sleep"),
+        mutate: |_: &mut Rng, d: &[u8]| d.to_vec(),
+        check: |_: &[Vec<u8>]| {
+            std::thread::sleep(Duration::from_secs(2));
+            Ok(())
+        },
+    };
+    // The expected panic is not printed (the hook stays quiet inside a case).
+    IN_CASE.set(true);
+    let start = std::time::Instant::now();
+    let caught = catch_unwind(AssertUnwindSafe(|| {
+        fuzz(target, 99, 3, Duration::from_millis(100))
+    }));
+    IN_CASE.set(false);
+    let message = match caught {
+        Ok(_) => panic!("the watchdog let a 2 s case pass a 100 ms cap"),
+        Err(e) => e.downcast_ref::<String>().cloned().unwrap_or_default(),
+    };
+    assert!(start.elapsed() < Duration::from_secs(2), "{message}");
+    for needle in [
+        "watchdog case 0",
+        "SOFTBENCH_FUZZ_SEED=99",
+        "still running after 100ms: a hang",
+        "sleep",
+    ] {
+        assert!(message.contains(needle), "`{needle}` not in: {message}");
+    }
 }
 
 /// Peak resident memory of this process (kB), from /proc (Linux).
@@ -367,6 +712,7 @@ fn fuzzed_meshes_scenes_and_studies_give_errors_that_name_the_file_never_a_panic
             hook(info);
         }
     }));
+    watchdog_reports_a_hang();
     let n = cases();
     mesh_targets(n);
     scene_target(n);

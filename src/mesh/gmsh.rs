@@ -409,6 +409,23 @@ fn positive_tag(c: &mut Cursor, at: usize, tag: i64, what: &str) -> Result<u64, 
         .ok_or_else(|| c.error_at(at, format!("{what} tag {tag} is not positive")))
 }
 
+/// A version 2 element's `i`-th tag: the physical group, the elementary entity and the number
+/// of partitions cannot be negative (partition ids after them can: a ghost cell's are).
+fn element_tag(c: &mut Cursor, at: usize, i: i32, tag: i32) -> Result<(), MeshError> {
+    const NAMES: [&str; 3] = [
+        "physical tag",
+        "elementary entity tag",
+        "number of partitions",
+    ];
+    match NAMES.get(i as usize) {
+        Some(name) if tag < 0 => Err(c.error_at(
+            at,
+            format!("element {name} {tag} is negative; Gmsh writes it as 0 or more"),
+        )),
+        _ => Ok(()),
+    }
+}
+
 /// After a text count in a binary v2 section, the binary data starts past the newline.
 fn skip_newline(c: &mut Cursor) {
     while c.pos < c.bytes.len() && c.bytes[c.pos] != b'\n' {
@@ -451,12 +468,20 @@ fn elements_v2(
     match binary {
         None => {
             for _ in 0..n {
-                let (at, _) = int(c, None, "an element tag")?;
+                let (at, number) = int(c, None, "an element tag")?;
+                positive_tag(c, at, i64::from(number), "element")?;
                 let (kind_at, kind) = int(c, None, "an element type")?;
-                let (_, ntags) = int(c, None, "the number of element tags")?;
+                let (ntags_at, ntags) = int(c, None, "the number of element tags")?;
+                if ntags < 0 {
+                    return Err(c.error_at(
+                        ntags_at,
+                        format!("the number of element tags is {ntags}; it cannot be negative"),
+                    ));
+                }
                 let width = node_count(c, kind_at, kind)?;
-                for _ in 0..ntags.max(0) {
-                    int(c, None, "an element tag value")?;
+                for i in 0..ntags {
+                    let (a, t) = int(c, None, "an element tag value")?;
+                    element_tag(c, a, i, t)?;
                 }
                 tags.clear();
                 for _ in 0..width {
@@ -487,9 +512,11 @@ fn elements_v2(
                 c.check_fits(count as u64, 4 * ints, "elements")?;
                 for _ in 0..count {
                     let at = c.pos;
-                    int(c, binary, "an element tag")?;
-                    for _ in 0..ntags {
-                        int(c, binary, "an element tag value")?;
+                    let (_, number) = int(c, binary, "an element tag")?;
+                    positive_tag(c, at, i64::from(number), "element")?;
+                    for i in 0..ntags {
+                        let (a, t) = int(c, binary, "an element tag value")?;
+                        element_tag(c, a, i, t)?;
                     }
                     tags.clear();
                     for _ in 0..width {

@@ -121,8 +121,27 @@ fn unknown_format(path: &Path, content: &str) -> MeshError {
     MeshError::UnknownFormat {
         path: path.to_path_buf(),
         message: format!(
-            "line {line} starts with `{token}`; expected {}",
+            "line {line} starts with `{}`; expected {}",
+            excerpt(token),
             formats::expected_starts()
         ),
     }
+}
+
+/// Longest excerpt of a file quoted in the unknown-format error, in characters.
+const EXCERPT_CHARS: usize = 40;
+
+/// The start of `token`, at most [`EXCERPT_CHARS`] characters, with control and non-ASCII
+/// characters escaped (`\0`, `\u{1b}`) so a binary file cannot garble the terminal; `...`
+/// marks a cut.
+fn excerpt(token: &str) -> String {
+    let mut out: String = token
+        .chars()
+        .take(EXCERPT_CHARS)
+        .flat_map(char::escape_debug)
+        .collect();
+    if token.chars().nth(EXCERPT_CHARS).is_some() {
+        out.push_str("...");
+    }
+    out
 }

@@ -1,6 +1,7 @@
 //! The tets among VTK cells, which both VTK formats list the same way (connectivity, offsets,
 //! cell types): cells of type 10 (`VTK_TETRA`) become the tets; other linear cells (vertices,
-//! lines, triangles) are read past; quadratic tets (24) are refused.
+//! lines, triangles) are read past; quadratic tets (24) are refused, and so is a type that is
+//! not an exact integer from 0 to 255, or offsets that do not end at the connectivity's end.
 
 use std::path::Path;
 
@@ -9,6 +10,8 @@ use super::super::text::{self, TetCollector, parse_error};
 
 /// VTK's linear tetrahedron.
 const VTK_TETRA: i64 = 10;
+/// The largest VTK cell type (VTK stores them as an unsigned char).
+const MAX_CELL_TYPE: f64 = 255.0;
 /// VTK's quadratic tetrahedron.
 const VTK_QUADRATIC_TETRA: i64 = 24;
 
@@ -47,6 +50,17 @@ pub(super) fn cells(
                 ),
             ));
         }
+        // VTK cell types are small integers (an unsigned char); anything else is not a cell.
+        if !(kind.fract() == 0.0 && (0.0..=MAX_CELL_TYPE).contains(&kind)) {
+            return Err(parse_error(
+                path,
+                tl,
+                format!(
+                    "cell {i}: cell type `{kind}` is not a VTK cell type (an integer from 0 to \
+                     255; a linear tet is 10)"
+                ),
+            ));
+        }
         let kind = kind as i64;
         if kind == VTK_QUADRATIC_TETRA {
             return Err(parse_error(
@@ -72,6 +86,17 @@ pub(super) fn cells(
             tets.push(path, cl, tet)?;
         }
         start = end;
+    }
+    if start != connectivity.len() {
+        return Err(parse_error(
+            path,
+            ol,
+            format!(
+                "the cells end at connectivity entry {start}, but the connectivity holds {} \
+                 entries",
+                connectivity.len()
+            ),
+        ));
     }
     if tets.tets.is_empty() {
         return Err(text::empty_mesh(path, tl, "no tets (cell type 10)"));

@@ -1,6 +1,8 @@
 //! Legacy ASCII VTK (`.vtk`) unstructured grids of linear tets: `DATASET UNSTRUCTURED_GRID`,
 //! the `CELLS n size` layout of versions up to 4.2 and the `OFFSETS`/`CONNECTIVITY` layout of
-//! 5.1. `BINARY` files are refused with a message saying so.
+//! 5.1. `BINARY` files are refused with a message saying so, and so is a second `POINTS`,
+//! `CELLS` or `CELL_TYPES`, a 4.2 cell list whose counts do not use exactly its announced
+//! size, and 5.1 `OFFSETS` that do not start at 0.
 
 use std::path::Path;
 
@@ -78,6 +80,7 @@ pub fn parse_legacy(content: &str, path: &Path) -> Result<TetMesh, MeshError> {
     while let Some((line, keyword)) = t.next() {
         match keyword.to_ascii_uppercase().as_str() {
             "POINTS" => {
+                once(points.is_some(), path, line, "POINTS")?;
                 let n = count(t, path, "the number of points", len)?;
                 tok(t, path, "the point data type")?;
                 let (_, xyz) = numbers(t, path, 3 * n, "a coordinate", len)?;
@@ -91,6 +94,7 @@ pub fn parse_legacy(content: &str, path: &Path) -> Result<TetMesh, MeshError> {
                 points = Some(p);
             }
             "CELLS" => {
+                once(cell_data.is_some(), path, line, "CELLS")?;
                 let a = count(t, path, "the number of cells", len)?;
                 let b = count(t, path, "the size of the cell list", len)?;
                 if major >= 5 {
@@ -100,30 +104,68 @@ pub fn parse_legacy(content: &str, path: &Path) -> Result<TetMesh, MeshError> {
                     keyword_token(t, path, "CONNECTIVITY")?;
                     tok(t, path, "the connectivity's data type")?;
                     let (cl, conn) = numbers(t, path, b, "a point index", len)?;
-                    // 5.1 offsets start with 0; the XML form lists cell ends.
+                    // 5.1 offsets start with 0 and end at the connectivity's length; the XML
+                    // form lists cell ends.
+                    if offsets.first().is_some_and(|&o| o != 0.0) {
+                        return Err(parse_error(
+                            path,
+                            ol,
+                            format!(
+                                "OFFSETS starts at {}; legacy VTK 5 offsets start at 0",
+                                offsets[0]
+                            ),
+                        ));
+                    }
+                    if a == 0 && b != 0 {
+                        return Err(parse_error(
+                            path,
+                            line,
+                            "CELLS announces no offsets but a connectivity: 5.x files list \
+                             one offset more than there are cells, starting at 0",
+                        ));
+                    }
                     let ends = offsets.get(1..).unwrap_or(&[]).to_vec();
                     cell_data = Some((conn, ends, [cl, ol]));
                 } else {
                     let (cl, list) = numbers(t, path, b, "a cell entry", len)?;
                     let (mut conn, mut ends) = (Vec::new(), Vec::with_capacity(a));
-                    let mut i = 0;
-                    for _ in 0..a {
+                    let mut i = 0usize;
+                    for c in 0..a {
+                        // A per-cell count must be an integer that fits in what is left.
                         let k = list.get(i).copied().unwrap_or(-1.0);
-                        if !(k >= 0.0 && k.fract() == 0.0) || i + 1 + k as usize > list.len() {
+                        let left = list.len() - i.min(list.len());
+                        if !(k >= 0.0 && k.fract() == 0.0 && k < left as f64) {
                             return Err(parse_error(
                                 path,
                                 cl,
-                                "the CELLS list does not match its announced size",
+                                format!(
+                                    "cell {c}: its point count `{k}` is not a count that fits in \
+                                     the {b} entries CELLS announces (each cell is `n` then \
+                                     its `n` point indices)"
+                                ),
                             ));
                         }
-                        conn.extend_from_slice(&list[i + 1..i + 1 + k as usize]);
-                        i += 1 + k as usize;
+                        let k = k as usize;
+                        conn.extend_from_slice(&list[i + 1..i + 1 + k]);
+                        i += 1 + k;
                         ends.push(conn.len() as f64);
+                    }
+                    if i != list.len() {
+                        return Err(parse_error(
+                            path,
+                            line,
+                            format!(
+                                "CELLS announces a list of {b} entries, but its {a} cells use \
+                                 {i}: the size must be the number of cells plus their point \
+                                 indices"
+                            ),
+                        ));
                     }
                     cell_data = Some((conn, ends, [cl, cl]));
                 }
             }
             "CELL_TYPES" => {
+                once(types.is_some(), path, line, "CELL_TYPES")?;
                 let n = count(t, path, "the number of cell types", len)?;
                 types = Some(numbers(t, path, n, "a cell type", len)?);
             }
@@ -158,6 +200,19 @@ pub fn parse_legacy(content: &str, path: &Path) -> Result<TetMesh, MeshError> {
         positions: points,
         tets,
     })
+}
+
+/// Refuses a second section `word`: a file has one of each.
+fn once(seen: bool, path: &Path, line: usize, word: &str) -> Result<(), MeshError> {
+    if seen {
+        Err(parse_error(
+            path,
+            line,
+            format!("a second `{word}` section: a legacy VTK grid has one"),
+        ))
+    } else {
+        Ok(())
+    }
 }
 
 /// The next legacy token, or an error saying the file ends where `what` was expected.

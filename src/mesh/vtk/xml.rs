@@ -3,6 +3,12 @@
 //! either byte order (softbench's own frames and meshio's files). Appended data is refused
 //! with a message saying so.
 //!
+//! Sizes are checked before work: the `Piece` counts against the mesh budget, then every
+//! array's declared size (a zlib block table included, and what its compressed bytes can
+//! inflate to) against what `NumberOfPoints` and `NumberOfCells` allow, before it is
+//! inflated or converted to f64. Arrays softbench does not use are read past undecoded; a
+//! second `<Points>`, `<Cells>` or mesh array is refused.
+//!
 //! Point data with three components (softbench writes `velocity` and `displacement`) and the
 //! field `TimeValue` are kept by [`read_vtu_frame`], so a run can start from an exported frame.
 
@@ -166,9 +172,10 @@ pub fn parse_vtu(bytes: &[u8], path: &Path) -> Result<VtuFrame, MeshError> {
     let mut encoding = None;
     let mut piece: Option<(usize, usize, usize)> = None;
     let mut section = "";
-    let mut points: Option<Vec<f64>> = None;
+    let mut sections_seen = std::collections::HashSet::new();
+    let mut points: Option<(usize, Vec<f64>)> = None;
     let (mut connectivity, mut offsets, mut types) = (None, None, None);
-    let mut point_arrays: Vec<(String, usize, usize, Vec<f64>)> = Vec::new();
+    let mut point_arrays: Vec<(String, usize, Vec<f64>)> = Vec::new();
     let mut time = None;
     while let Some(tag) = next_tag(&mut c)? {
         match (tag.name, tag.closing) {
@@ -237,7 +244,20 @@ pub fn parse_vtu(bytes: &[u8], path: &Path) -> Result<VtuFrame, MeshError> {
                 )?;
                 piece = Some((tag.at, n, m));
             }
-            ("Points" | "Cells" | "PointData" | "CellData" | "FieldData", false) if !tag.empty => {
+            ("Points" | "Cells", false) if !tag.empty => {
+                if !sections_seen.insert(tag.name) {
+                    return Err(c.error_at(
+                        tag.at,
+                        format!(
+                            "a second `<{}>`: a single-piece grid has one (the first would be \
+                             silently replaced)",
+                            tag.name
+                        ),
+                    ));
+                }
+                section = tag.name;
+            }
+            ("PointData" | "CellData" | "FieldData", false) if !tag.empty => {
                 section = tag.name;
             }
             ("Points" | "Cells" | "PointData" | "CellData" | "FieldData", true) => section = "",
@@ -258,17 +278,56 @@ pub fn parse_vtu(bytes: &[u8], path: &Path) -> Result<VtuFrame, MeshError> {
                     .unwrap_or("1")
                     .parse()
                     .map_err(|_| c.error_at(tag.at, "NumberOfComponents is not a count"))?;
-                let values = data_array(&mut c, &tag, enc)?;
                 let line = c.line_at(tag.at);
-                match (section, name.as_str()) {
-                    ("Points", _) => points = Some(values),
-                    ("Cells", "connectivity") => connectivity = Some((line, values)),
-                    ("Cells", "offsets") => offsets = Some((line, values)),
-                    ("Cells", "types") => types = Some((line, values)),
-                    ("PointData", _) => point_arrays.push((name, components, line, values)),
-                    ("FieldData", "TimeValue") => time = values.first().copied(),
-                    _ => {}
+                let role = match (section, name.as_str()) {
+                    ("Points", _) => Role::Points,
+                    ("Cells", "connectivity") => Role::Connectivity,
+                    ("Cells", "offsets") => Role::Offsets,
+                    ("Cells", "types") => Role::Types,
+                    ("PointData", _) if components == 3 => Role::PointVector,
+                    ("FieldData", "TimeValue") => Role::Time,
+                    // Arrays softbench does not use are read past, never decoded.
+                    _ => {
+                        array_content(&mut c, &tag)?;
+                        continue;
+                    }
+                };
+                let counts = piece.map(|(_, n, m)| (n, m));
+                if counts.is_none() && role != Role::Time {
+                    return Err(c.error_at(
+                        tag.at,
+                        "a mesh `DataArray` before its `Piece` (NumberOfPoints and \
+                         NumberOfCells must come first)",
+                    ));
                 }
+                let (n, m) = counts.unwrap_or((0, 0));
+                let limit = role.max_values(n, m);
+                let values = data_array(&mut c, &tag, enc, limit, role.what())?;
+                let slot = match role {
+                    Role::Points => &mut points,
+                    Role::Connectivity => &mut connectivity,
+                    Role::Offsets => &mut offsets,
+                    Role::Types => &mut types,
+                    Role::PointVector => {
+                        point_arrays.push((name, line, values));
+                        continue;
+                    }
+                    Role::Time => {
+                        time = values.first().copied();
+                        continue;
+                    }
+                };
+                if slot.is_some() {
+                    return Err(c.error_at(
+                        tag.at,
+                        format!(
+                            "a second {} array: a grid has one (the first would be silently \
+                             replaced)",
+                            role.what()
+                        ),
+                    ));
+                }
+                *slot = Some((line, values));
             }
             _ => {}
         }
@@ -278,7 +337,7 @@ pub fn parse_vtu(bytes: &[u8], path: &Path) -> Result<VtuFrame, MeshError> {
         return Err(text::empty_mesh(path, end, "no `Piece`"));
     };
     let piece_line = c.line_at(piece_at);
-    let points = points.ok_or_else(|| text::empty_mesh(path, end, "no `Points` array"))?;
+    let (_, points) = points.ok_or_else(|| text::empty_mesh(path, end, "no `Points` array"))?;
     if points.len() != 3 * n {
         return Err(parse_error(
             path,
@@ -316,10 +375,7 @@ pub fn parse_vtu(bytes: &[u8], path: &Path) -> Result<VtuFrame, MeshError> {
     }
     let tets = cells(path, &connectivity, &offsets, &types, lines, n)?;
     let mut point_vectors = Vec::new();
-    for (name, components, line, values) in point_arrays {
-        if components != 3 {
-            continue;
-        }
+    for (name, line, values) in point_arrays {
         if values.len() != 3 * n {
             return Err(parse_error(
                 path,
@@ -345,9 +401,53 @@ pub fn parse_vtu(bytes: &[u8], path: &Path) -> Result<VtuFrame, MeshError> {
     })
 }
 
-/// Decodes one `DataArray`'s content (the cursor is just past its opening tag) to f64
-/// values, and moves past `</DataArray>`.
-fn data_array(c: &mut Cursor, tag: &Tag, enc: Encoding) -> Result<Vec<f64>, MeshError> {
+/// What a decoded `DataArray` is for; every other array is read past undecoded.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Role {
+    Points,
+    Connectivity,
+    Offsets,
+    Types,
+    /// A point array of three components (velocity, displacement).
+    PointVector,
+    /// The field `TimeValue`.
+    Time,
+}
+
+/// Most points a VTK cell has (the triquadratic hexahedron's 27): a bound on the connectivity
+/// of a grid of linear tets and the other fixed-size cells read past.
+const MAX_CELL_POINTS: usize = 27;
+/// Most values a `TimeValue` field may hold.
+const MAX_TIME_VALUES: usize = 16;
+
+impl Role {
+    /// Most values the array may hold for `n` points and `m` cells: checked against the sizes
+    /// it declares before anything is decoded, inflated or converted.
+    fn max_values(self, n: usize, m: usize) -> usize {
+        match self {
+            Role::Points | Role::PointVector => n.saturating_mul(3),
+            Role::Connectivity => m.saturating_mul(MAX_CELL_POINTS),
+            Role::Offsets | Role::Types => m,
+            Role::Time => MAX_TIME_VALUES,
+        }
+    }
+
+    /// The array in messages, with the count that bounds it.
+    fn what(self) -> &'static str {
+        match self {
+            Role::Points => "`Points` (3 per point of NumberOfPoints)",
+            Role::Connectivity => "`connectivity` (at most 27 per cell of NumberOfCells)",
+            Role::Offsets => "`offsets` (one per cell of NumberOfCells)",
+            Role::Types => "`types` (one per cell of NumberOfCells)",
+            Role::PointVector => "point array (3 per point of NumberOfPoints)",
+            Role::Time => "`TimeValue` (at most 16)",
+        }
+    }
+}
+
+/// The content of one `DataArray` (the cursor is just past its opening tag); moves past
+/// `</DataArray>`.
+fn array_content<'a>(c: &mut Cursor<'a>, tag: &Tag) -> Result<(usize, &'a [u8]), MeshError> {
     let start = c.pos;
     let rest = &c.bytes[start..];
     let close = b"</DataArray>";
@@ -355,7 +455,21 @@ fn data_array(c: &mut Cursor, tag: &Tag, enc: Encoding) -> Result<Vec<f64>, Mesh
         return Err(c.error_at(tag.at, "`DataArray` has no `</DataArray>`"));
     };
     c.pos = start + len + close.len();
-    let content = &rest[..len];
+    Ok((start, &rest[..len]))
+}
+
+/// Decodes one `DataArray`'s content (the cursor is just past its opening tag) to at most
+/// `limit` f64 values, and moves past `</DataArray>`. The sizes a binary array declares are
+/// checked against `limit` before it is inflated, and its values counted before they are
+/// converted; an ascii array stops at the first value past `limit`.
+fn data_array(
+    c: &mut Cursor,
+    tag: &Tag,
+    enc: Encoding,
+    limit: usize,
+    what: &str,
+) -> Result<Vec<f64>, MeshError> {
+    let (start, content) = array_content(c, tag)?;
     let kind = tag.get("type").unwrap_or("");
     let width = match kind {
         "Int8" | "UInt8" => 1,
@@ -366,17 +480,23 @@ fn data_array(c: &mut Cursor, tag: &Tag, enc: Encoding) -> Result<Vec<f64>, Mesh
             return Err(c.error_at(tag.at, format!("unknown DataArray type `{}`", clip(other))));
         }
     };
+    let too_many = |found: String| {
+        format!("the {what} array holds {found}, more than the {limit} values the grid allows")
+    };
     match tag.get("format").unwrap_or("ascii") {
         "ascii" => {
             let Ok(text) = std::str::from_utf8(content) else {
                 return Err(c.error_at(start, "ascii DataArray is not text"));
             };
-            let mut values = Vec::new();
+            let mut values = Vec::with_capacity(limit.min(text.len() / 2 + 1));
             for token in text.split_ascii_whitespace() {
+                let at = start + (token.as_ptr() as usize - text.as_ptr() as usize);
+                if values.len() == limit {
+                    return Err(c.error_at(at, too_many("more values".into())));
+                }
                 match token.parse::<f64>() {
                     Ok(x) => values.push(x),
                     Err(_) => {
-                        let at = start + (token.as_ptr() as usize - text.as_ptr() as usize);
                         return Err(
                             c.error_at(at, format!("expected a number, found `{}`", clip(token)))
                         );
@@ -388,7 +508,9 @@ fn data_array(c: &mut Cursor, tag: &Tag, enc: Encoding) -> Result<Vec<f64>, Mesh
         "binary" => {
             let raw = decode_base64(content)
                 .map_err(|i| c.error_at(start + i, "DataArray is not valid base64"))?;
-            let data = unpack(&raw, enc).map_err(|m| c.error_at(start, m))?;
+            let max_bytes = limit.saturating_mul(width) as u64;
+            let data = unpack(&raw, enc, max_bytes)
+                .map_err(|m| c.error_at(start, format!("the {what} array: {m}")))?;
             if data.len() % width != 0 {
                 return Err(c.error_at(
                     start,
@@ -436,9 +558,16 @@ fn number(kind: &str, b: &[u8], little: bool) -> f64 {
     }
 }
 
+/// Most bytes a zlib stream can inflate to per compressed byte (deflate's limit: a 258-byte
+/// match in two bits), plus a constant for the stream's own framing.
+const MAX_ZLIB_RATIO: u64 = 1032;
+const ZLIB_SLACK: u64 = 4096;
+
 /// The array bytes of a decoded binary block: a byte count then the data, or (zlib) a
-/// block table then the compressed blocks.
-fn unpack(raw: &[u8], enc: Encoding) -> Result<Vec<u8>, String> {
+/// block table then the compressed blocks. Every size the header declares is checked —
+/// against `max_bytes` (what the grid's counts allow), the mesh budget and what the
+/// compressed blocks can inflate to — before anything is allocated or inflated.
+fn unpack(raw: &[u8], enc: Encoding, max_bytes: u64) -> Result<Vec<u8>, String> {
     let hs = if enc.header64 { 8 } else { 4 };
     let header = |i: usize| -> Result<u64, String> {
         let b = raw
@@ -450,9 +579,15 @@ fn unpack(raw: &[u8], enc: Encoding) -> Result<Vec<u8>, String> {
             enc.little,
         ) as u64)
     };
+    let over = |n: u64| {
+        format!("it declares {n} bytes, more than the {max_bytes} bytes the grid's counts allow")
+    };
     if !enc.zlib {
         let n = header(0)?;
         let data = &raw[hs..];
+        if n > max_bytes {
+            return Err(over(n));
+        }
         if (data.len() as u64) < n {
             return Err(format!(
                 "binary DataArray announces {n} bytes but holds {}",
@@ -463,33 +598,66 @@ fn unpack(raw: &[u8], enc: Encoding) -> Result<Vec<u8>, String> {
     }
     let blocks = header(0)?;
     let block_size = header(1)?;
-    let last_size = header(2)?;
+    // VTK writes 0 here when the last block is full.
+    let last_size = match header(2)? {
+        0 => block_size,
+        partial => partial,
+    };
     let table_end = 3u64
         .checked_add(blocks)
         .and_then(|k| k.checked_mul(hs as u64))
         .filter(|&e| e <= raw.len() as u64)
         .ok_or("compressed DataArray's block table is longer than the array")?;
+    if blocks > 0 && last_size > block_size {
+        return Err(format!(
+            "its last block of {last_size} bytes is larger than the block size {block_size}"
+        ));
+    }
     let total = blocks
         .saturating_sub(1)
         .saturating_mul(block_size)
         .saturating_add(if blocks > 0 { last_size } else { 0 });
-    // zlib can shrink an array of zeros a thousandfold, so the announced size is bounded by
-    // the mesh budget (every entry of a point or cell array of a budget-sized mesh, nine
-    // 8-byte components), not by the compressed size; memory grows with what decompresses.
+    if total > max_bytes {
+        return Err(over(total));
+    }
+    // Every entry of a point or cell array of a budget-sized mesh, nine 8-byte components.
     let budget = crate::limits::MESH.limit().saturating_mul(9 * 8);
     if total > budget {
         return Err(format!(
-            "compressed DataArray announces {total} bytes, more than an array of a mesh within \
-             the mesh budget can hold"
+            "it declares {total} bytes, more than an array of a mesh within the mesh budget \
+             can hold"
         ));
+    }
+    // Each block's declared size against what its compressed bytes can inflate to, and the
+    // blocks against the array's length, before any is inflated.
+    let mut at = table_end;
+    for b in 0..blocks as usize {
+        let size = header(3 + b)?;
+        let expect = if b + 1 == blocks as usize {
+            last_size
+        } else {
+            block_size
+        };
+        at = at
+            .checked_add(size)
+            .filter(|&e| e <= raw.len() as u64)
+            .ok_or("compressed DataArray ends inside a block")?;
+        if expect
+            > size
+                .saturating_mul(MAX_ZLIB_RATIO)
+                .saturating_add(ZLIB_SLACK)
+        {
+            return Err(format!(
+                "block {b} declares {expect} bytes from {size} compressed bytes, more than \
+                 zlib can inflate them to"
+            ));
+        }
     }
     let mut out = Vec::with_capacity((total as usize).min(raw.len().saturating_mul(4)));
     let mut at = table_end as usize;
     for b in 0..blocks as usize {
         let size = header(3 + b)? as usize;
-        let chunk = raw
-            .get(at..at.saturating_add(size))
-            .ok_or("compressed DataArray ends inside a block")?;
+        let chunk = &raw[at..at + size];
         at += size;
         let expect = if b + 1 == blocks as usize {
             last_size
