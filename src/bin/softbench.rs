@@ -20,7 +20,7 @@ use softbench::data::{DataError, DataPaths};
 use softbench::export::{DisplayError, ExportFormat};
 use softbench::integrate::methods::METHODS;
 use softbench::interrupt::{self, Signal};
-use softbench::lock::{FolderLock, Holder, LockError, Wait};
+use softbench::lock::{FolderLock, LockError, Wait, Waiting};
 use softbench::material::MaterialKind;
 use softbench::mesh::{AnyMesh, MESH_FORMATS, MeshError, MeshFormat, MeshReport, read_mesh};
 use softbench::parallel::Parallelism;
@@ -275,6 +275,11 @@ fn is_bad_input(err: &anyhow::Error) -> bool {
             || e.downcast_ref::<study::MergeError>()
                 .is_some_and(|m| matches!(m, study::MergeError::NotAStudy(_)))
             || e.is::<softbench::limits::OverBudget>()
+            || e.downcast_ref::<LockError>()
+                .is_some_and(|l| matches!(l, LockError::Unreadable { .. }))
+            || e.downcast_ref::<study::RunError>().is_some_and(|r| {
+                matches!(r, study::RunError::Lock(LockError::Unreadable { .. }))
+            })
             || e.downcast_ref::<study::RedrawError>()
                 .is_some_and(|r| matches!(r, study::RedrawError::Results(_)))
     })
@@ -293,7 +298,7 @@ fn stop_if_requested() -> Result<(), Stopped> {
 /// Lock an output folder for this process; with `wait`, wait for another holder, saying so.
 fn lock_folder(folder: &Path, purpose: &str, wait: bool) -> Result<FolderLock, LockError> {
     let wait = if wait { Wait::Yes } else { Wait::No };
-    FolderLock::acquire(folder, purpose, wait, |holder: &Holder| {
+    FolderLock::acquire(folder, purpose, wait, |holder: &Waiting| {
         console::err(&format!(
             "waiting for {holder} to finish with {}",
             folder.display()
