@@ -355,3 +355,85 @@ fn the_step_budget_variable_also_bounds_study_runs() {
         .unwrap();
     assert_refused(&o, &out, &["grid.\"run.dt\"", "50", "SOFTBENCH_MAX_STEPS"]);
 }
+
+// 3. Signals inside long work.
+
+/// A beam whose single VBD step takes minutes: a million iterations per step.
+fn slow_vbd() -> String {
+    beam("vbd", "0.001", 100, "[forces]\ngravity = [0.0, -9.81, 0.0]\n")
+        .replace("box = [4, 1, 1]", "box = [8, 4, 4]")
+        .replace(
+            "method = \"vbd\"",
+            "method = \"vbd\"\nvbd = { iterations = 1000000 }",
+        )
+}
+
+#[test]
+fn sigterm_inside_a_step_of_a_million_vbd_iterations_stops_it_at_once() {
+    for (signal, code) in [(libc::SIGTERM, 143), (libc::SIGINT, 130)] {
+        let tmp = TempDir::new("sig-vbd");
+        let scene = tmp.write("vbd.toml", &slow_vbd());
+        let out = tmp.path().join("out");
+        let child = spawn(&[
+            "simulate",
+            scene.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        std::thread::sleep(Duration::from_millis(1500));
+        send(&child, signal);
+        let sent = Instant::now();
+        let o = wait_at_most(child, Duration::from_secs(60));
+        assert!(sent.elapsed() < Duration::from_secs(10), "{:?}", sent.elapsed());
+        assert_eq!(o.status.code(), Some(code), "{}", stderr(&o));
+        assert_eq!(status(&out), "interrupted");
+        assert!(stderr(&o).contains("during step 1"), "{}", stderr(&o));
+    }
+}
+
+#[test]
+fn a_second_signal_exits_at_once_with_a_message() {
+    let tmp = TempDir::new("sig-twice");
+    let scene = tmp.write("vbd.toml", &slow_vbd());
+    let out = tmp.path().join("out");
+    let child = spawn(&[
+        "simulate",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    std::thread::sleep(Duration::from_millis(1500));
+    send(&child, libc::SIGTERM);
+    send(&child, libc::SIGINT);
+    let o = wait_at_most(child, Duration::from_secs(60));
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("second stop signal"), "{err}");
+}
+
+#[test]
+fn sigterm_during_a_studys_reference_stops_it_at_once() {
+    let tmp = TempDir::new("sig-ref");
+    tmp.write("beam.toml", &slow_vbd());
+    // The runs are VBD; the reference (backward Euler at 1e-6 s, 2 x 10^4 steps) is long.
+    let study = tmp.write(
+        "study.toml",
+        &wp_study(
+            "0.001",
+            "[work-precision.reference]\nmethod = \"backward-euler\"\ndt = 1e-6\n",
+        ),
+    );
+    let out = tmp.path().join("results");
+    let child = spawn(&[
+        "run",
+        study.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    std::thread::sleep(Duration::from_millis(2500));
+    send(&child, libc::SIGTERM);
+    let sent = Instant::now();
+    let o = wait_at_most(child, Duration::from_secs(60));
+    assert!(sent.elapsed() < Duration::from_secs(10), "{:?}", sent.elapsed());
+    assert_eq!(o.status.code(), Some(143), "{}", stderr(&o));
+}

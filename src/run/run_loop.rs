@@ -444,6 +444,20 @@ pub fn run(
                 }
                 observer.after_step(step, model, state)?;
             }
+            Err(crate::integrate::StepError::Interrupted(signal)) => {
+                summary.outcome = Outcome::ended(
+                    OutcomeKind::Interrupted,
+                    step - 1,
+                    state.t,
+                    "interrupted",
+                    format!(
+                        "stopped by {} during step {step}, after step {}",
+                        signal.name(),
+                        step - 1
+                    ),
+                );
+                break;
+            }
             Err(e) => {
                 summary.outcome = Outcome::of_step_error(step, state.t + dt, &e);
                 break;
