@@ -437,3 +437,96 @@ fn sigterm_during_a_studys_reference_stops_it_at_once() {
     assert!(sent.elapsed() < Duration::from_secs(10), "{:?}", sent.elapsed());
     assert_eq!(o.status.code(), Some(143), "{}", stderr(&o));
 }
+
+// 5. Smaller: a planted `frames` link, a file size limit, a closed pipe.
+
+#[test]
+fn a_planted_frames_symlink_is_refused_and_nothing_outside_is_deleted() {
+    let tmp = TempDir::new("frames-link");
+    let scene = tmp.write("beam.toml", &beam("symplectic-euler", "0.001", 5, ""));
+    let outside = tmp.path().join("outside");
+    std::fs::create_dir_all(&outside).unwrap();
+    std::fs::write(outside.join("frame_00000.vtu"), "precious").unwrap();
+    std::fs::write(outside.join("series.pvd"), "precious").unwrap();
+    let out = tmp.path().join("out");
+    std::fs::create_dir_all(&out).unwrap();
+    std::os::unix::fs::symlink(&outside, out.join("frames")).unwrap();
+    let o = simulate(&scene, &out, &["--export", "vtu"]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("symbolic link") && err.contains("frames"), "{err}");
+    assert_eq!(
+        std::fs::read_to_string(outside.join("frame_00000.vtu")).unwrap(),
+        "precious"
+    );
+    assert!(outside.join("series.pvd").exists());
+    assert!(!out.join("trajectory.csv").exists());
+}
+
+#[test]
+fn a_file_size_limit_is_reported_and_leaves_no_file_cut_short() {
+    use std::os::unix::process::CommandExt;
+    let tmp = TempDir::new("fsize");
+    let scene = tmp.write("beam.toml", &beam("symplectic-euler", "0.0001", 20000, ""));
+    let out = tmp.path().join("out");
+    let mut command = Command::new(env!("CARGO_BIN_EXE_softbench"));
+    command.args([
+        "simulate",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--set",
+        "run.sample_every=1",
+    ]);
+    // SAFETY: only setrlimit(2) between fork and exec.
+    unsafe {
+        command.pre_exec(|| {
+            let limit = libc::rlimit {
+                rlim_cur: 50 * 1024,
+                rlim_max: 50 * 1024,
+            };
+            if libc::setrlimit(libc::RLIMIT_FSIZE, &limit) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            Ok(())
+        });
+    }
+    let o = command.output().unwrap();
+    let err = stderr(&o);
+    // Not killed by SIGXFSZ: an exit code and a message.
+    assert_eq!(o.status.code(), Some(1), "{err} {:?}", o.status);
+    assert!(err.contains("File too large") && err.contains("ulimit -f"), "{err}");
+    assert!(!out.join("trajectory.csv").exists());
+    let partials: Vec<_> = std::fs::read_dir(&out)
+        .unwrap()
+        .flatten()
+        .filter(|e| e.file_name().to_string_lossy().ends_with(".partial"))
+        .collect();
+    assert!(partials.is_empty(), "{partials:?}");
+}
+
+#[test]
+fn mesh_info_json_into_a_closed_pipe_ends_quietly() {
+    let tmp = TempDir::new("mesh-info-pipe");
+    let mesh = tmp.write(
+        "tet.mesh",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nt 0 1 2 3\n",
+    );
+    for json in [true, false] {
+        let mut args = vec!["mesh-info", mesh.to_str().unwrap()];
+        if json {
+            args.push("--json");
+        }
+        let mut child = Command::new(env!("CARGO_BIN_EXE_softbench"))
+            .args(&args)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        // Close our end before softbench writes: every write fails with EPIPE.
+        drop(child.stdout.take());
+        let o = child.wait_with_output().unwrap();
+        assert_eq!(o.status.code(), Some(0), "json {json}: {}", stderr(&o));
+        assert!(stderr(&o).is_empty(), "json {json}: {}", stderr(&o));
+    }
+}
