@@ -55,7 +55,10 @@ fn assert_refused(o: &std::process::Output, out: &Path, expect: &[&str]) {
 fn status(out: &Path) -> String {
     let text = std::fs::read_to_string(out.join("summary.json")).unwrap();
     let json: serde_json::Value = serde_json::from_str(&text).unwrap();
-    json["summary"]["outcome"]["status"].as_str().unwrap().to_owned()
+    json["summary"]["outcome"]["status"]
+        .as_str()
+        .unwrap()
+        .to_owned()
 }
 
 fn spawn(args: &[&str]) -> Child {
@@ -170,7 +173,11 @@ fn stability_max_steps_beyond_the_step_budget_is_refused() {
 #[test]
 fn iteration_and_substep_counts_up_to_u32_max_are_refused() {
     for (method, table, key) in [
-        ("vbd", "vbd = { iterations = 4294967295 }", "integrator.vbd.iterations"),
+        (
+            "vbd",
+            "vbd = { iterations = 4294967295 }",
+            "integrator.vbd.iterations",
+        ),
         (
             "xpbd",
             "xpbd = { substeps = 4294967295 }",
@@ -195,11 +202,7 @@ fn iteration_and_substep_counts_up_to_u32_max_are_refused() {
         let scene = tmp.write("beam.toml", &scene);
         let out = tmp.path().join("out");
         let o = simulate(&scene, &out, &[]);
-        assert_refused(
-            &o,
-            &out,
-            &[key, "1000000", "SOFTBENCH_MAX_ITERATIONS"],
-        );
+        assert_refused(&o, &out, &[key, "1000000", "SOFTBENCH_MAX_ITERATIONS"]);
     }
 }
 
@@ -284,7 +287,11 @@ fn a_time_step_of_1e300_is_refused_or_unstable_never_completed() {
     );
     for limit in ["1e3", "0"] {
         let out = tmp.path().join(format!("fall-{limit}"));
-        let o = simulate(&scene, &out, &["--set", &format!("run.energy_limit={limit}")]);
+        let o = simulate(
+            &scene,
+            &out,
+            &["--set", &format!("run.energy_limit={limit}")],
+        );
         assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
         assert_eq!(status(&out), "unstable");
         assert!(stderr(&o).contains("at step 1"), "{}", stderr(&o));
@@ -349,7 +356,12 @@ fn the_step_budget_variable_also_bounds_study_runs() {
     let study = tmp.write("study.toml", &wp_study("0.0001", ""));
     let out = tmp.path().join("results");
     let o = Command::new(env!("CARGO_BIN_EXE_softbench"))
-        .args(["run", study.to_str().unwrap(), "--out", out.to_str().unwrap()])
+        .args([
+            "run",
+            study.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
         .env("SOFTBENCH_MAX_STEPS", "50")
         .output()
         .unwrap();
@@ -360,12 +372,17 @@ fn the_step_budget_variable_also_bounds_study_runs() {
 
 /// A beam whose single VBD step takes minutes: a million iterations per step.
 fn slow_vbd() -> String {
-    beam("vbd", "0.001", 100, "[forces]\ngravity = [0.0, -9.81, 0.0]\n")
-        .replace("box = [4, 1, 1]", "box = [8, 4, 4]")
-        .replace(
-            "method = \"vbd\"",
-            "method = \"vbd\"\nvbd = { iterations = 1000000 }",
-        )
+    beam(
+        "vbd",
+        "0.001",
+        100,
+        "[forces]\ngravity = [0.0, -9.81, 0.0]\n",
+    )
+    .replace("box = [4, 1, 1]", "box = [8, 4, 4]")
+    .replace(
+        "method = \"vbd\"",
+        "method = \"vbd\"\nvbd = { iterations = 1000000 }",
+    )
 }
 
 #[test]
@@ -384,7 +401,11 @@ fn sigterm_inside_a_step_of_a_million_vbd_iterations_stops_it_at_once() {
         send(&child, signal);
         let sent = Instant::now();
         let o = wait_at_most(child, Duration::from_secs(60));
-        assert!(sent.elapsed() < Duration::from_secs(10), "{:?}", sent.elapsed());
+        assert!(
+            sent.elapsed() < Duration::from_secs(10),
+            "{:?}",
+            sent.elapsed()
+        );
         assert_eq!(o.status.code(), Some(code), "{}", stderr(&o));
         assert_eq!(status(&out), "interrupted");
         assert!(stderr(&o).contains("during step 1"), "{}", stderr(&o));
@@ -434,7 +455,11 @@ fn sigterm_during_a_studys_reference_stops_it_at_once() {
     send(&child, libc::SIGTERM);
     let sent = Instant::now();
     let o = wait_at_most(child, Duration::from_secs(60));
-    assert!(sent.elapsed() < Duration::from_secs(10), "{:?}", sent.elapsed());
+    assert!(
+        sent.elapsed() < Duration::from_secs(10),
+        "{:?}",
+        sent.elapsed()
+    );
     assert_eq!(o.status.code(), Some(143), "{}", stderr(&o));
 }
 
@@ -454,7 +479,10 @@ fn a_planted_frames_symlink_is_refused_and_nothing_outside_is_deleted() {
     let o = simulate(&scene, &out, &["--export", "vtu"]);
     let err = stderr(&o);
     assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(err.contains("symbolic link") && err.contains("frames"), "{err}");
+    assert!(
+        err.contains("symbolic link") && err.contains("frames"),
+        "{err}"
+    );
     assert_eq!(
         std::fs::read_to_string(outside.join("frame_00000.vtu")).unwrap(),
         "precious"
@@ -495,7 +523,10 @@ fn a_file_size_limit_is_reported_and_leaves_no_file_cut_short() {
     let err = stderr(&o);
     // Not killed by SIGXFSZ: an exit code and a message.
     assert_eq!(o.status.code(), Some(1), "{err} {:?}", o.status);
-    assert!(err.contains("File too large") && err.contains("ulimit -f"), "{err}");
+    assert!(
+        err.contains("File too large") && err.contains("ulimit -f"),
+        "{err}"
+    );
     assert!(!out.join("trajectory.csv").exists());
     let partials: Vec<_> = std::fs::read_dir(&out)
         .unwrap()

@@ -296,9 +296,8 @@ fn is_bad_input(err: &anyhow::Error) -> bool {
             || e.is::<softbench::limits::OverBudget>()
             || e.downcast_ref::<LockError>()
                 .is_some_and(|l| matches!(l, LockError::Unreadable { .. }))
-            || e.downcast_ref::<study::RunError>().is_some_and(|r| {
-                matches!(r, study::RunError::Lock(LockError::Unreadable { .. }))
-            })
+            || e.downcast_ref::<study::RunError>()
+                .is_some_and(|r| matches!(r, study::RunError::Lock(LockError::Unreadable { .. })))
             || e.downcast_ref::<study::RedrawError>()
                 .is_some_and(|r| matches!(r, study::RedrawError::Results(_)))
     })

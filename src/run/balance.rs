@@ -271,10 +271,7 @@ impl EnergyBalance {
         non_finite("the energy removed by damping", self.dissipated)?;
         let gravity = (energies.gravity - self.initial_gravity).abs();
         self.scale.gravity = self.scale.gravity.max(gravity);
-        non_finite(
-            "the energy the body holds or exchanges",
-            self.scale.total(),
-        )?;
+        non_finite("the energy the body holds or exchanges", self.scale.total())?;
         let excess = self.excess(energy);
         non_finite("the energy gained beyond the work done on the body", excess)?;
         self.steps += 1;

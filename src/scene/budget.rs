@@ -50,7 +50,10 @@ pub(super) fn check(c: &SceneConfig) -> Result<(), Problem> {
             "integrator.xpbd.substeps",
             u64::from(i.xpbd.substeps).checked_mul(i.xpbd.iterations.into()),
         ),
-        ("integrator.adaptive.max_substeps", Some(i.adaptive.max_substeps)),
+        (
+            "integrator.adaptive.max_substeps",
+            Some(i.adaptive.max_substeps),
+        ),
         (
             "integrator.static.max_load_steps",
             Some(i.static_solve.max_load_steps.into()),
