@@ -45,6 +45,13 @@ pub fn is_broken_pipe(err: &(dyn std::error::Error + 'static)) -> bool {
         {
             return true;
         }
+        // serde_json keeps the io::Error inside (its `source` skips it): `mesh-info --json`.
+        if e.downcast_ref::<serde_json::Error>()
+            .and_then(serde_json::Error::io_error_kind)
+            == Some(std::io::ErrorKind::BrokenPipe)
+        {
+            return true;
+        }
         current = e.source();
     }
     false

@@ -1,12 +1,13 @@
 //! SIGINT and SIGTERM as a request to stop: the run loop finishes its current step, the
-//! command writes what is done and exits 130 or 143. A second signal of either kind ends the
-//! process at once (exit 1), for a run that does not reach its next step soon.
+//! command writes what is done and exits 130 or 143. Every iteration and substep loop of a
+//! step checks the request too ([`crate::integrate::StepError::stop_if_requested`]), and so does
+//! loading a study. A second signal of either kind ends the process at once (exit 1) with a
+//! message, for work that does not reach its next check soon.
 //!
 //! Nothing is requested until [`install`] is called (the CLI does; library users and tests
 //! that do not call it never see a request).
 
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use signal_hook::consts::{SIGINT, SIGTERM};
 
@@ -40,18 +41,28 @@ impl Signal {
 /// The signal number received first (0: none).
 static REQUESTED: AtomicUsize = AtomicUsize::new(0);
 
+/// What a second signal prints before the process ends (written with `write(2)`, the only
+/// output a signal handler may do).
+const SECOND_SIGNAL: &[u8] = b"softbench: a second stop signal: exiting at once (exit 1); \
+files being written are left as *.partial and never taken as finished\n";
+
 /// Install the handlers for SIGINT and SIGTERM (idempotent enough: call once at start-up).
+/// The first signal of either kind is recorded; a second one prints [`SECOND_SIGNAL`] and
+/// ends the process at once with exit 1.
 pub fn install() -> std::io::Result<()> {
-    let seen = Arc::new(AtomicBool::new(false));
     for signal in [SIGINT, SIGTERM] {
-        // Order matters: the shutdown hook runs first and only fires when a signal was seen.
-        signal_hook::flag::register_conditional_shutdown(signal, 1, Arc::clone(&seen))?;
-        signal_hook::flag::register(signal, Arc::clone(&seen))?;
         let action = move || {
-            let _ =
+            let first =
                 REQUESTED.compare_exchange(0, signal as usize, Ordering::SeqCst, Ordering::SeqCst);
+            if first.is_err() {
+                // SAFETY: write(2) and _exit(2) are async-signal-safe; the buffer is static.
+                unsafe {
+                    libc::write(2, SECOND_SIGNAL.as_ptr().cast(), SECOND_SIGNAL.len());
+                }
+                signal_hook::low_level::exit(1);
+            }
         };
-        // SAFETY: the action only performs an atomic compare-exchange.
+        // SAFETY: the action only performs an atomic compare-exchange, write(2) and _exit(2).
         unsafe { signal_hook::low_level::register(signal, action) }?;
     }
     Ok(())

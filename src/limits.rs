@@ -10,6 +10,12 @@
 //! | steps         | 100,000,000 | `SOFTBENCH_MAX_STEPS`    | `run.steps` of one run               |
 //! | rows          | 10,000,000  | `SOFTBENCH_MAX_ROWS`     | sampled rows of one run              |
 //! | study runs    | 10,000      | `SOFTBENCH_MAX_RUNS`     | runs in a study's grid               |
+//! | iterations    | 1,000,000   | `SOFTBENCH_MAX_ITERATIONS` | iterations or substeps of one step |
+//! | samples       | 10,000      | `SOFTBENCH_MAX_SAMPLES`  | error sample times of a study (each keeps a state) |
+//!
+//! [`STEPS`] bounds every run a command takes: a scene's `run.steps`, each run of a
+//! work-precision study (`horizon / dt`), each trial of a stability study (`max_steps`) and
+//! every reference solution (`horizon / reference dt`, twice for the half-step check).
 
 /// One budget: a default and the environment variable that overrides it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -49,6 +55,30 @@ pub const RUNS: Budget = Budget {
     variable: "SOFTBENCH_MAX_RUNS",
     default: 10_000,
 };
+
+/// Iterations or substeps of one step: `newton.max_iterations`, `vbd.iterations`,
+/// `projective_dynamics.iterations`, `xpbd.substeps` × `xpbd.iterations`,
+/// `adaptive.max_substeps`, `static.max_load_steps`, `solver.cg.max_iterations`.
+pub const ITERATIONS: Budget = Budget {
+    what: "iterations or substeps of one step",
+    variable: "SOFTBENCH_MAX_ITERATIONS",
+    default: 1_000_000,
+};
+
+/// Error sample times of a study (`work-precision.samples`, `stability.error_samples`): each
+/// keeps a copy of the state of every run and reference.
+pub const SAMPLES: Budget = Budget {
+    what: "error sample times (each keeps a copy of the state)",
+    variable: "SOFTBENCH_MAX_SAMPLES",
+    default: 10_000,
+};
+
+/// Steps of `horizon` covered at `dt` (rounded up), as checked against [`STEPS`]: `None` when
+/// the count is not a finite number that fits in 64 bits (never a saturating cast).
+pub fn steps_of(horizon: f64, dt: f64) -> Option<u64> {
+    let steps = (horizon / dt).ceil();
+    (steps.is_finite() && steps >= 0.0 && steps < u64::MAX as f64).then_some(steps as u64)
+}
 
 /// A count over its budget.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]

@@ -80,6 +80,34 @@ impl std::fmt::Display for Holder {
     }
 }
 
+/// What a waiting [`FolderLock::acquire`] waits for, for its message.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Waiting {
+    /// A live softbench process holds the lock.
+    Holder(Holder),
+    /// The lock file cannot be parsed (empty, garbage or written by something else): the wait
+    /// ends when it is removed.
+    Unreadable { lock: PathBuf, excerpt: String },
+}
+
+impl std::fmt::Display for Waiting {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Holder(h) => h.fmt(f),
+            Self::Unreadable { lock, excerpt } => write!(
+                f,
+                "whoever wrote {} (not a lock softbench can read: it holds `{excerpt}`; \
+                 remove it if no softbench process uses the folder)",
+                lock.display()
+            ),
+        }
+    }
+}
+
+/// How long a lock file may stay unparseable before it is reported: its creator writes it
+/// right after creating it (on a file system without hard links), so a longer one is garbage.
+pub const UNREADABLE_GRACE: Duration = Duration::from_secs(1);
+
 /// Why a folder could not be locked.
 #[derive(Debug, thiserror::Error)]
 pub enum LockError {
@@ -91,6 +119,16 @@ pub enum LockError {
         folder: PathBuf,
         lock: PathBuf,
         holder: Holder,
+    },
+    /// The lock file is not one softbench wrote (empty, garbage, binary).
+    #[error(
+        "{lock} is not a lock softbench can read (it holds `{excerpt}`): if no softbench \
+         process is writing into {folder}, remove {lock} and run the command again"
+    )]
+    Unreadable {
+        folder: PathBuf,
+        lock: PathBuf,
+        excerpt: String,
     },
     #[error("{path}: cannot lock: {error}")]
     Io {
@@ -123,7 +161,7 @@ impl FolderLock {
         folder: &Path,
         purpose: &str,
         wait: Wait,
-        mut on_wait: impl FnMut(&Holder),
+        mut on_wait: impl FnMut(&Waiting),
     ) -> Result<Self, LockError> {
         let path = folder.join(LOCK_FILE);
         let io = |error| LockError::Io {
@@ -132,14 +170,15 @@ impl FolderLock {
         };
         let me = Holder::this_process(purpose);
         let mut announced = false;
+        let mut unreadable_since: Option<std::time::Instant> = None;
         loop {
             match create_exclusive(&path, &me.to_text()) {
                 Ok(()) => return Ok(FolderLock { path, holder: me }),
                 Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
                 Err(e) => return Err(io(e)),
             }
-            let text = match std::fs::read_to_string(&path) {
-                Ok(t) => t,
+            let text = match std::fs::read(&path) {
+                Ok(t) => String::from_utf8_lossy(&t).into_owned(),
                 // Released between our attempt and the read: try again.
                 Err(e) if e.kind() == std::io::ErrorKind::NotFound => continue,
                 Err(e) => return Err(io(e)),
@@ -150,6 +189,7 @@ impl FolderLock {
                     continue;
                 }
                 Some(holder) => {
+                    unreadable_since = None;
                     if wait == Wait::No {
                         return Err(LockError::Held {
                             folder: folder.to_owned(),
@@ -158,12 +198,32 @@ impl FolderLock {
                         });
                     }
                     if !announced {
-                        on_wait(&holder);
+                        on_wait(&Waiting::Holder(holder));
                         announced = true;
                     }
                 }
-                // Being written right now by its creator (or garbage): look again shortly.
-                None => {}
+                // Being written right now by its creator, or garbage once that took longer
+                // than the grace period.
+                None => {
+                    let since = *unreadable_since.get_or_insert_with(std::time::Instant::now);
+                    if since.elapsed() >= UNREADABLE_GRACE {
+                        let excerpt = excerpt(&text);
+                        if wait == Wait::No {
+                            return Err(LockError::Unreadable {
+                                folder: folder.to_owned(),
+                                lock: path.clone(),
+                                excerpt,
+                            });
+                        }
+                        if !announced {
+                            on_wait(&Waiting::Unreadable {
+                                lock: path.clone(),
+                                excerpt,
+                            });
+                            announced = true;
+                        }
+                    }
+                }
             }
             std::thread::sleep(Duration::from_millis(200));
             if crate::interrupt::requested().is_some() {
@@ -246,6 +306,19 @@ fn take_over_stale(path: &Path, stale: &str) -> std::io::Result<()> {
         let _ = std::fs::hard_link(&aside, path);
     }
     std::fs::remove_file(&aside)
+}
+
+/// The start of an unreadable lock's text, escaped, for a message.
+fn excerpt(text: &str) -> String {
+    if text.is_empty() {
+        return "nothing: it is empty".into();
+    }
+    let shown: String = text.chars().take(40).flat_map(char::escape_debug).collect();
+    if text.chars().count() > 40 {
+        format!("{shown}...")
+    } else {
+        shown
+    }
 }
 
 /// This machine's host name (from the kernel), or `unknown`.

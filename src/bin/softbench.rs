@@ -20,7 +20,7 @@ use softbench::data::{DataError, DataPaths};
 use softbench::export::{DisplayError, ExportFormat};
 use softbench::integrate::methods::METHODS;
 use softbench::interrupt::{self, Signal};
-use softbench::lock::{FolderLock, Holder, LockError, Wait};
+use softbench::lock::{FolderLock, LockError, Wait, Waiting};
 use softbench::material::MaterialKind;
 use softbench::mesh::{AnyMesh, MESH_FORMATS, MeshError, MeshFormat, MeshReport, read_mesh};
 use softbench::parallel::Parallelism;
@@ -216,6 +216,13 @@ fn main() -> ExitCode {
     if let Err(e) = interrupt::install() {
         console::err(&format!("warning: cannot handle SIGINT/SIGTERM: {e}"));
     }
+    // A file size limit (`ulimit -f`) would kill the process with SIGXFSZ and no word; ignored,
+    // the write fails with EFBIG instead, the atomic file is never committed and the error
+    // below says which file and why.
+    // SAFETY: setting a signal's disposition to SIG_IGN at start-up, before any thread.
+    unsafe {
+        libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
+    }
     let result = match cli.command {
         Command::MeshInfo(args) => mesh_info(&args),
         Command::Simulate(args) => simulate(&args),
@@ -233,6 +240,18 @@ fn main() -> ExitCode {
         Err(err) if err.chain().any(console::is_broken_pipe) => ExitCode::SUCCESS,
         Err(err) => {
             console::err(&format!("error: {err:#}"));
+            // EFBIG, kept as a number or (where a writer's error became text) in the message.
+            let efbig = format!("(os error {})", libc::EFBIG);
+            if err.chain().any(|e| {
+                e.downcast_ref::<std::io::Error>()
+                    .is_some_and(|io| io.raw_os_error() == Some(libc::EFBIG))
+                    || e.to_string().contains(&efbig)
+            }) {
+                console::err(
+                    "the file size limit (`ulimit -f`) was reached: raise it or write less \
+                     (fewer rows or frames); the file cut short was not kept",
+                );
+            }
             // Stopped by a signal, or failed while stopping (waiting for a lock, a reference
             // solution cut short): report the signal's exit code.
             if let Some(signal) = err
@@ -275,6 +294,10 @@ fn is_bad_input(err: &anyhow::Error) -> bool {
             || e.downcast_ref::<study::MergeError>()
                 .is_some_and(|m| matches!(m, study::MergeError::NotAStudy(_)))
             || e.is::<softbench::limits::OverBudget>()
+            || e.downcast_ref::<LockError>()
+                .is_some_and(|l| matches!(l, LockError::Unreadable { .. }))
+            || e.downcast_ref::<study::RunError>()
+                .is_some_and(|r| matches!(r, study::RunError::Lock(LockError::Unreadable { .. })))
             || e.downcast_ref::<study::RedrawError>()
                 .is_some_and(|r| matches!(r, study::RedrawError::Results(_)))
     })
@@ -293,7 +316,7 @@ fn stop_if_requested() -> Result<(), Stopped> {
 /// Lock an output folder for this process; with `wait`, wait for another holder, saying so.
 fn lock_folder(folder: &Path, purpose: &str, wait: bool) -> Result<FolderLock, LockError> {
     let wait = if wait { Wait::Yes } else { Wait::No };
-    FolderLock::acquire(folder, purpose, wait, |holder: &Holder| {
+    FolderLock::acquire(folder, purpose, wait, |holder: &Waiting| {
         console::err(&format!(
             "waiting for {holder} to finish with {}",
             folder.display()

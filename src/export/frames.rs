@@ -192,6 +192,16 @@ impl<'a> FrameWriter<'a> {
         inner: &'a mut dyn Observer,
     ) -> io::Result<Self> {
         assert!(every >= 1, "frames every 0 steps");
+        // Never through a link: it could point anywhere, and old frames are deleted here.
+        if std::fs::symlink_metadata(dir).is_ok_and(|m| m.file_type().is_symlink()) {
+            return Err(with_path(
+                io::Error::new(
+                    io::ErrorKind::InvalidInput,
+                    "is a symbolic link; frames are written only into a real folder",
+                ),
+                dir,
+            ));
+        }
         std::fs::create_dir_all(dir).map_err(|e| with_path(e, dir))?;
         remove_previous_frames(dir)?;
         Ok(Self {

@@ -220,6 +220,7 @@ impl Integrator for Adaptive {
         let mut attempts = 0u64;
         self.accepted.clear();
         while remaining > 0.0 {
+            StepError::stop_if_requested()?;
             attempts += 1;
             if attempts > s.max_substeps {
                 return Err(StepError::TooManySubsteps {

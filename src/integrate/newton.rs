@@ -467,6 +467,7 @@ impl Newton {
         let mut scale = None;
         let mut iterations = 0;
         while iterations < s.max_iterations {
+            StepError::stop_if_requested()?;
             self.gradient(model, p, x)?;
             let scale = match scale {
                 Some(v) => v,

@@ -342,6 +342,7 @@ impl Integrator for ProjectiveDynamics {
         let springs = model.springs();
         let par: Parallelism = model.parallelism();
         for _ in 0..self.settings.iterations {
+            StepError::stop_if_requested()?;
             // Local: every tet's projection, in parallel.
             let x = &self.x;
             for_each_chunk(par, &mut self.tet_targets, 9 * CHUNK, |ci, out| {

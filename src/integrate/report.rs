@@ -167,6 +167,10 @@ pub enum StepError {
     /// Any other model error.
     #[error(transparent)]
     Model(ModelError),
+    /// A stop was requested (SIGINT or SIGTERM) inside the step's iterations or substeps;
+    /// the step is abandoned like any failed step.
+    #[error("stopped by {} inside the step", .0.name())]
+    Interrupted(crate::interrupt::Signal),
 }
 
 impl StepError {
@@ -181,7 +185,14 @@ impl StepError {
             Self::StepTooSmall { .. } => "step too small",
             Self::TooManySubsteps { .. } => "too many substeps",
             Self::Model(_) => "model error",
+            Self::Interrupted(_) => "interrupted",
         }
+    }
+
+    /// `Err(Interrupted)` if a stop was requested: what every iteration and substep loop
+    /// checks, so a step of many iterations never outlives a signal for long.
+    pub fn stop_if_requested() -> Result<(), Self> {
+        crate::interrupt::requested().map_or(Ok(()), |s| Err(Self::Interrupted(s)))
     }
 }
 

@@ -138,6 +138,7 @@ impl Static {
         let mut last = first;
         let mut attempts = 1;
         while reached < 1.0 {
+            StepError::stop_if_requested()?;
             if attempts >= self.settings.max_load_steps {
                 state.clone_from(&self.backup);
                 self.inner.scheme_mut().load = 1.0;

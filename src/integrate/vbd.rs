@@ -473,6 +473,7 @@ impl Vbd {
         let rho = self.settings.chebyshev_rho;
         let mut omega = 1.0;
         for it in 0..self.settings.iterations {
+            StepError::stop_if_requested()?;
             for c in 0..setup.colouring.num_colours() {
                 let group = setup.colouring.group(c);
                 if !potentials.is_empty() {

@@ -302,6 +302,7 @@ impl Integrator for Xpbd {
         let h = dt / f64::from(self.settings.substeps);
         let pulled = !model.vertex_potentials().is_empty();
         for s in 0..self.settings.substeps {
+            StepError::stop_if_requested()?;
             for &v in free {
                 self.x_start[v] = self.x[v];
                 self.v[v] += g * h;
@@ -316,6 +317,7 @@ impl Integrator for Xpbd {
                 self.anchor_lambda.fill(Vector3::zeros());
             }
             for _ in 0..self.settings.iterations {
+                StepError::stop_if_requested()?;
                 if pulled {
                     self.solve_anchors(free, h * h);
                 }

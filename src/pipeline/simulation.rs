@@ -57,13 +57,24 @@ pub enum SimulateError {
     },
     #[error(transparent)]
     Render(#[from] RenderError),
+    /// `frames` in the output folder is a symbolic link or not a folder: frames are never
+    /// written (or old ones deleted) through it, since it can point outside the output folder.
+    #[error(
+        "{} is {what}: --export writes and deletes frames only in a real folder inside \
+         --out; remove it (or choose another --out)",
+        path.display()
+    )]
+    FramesNotAFolder { path: PathBuf, what: &'static str },
 }
 
 impl SimulateError {
     /// Whether the input is at fault (a scene, mesh or display mesh that is missing or
     /// malformed, pictures of a body without a surface) rather than the system.
     pub fn is_bad_input(&self) -> bool {
-        matches!(self, Self::Scene(_) | Self::Display(_) | Self::NoSurface)
+        matches!(
+            self,
+            Self::Scene(_) | Self::Display(_) | Self::NoSurface | Self::FramesNotAFolder { .. }
+        )
     }
 }
 
@@ -161,6 +172,21 @@ impl Simulation {
             let path = path.to_owned();
             move |error| SimulateError::Write { path, error }
         };
+        let frames_dir = out.join(FRAMES_DIR);
+        if frames.is_some()
+            && let Ok(meta) = std::fs::symlink_metadata(&frames_dir)
+            && !meta.is_dir()
+        {
+            let what = if meta.file_type().is_symlink() {
+                "a symbolic link"
+            } else {
+                "not a folder"
+            };
+            return Err(SimulateError::FramesNotAFolder {
+                path: frames_dir,
+                what,
+            });
+        }
         let trajectory_path = out.join("trajectory.csv");
         let mut trajectory =
             AtomicFile::create(&trajectory_path).map_err(write_error(&trajectory_path))?;
@@ -171,7 +197,6 @@ impl Simulation {
             csv.serialize(row)
                 .map_err(|e| std::io::Error::other(format!("{}: {e}", trajectory_path.display())))
         };
-        let frames_dir = out.join(FRAMES_DIR);
         let recording = Recording {
             frames: frames.map(|content| Frames {
                 dir: frames_dir.clone(),

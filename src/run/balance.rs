@@ -13,7 +13,9 @@
 //! most net work the drags have done so far, and (so the scale is never zero) the elastic
 //! energy of a 0.1 % dilation of the rest shape. A run is unstable when
 //!
-//! - its state or energy is no longer finite; or
+//! - its state, an energy, the work done on it, the scale or the excess is no longer finite
+//!   (checked whatever the limit, `limit = 0` included: a NaN compares false against any
+//!   limit, so it would otherwise pass as success); or
 //! - its excess grew past `limit` times that scale *and* is still growing: more than
 //!   [`GROWN`] times the largest excess of the run's first half (checked after every step, so
 //!   a blow-up stops early; a transient that overshoots at the first step and then decays
@@ -124,8 +126,10 @@ pub struct EnergyBalance {
 /// Why the balance says a run blew up.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Violation {
-    /// The energy is no longer finite.
-    NonFinite { energy: f64 },
+    /// A quantity of the balance (the state, an energy, the work done on the body, the
+    /// energy scale or the excess) is no longer finite: whatever the limit, this is never a
+    /// completed run.
+    NonFinite { what: &'static str, value: f64 },
     /// The excess passed `limit` scales while growing past [`GROWN`] times its first half's.
     Growing { excess: f64, scale: f64, since: f64 },
     /// At the end of the run the excess grew exponentially over the last half.
@@ -150,7 +154,7 @@ impl Violation {
     pub fn message(&self, limit: f64) -> String {
         use super::growth::{MIN_FIT_R2, SUSTAINED_GROWTH};
         match self {
-            Self::NonFinite { energy } => format!("the energy is {energy}"),
+            Self::NonFinite { what, value } => format!("{what} is {value}"),
             Self::Growing {
                 excess,
                 scale,
@@ -245,17 +249,31 @@ impl EnergyBalance {
                 self.dissipated += dt * power.max(0.0);
             }
         }
-        let energy = energies.total();
-        if !energy.is_finite() {
-            return if self.limit > 0.0 {
-                Err(Violation::NonFinite { energy })
-            } else {
+        // Non-finite is never success, with or without the blow-up limit: a NaN compares
+        // false against any limit, so it is checked first and on its own.
+        let non_finite = |what, value: f64| {
+            if value.is_finite() {
                 Ok(())
-            };
+            } else {
+                Err(Violation::NonFinite { what, value })
+            }
+        };
+        if let Some(x) = state.q.iter().chain(&state.v).find(|x| !x.is_finite()) {
+            return Err(Violation::NonFinite {
+                what: "a coordinate of the state",
+                value: *x,
+            });
         }
+        non_finite("the kinetic energy", energies.kinetic)?;
+        let energy = energies.total();
+        non_finite("the energy", energy)?;
+        non_finite("the work done on the body by drags", self.driven)?;
+        non_finite("the energy removed by damping", self.dissipated)?;
         let gravity = (energies.gravity - self.initial_gravity).abs();
         self.scale.gravity = self.scale.gravity.max(gravity);
+        non_finite("the energy the body holds or exchanges", self.scale.total())?;
         let excess = self.excess(energy);
+        non_finite("the energy gained beyond the work done on the body", excess)?;
         self.steps += 1;
         self.latest = excess;
         let scale = self.scale.total();

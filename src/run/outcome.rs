@@ -61,6 +61,7 @@ impl OutcomeKind {
             | StepError::StepTooSmall { .. }
             | StepError::TooManySubsteps { .. }
             | StepError::Model(_) => Self::SolverFailed,
+            StepError::Interrupted(_) => Self::Interrupted,
         }
     }
 }

@@ -380,6 +380,19 @@ pub fn run(
         }
     };
     summary.energy_scale = scale;
+    // A start whose energy is already not finite (an input that overflows) is never run.
+    if let Some((what, value)) = [
+        ("the initial energy", initial.total()),
+        ("the initial kinetic energy", initial.kinetic),
+        ("the energy the body holds at the start", scale.total()),
+    ]
+    .into_iter()
+    .find(|(_, x)| !x.is_finite())
+    {
+        let v = Violation::NonFinite { what, value };
+        summary.outcome = unstable(0, state.t, &v, config.energy_limit);
+        return Ok(summary);
+    }
     let mut balance = EnergyBalance::new(model, &initial, scale, config.energy_limit);
     let mut since_row = StepReport::default();
     let mut steps_since_row = 0u64;
@@ -430,6 +443,20 @@ pub fn run(
                     summary.inverted_elements_max = summary.inverted_elements_max.max(n);
                 }
                 observer.after_step(step, model, state)?;
+            }
+            Err(crate::integrate::StepError::Interrupted(signal)) => {
+                summary.outcome = Outcome::ended(
+                    OutcomeKind::Interrupted,
+                    step - 1,
+                    state.t,
+                    "interrupted",
+                    format!(
+                        "stopped by {} during step {step}, after step {}",
+                        signal.name(),
+                        step - 1
+                    ),
+                );
+                break;
             }
             Err(e) => {
                 summary.outcome = Outcome::of_step_error(step, state.t + dt, &e);

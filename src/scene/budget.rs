@@ -35,6 +35,47 @@ pub(super) fn check(c: &SceneConfig) -> Result<(), Problem> {
     limits::STEPS
         .check_usize(Some(r.steps))
         .map_err(over("run.steps"))?;
+    let i = &c.integrator;
+    let iterations: [(&'static str, Option<u64>); 7] = [
+        (
+            "integrator.newton.max_iterations",
+            Some(i.newton.max_iterations.into()),
+        ),
+        ("integrator.vbd.iterations", Some(i.vbd.iterations.into())),
+        (
+            "integrator.projective_dynamics.iterations",
+            Some(i.projective_dynamics.iterations.into()),
+        ),
+        (
+            "integrator.xpbd.substeps",
+            u64::from(i.xpbd.substeps).checked_mul(i.xpbd.iterations.into()),
+        ),
+        (
+            "integrator.adaptive.max_substeps",
+            Some(i.adaptive.max_substeps),
+        ),
+        (
+            "integrator.static.max_load_steps",
+            Some(i.static_solve.max_load_steps.into()),
+        ),
+        (
+            "integrator.solver.cg.max_iterations",
+            u64::try_from(i.solver.cg.max_iterations).ok(),
+        ),
+    ];
+    for (key, count) in iterations {
+        limits::ITERATIONS.check(count).map_err(over(key))?;
+    }
+    if !(r.dt * r.steps as f64).is_finite() {
+        return Err(Problem {
+            key: "run.dt",
+            message: format!(
+                "run.dt = {:e} s times run.steps = {} overflows the time: give a time step \
+                 whose horizon is a finite number",
+                r.dt, r.steps
+            ),
+        });
+    }
     limits::ROWS
         .check_usize(Some(r.steps / r.sample_every.max(1) + 2))
         .map_err(over("run.sample_every"))?;
@@ -95,6 +136,14 @@ pub(super) fn check(c: &SceneConfig) -> Result<(), Problem> {
             .chain(j.origin.iter().flatten())
             .chain(j.center.iter().flatten());
         check_lengths("jello", lengths)?;
+    }
+    for d in &c.drag {
+        let lengths = d
+            .point
+            .iter()
+            .chain([&d.radius])
+            .chain(d.path.iter().flat_map(|w| w.offset.iter()));
+        check_lengths("drag", lengths)?;
     }
     if let Some(m) = &c.material
         && !(m.density.is_finite() && m.density > 0.0 && m.density <= MAX_DENSITY)

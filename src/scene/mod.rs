@@ -490,12 +490,32 @@ fn initial_state(
         Vector3::from(init.velocity),
         Vector3::from(init.angular_velocity),
     );
+    // The kinetic energy of the start (lumped masses): a speed that overflows it is an input
+    // error, not a run that starts at infinity.
+    let mut kinetic = 0.0;
+    let masses = model.vertex_masses();
     for (k, &vertex) in model.dofs().free_vertices().iter().enumerate() {
         let r = rest[vertex] - centroid;
         let x = centroid + r.component_mul(&stretch);
         let v = v0 + w.cross(&r);
+        kinetic += 0.5 * masses[vertex] * v.norm_squared();
         state.q[3 * k..3 * k + 3].copy_from_slice(x.as_slice());
         state.v[3 * k..3 * k + 3].copy_from_slice(v.as_slice());
+    }
+    if !kinetic.is_finite() {
+        let key = if init.angular_velocity != [0.0; 3] {
+            "initial.angular_velocity"
+        } else {
+            "initial.velocity"
+        };
+        return Err(SceneError::Invalid {
+            path: loaded.path.clone(),
+            key: key.into(),
+            message: format!(
+                "the body's initial kinetic energy would be {kinetic} J: the speed overflows; \
+                 give a speed whose kinetic energy is a finite number"
+            ),
+        });
     }
     Ok(state)
 }

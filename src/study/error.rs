@@ -30,6 +30,9 @@ pub enum StudyError {
         key: String,
         error: Box<crate::scene::SceneError>,
     },
+    /// A stop was requested (SIGINT or SIGTERM) while the study was being loaded.
+    #[error("stopped by {} while loading the study; nothing was written", .0.name())]
+    Interrupted(crate::interrupt::Signal),
 }
 
 /// A results folder that cannot be read back (`softbench plot`).

@@ -111,6 +111,7 @@ pub fn load(path: &Path, quick: bool, data: &DataPaths) -> Result<Study, StudyEr
     for source in &scenes {
         for entry in &method_axes {
             for combo in product(entry) {
+                stop_if_requested()?;
                 let Some(run) = resolve_run(&ctx, &file, quick, kind, source, &combo, entry)?
                 else {
                     continue;
@@ -185,7 +186,7 @@ pub fn load(path: &Path, quick: bool, data: &DataPaths) -> Result<Study, StudyEr
         }
     }
     check_scenes_build(&mut runs, &scenes, &ctx, data)?;
-    Ok(Study {
+    let study = Study {
         path: path.to_owned(),
         file,
         kind,
@@ -194,7 +195,47 @@ pub fn load(path: &Path, quick: bool, data: &DataPaths) -> Result<Study, StudyEr
         text: text.clone(),
         parameters,
         runs,
-    })
+    };
+    check_reference_steps(&study, &ctx)?;
+    Ok(study)
+}
+
+/// Stop loading if a signal has arrived (loading a large grid or its meshes takes a while).
+fn stop_if_requested() -> Result<(), StudyError> {
+    crate::interrupt::requested().map_or(Ok(()), |s| Err(StudyError::Interrupted(s)))
+}
+
+/// Every reference solution the study will compute fits the step budget (checked here, before
+/// any work, rather than when a reference of 10^10 steps has started).
+fn check_reference_steps(study: &Study, ctx: &Context) -> Result<(), StudyError> {
+    let kind = super::kinds::of(study.kind);
+    let Some(w) = kind.reference_settings(&study.file) else {
+        return Ok(());
+    };
+    let table = kind.table_names().first().copied().unwrap_or("reference");
+    for spec in &study.runs {
+        stop_if_requested()?;
+        let dt = kind.reference_dt(study, &w, spec);
+        let halved = !w.reference.same_dt;
+        if let Err(e) = super::settings::check_steps(w.horizon, dt, halved) {
+            let key = if w.reference.dt.is_some() {
+                format!("{table}.reference.dt")
+            } else {
+                format!("{table}.reference.dt_factor")
+            };
+            return Err(ctx.invalid(
+                0,
+                &key,
+                format!(
+                    "the reference of scene `{}` steps {dt:e} s{} over the {} s horizon: {e}",
+                    spec.scene,
+                    if halved { " and half that" } else { "" },
+                    w.horizon
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// The scenes the study names, read and parsed (not yet validated: the grid may complete them).
@@ -379,6 +420,7 @@ fn check_scenes_build(
 ) -> Result<(), StudyError> {
     let mut built: HashMap<u64, usize> = HashMap::new();
     for run in runs.iter_mut() {
+        stop_if_requested()?;
         if let Some(&dofs) = built.get(&run.physics) {
             run.dofs = dofs;
             continue;

@@ -103,7 +103,7 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
     let wait = if options.wait { Wait::Yes } else { Wait::No };
     let on_wait = |folder: &Path| {
         let folder = folder.to_owned();
-        move |h: &crate::lock::Holder| {
+        move |h: &crate::lock::Waiting| {
             crate::console::err(&format!(
                 "waiting for {h} to finish with {}",
                 folder.display()

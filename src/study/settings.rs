@@ -75,6 +75,29 @@ pub(super) fn check_reference(
     Ok(())
 }
 
+/// A sample count (`work-precision.samples`, `stability.error_samples`) within
+/// [`crate::limits::SAMPLES`], checked before anything loops over the sample times.
+pub(super) fn check_samples(
+    samples: usize,
+    key: &str,
+    bad: &dyn Fn(&str, String) -> StudyError,
+) -> Result<(), StudyError> {
+    crate::limits::SAMPLES
+        .check_usize(Some(samples))
+        .map_err(|e| bad(key, e.to_string()))
+}
+
+/// Steps of a reference (or run) over `horizon` at `dt`, twice when `halved` (a reference is
+/// also run at dt / 2), within [`crate::limits::STEPS`].
+pub(super) fn check_steps(
+    horizon: f64,
+    dt: f64,
+    halved: bool,
+) -> Result<(), crate::limits::OverBudget> {
+    let dt = if halved { dt / 2.0 } else { dt };
+    crate::limits::STEPS.check(crate::limits::steps_of(horizon, dt))
+}
+
 /// `phases` (see [`super::reference::ScoringSettings::phases`]): at most `MAX_PHASES`
 /// windows `0 <= start < end <= horizon`, each holding a sample time `horizon k / samples`.
 pub(super) fn check_phases(

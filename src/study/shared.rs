@@ -70,7 +70,7 @@ impl SharedWork {
         }
         let on_wait = |what: &str| {
             let what = what.to_owned();
-            move |holder: &crate::lock::Holder| {
+            move |holder: &crate::lock::Waiting| {
                 progress.line(&format!("waiting for {holder} to compute the {what}"));
             }
         };

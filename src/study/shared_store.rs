@@ -6,7 +6,7 @@
 
 use super::error::RunError;
 use crate::io::write_atomic;
-use crate::lock::{FolderLock, Holder, Wait};
+use crate::lock::{FolderLock, Wait, Waiting};
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 use std::path::{Path, PathBuf};
@@ -50,7 +50,7 @@ impl SharedStore {
     pub(super) fn get_or_compute<T: Serialize + DeserializeOwned>(
         &self,
         key: &str,
-        on_wait: impl FnMut(&Holder),
+        on_wait: impl FnMut(&Waiting),
         compute: impl FnOnce() -> T,
         keep: impl FnOnce(&T) -> bool,
     ) -> Result<T, RunError> {

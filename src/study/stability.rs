@@ -557,6 +557,10 @@ fn check(
     if s.max_steps == 0 {
         return Err(bad("stability.max_steps", "must be at least 1".into()));
     }
+    crate::limits::STEPS
+        .check_usize(Some(s.max_steps))
+        .map_err(|e| bad("stability.max_steps", e.to_string()))?;
+    super::settings::check_samples(s.error_samples, "stability.error_samples", &bad)?;
     if s.min_steps == 0 || s.min_steps > s.max_steps {
         return Err(bad(
             "stability.min_steps",

@@ -399,6 +399,7 @@ fn check(
     if w.samples == 0 {
         return Err(bad("work-precision.samples", "must be at least 1".into()));
     }
+    super::settings::check_samples(w.samples, "work-precision.samples", &bad)?;
     super::settings::check_reference(&w.reference, NAME, true, &bad)?;
     super::settings::check_phases(&w.phases, w.horizon, w.samples, NAME, &bad)?;
     if !file.grid.contains_key("run.dt")
@@ -444,10 +445,33 @@ fn configure(
     }
     check_step_fits(ctx, file, config, axes)?;
     let w = settings(file).expect("checked");
-    let stride = (w.horizon / w.samples as f64 / config.run.dt).round() as usize;
+    // The steps are counted in f64 and checked against the budget before any integer is made
+    // of them (a cast saturates, a product wraps, and a loop up to the stride never ends).
+    let per_sample = (w.horizon / w.samples as f64 / config.run.dt).round();
+    let steps = per_sample * w.samples as f64;
+    crate::limits::STEPS
+        .check((steps.is_finite() && steps < u64::MAX as f64).then_some(steps as u64))
+        .map_err(|e| {
+            let line = axes
+                .iter()
+                .find(|a| a.key == "run.dt")
+                .map_or(1, |a| a.line);
+            StudyError::Invalid {
+                path: ctx.path.to_owned(),
+                line,
+                key: "grid.\"run.dt\"".into(),
+                message: format!(
+                    "dt = {:e} s over the horizon {} s: {e}",
+                    config.run.dt, w.horizon
+                ),
+            }
+        })?;
+    let stride = per_sample as usize;
     config.run.steps = stride * w.samples;
-    // Rows at every sample time, and in between as densely as 500 rows allow.
-    config.run.sample_every = (1..=stride)
+    // Rows at every sample time, and in between as densely as 500 rows allow: the smallest
+    // divisor d of the stride with steps / d <= 500 (none below steps / 501 + 1 can be).
+    let first = config.run.steps / 501 + 1;
+    config.run.sample_every = (first.min(stride)..=stride)
         .find(|d| stride.is_multiple_of(*d) && config.run.steps / d <= 500)
         .unwrap_or(stride);
     Ok(())
