@@ -302,7 +302,12 @@ fn work_precision_as_three_shards_and_merge_equals_a_local_run() {
         assert_eq!(here, 1, "{scene}: {logs:?}");
     }
     let report = std::fs::read_to_string(s.join("report.md")).unwrap();
-    assert!(report.contains("- bunny: rk4") || report.contains("- bunny: implicit-midpoint"));
+    // Each reference line names its scene and material.
+    assert!(
+        report.contains("- bunny (neo-hookean): rk4")
+            || report.contains("- bunny (neo-hookean): implicit-midpoint"),
+        "{report}"
+    );
 }
 
 /// Regression: a reference was computed from the first *pending* run of its scene, so a
