@@ -19,6 +19,7 @@ use softbench::contact::{ContactResponse, ObstacleKind};
 use softbench::data::{DataError, DataPaths};
 use softbench::export::{DisplayError, ExportFormat};
 use softbench::integrate::methods::METHODS;
+use softbench::integrate::newton;
 use softbench::interrupt::{self, Signal};
 use softbench::lock::{FolderLock, LockError, Wait, Waiting};
 use softbench::material::MaterialKind;
@@ -523,11 +524,27 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
 
 fn list() -> anyhow::Result<ExitCode> {
     let mut out = std::io::stdout().lock();
-    let families: [(&str, Vec<Listing>); 7] = [
+    let families: [(&str, Vec<Listing>); 11] = [
         ("integrators (integrator.method)", METHODS.listing()),
         (
             "linear solvers (integrator.linear_solver)",
             LINEAR_SOLVERS.listing(),
+        ),
+        (
+            "Newton directions (integrator.newton.direction)",
+            newton::Direction::listing(),
+        ),
+        (
+            "globalizations (integrator.newton.globalization)",
+            newton::Globalization::listing(),
+        ),
+        (
+            "convergence criteria (integrator.newton.criterion)",
+            newton::Criterion::listing(),
+        ),
+        (
+            "L-BFGS initial Hessians (integrator.newton.lbfgs_initial)",
+            newton::LbfgsInitial::listing(),
         ),
         ("materials (material.model)", MaterialKind::listing()),
         (

@@ -77,6 +77,11 @@ pub struct StepReport {
     pub indefinite_fallbacks: u32,
     /// Times a failed step was retried as two steps of half the size.
     pub dt_halvings: u32,
+    /// Trust-region subproblems that stopped at `trust_region_cg_iterations` (their last CG
+    /// iterate taken as the step).
+    pub capped_subproblems: u32,
+    /// Line searches or steps whose first length a step filter capped.
+    pub filtered_steps: u32,
     /// Model evaluations during the step.
     pub evaluations: EvalCounters,
     /// Wall time per phase.
@@ -125,6 +130,8 @@ impl StepReport {
         }
         self.indefinite_fallbacks += other.indefinite_fallbacks;
         self.dt_halvings += other.dt_halvings;
+        self.capped_subproblems += other.capped_subproblems;
+        self.filtered_steps += other.filtered_steps;
         self.times.assemble += other.times.assemble;
         self.times.factor += other.times.factor;
         self.times.solve += other.times.solve;
