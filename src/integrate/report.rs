@@ -37,6 +37,10 @@ pub struct StepReport {
     pub newton_iterations: u32,
     /// Newton solves that stopped at the iteration cap without meeting the tolerance.
     pub newton_unconverged: u32,
+    /// Newton solves that stopped because their criterion (`integrator.newton.criterion`) was
+    /// met, and those that stopped because the predicted decrease fell below round-off.
+    pub newton_criterion_stops: u32,
+    pub newton_roundoff_stops: u32,
     /// Line-search step reductions.
     pub line_search_backtracks: u32,
     /// Linear solves of a step's system (mass-matrix solves are counted apart).
@@ -107,6 +111,8 @@ impl StepReport {
         self.newton_iterations += other.newton_iterations;
         self.local_iterations += other.local_iterations;
         self.newton_unconverged += other.newton_unconverged;
+        self.newton_criterion_stops += other.newton_criterion_stops;
+        self.newton_roundoff_stops += other.newton_roundoff_stops;
         self.line_search_backtracks += other.line_search_backtracks;
         self.linear_solves += other.linear_solves;
         self.mass_solves += other.mass_solves;

@@ -289,6 +289,11 @@ impl Newton {
             self.iterate(model, p, x, current, t, report)?
         };
         self.trace.converged = converged;
+        match self.trace.stop {
+            Stop::Criterion => report.newton_criterion_stops += 1,
+            Stop::Roundoff => report.newton_roundoff_stops += 1,
+            Stop::Cap | Stop::Running => {}
+        }
         if !converged {
             let s = &self.settings;
             if s.require_convergence {
@@ -846,6 +851,7 @@ impl Newton {
                 }
                 x.copy_from_slice(&self.trial);
                 if small && feasible {
+                    self.trace.stop = Stop::Criterion;
                     return Ok(true);
                 }
                 continue;
@@ -854,6 +860,7 @@ impl Newton {
                 .line_search(model, p, x, &current, slope, Some(t), iteration + 1, report)?
                 .0;
         }
+        self.trace.stop = Stop::Cap;
         Ok(false)
     }
 
