@@ -199,7 +199,9 @@ mod tests {
         assert!((norm_d_squared(&diag, &p).sqrt() - 0.1).abs() < 1e-12);
         let mut hp = [0.0; 2];
         assert!(model_value(&h, &g, &p, &mut hp) < 0.0);
+        // The first CG direction, -D^-1 g = (-0.5, 0), has curvature -0.25 here.
         let indefinite = matrix(&[&[-1.0, 0.0], &[0.0, 2.0]]);
+        let g = [1.0, 0.0];
         let s = Steihaug::default().solve(&indefinite, &g, &diag, 0.5, 1e-12, 50, &mut p);
         assert_eq!(s.end, SubproblemEnd::NegativeCurvature);
         assert!((norm_d_squared(&diag, &p).sqrt() - 0.5).abs() < 1e-12);
