@@ -19,8 +19,10 @@
 //! round-off; once the predicted decrease (the Newton decrement) is below that round-off
 //! level, the full step is accepted without the test.
 
+use super::filter::{FilterSettings, HessianFilter};
 pub use super::system::ImplicitSystem;
 use super::{State, StepError, StepReport};
+use crate::fem::FilterSpace;
 use crate::model::{Model, ModelError};
 use crate::solve::LinearSolver;
 use crate::sparse::SymmetricMatrix;
@@ -42,9 +44,19 @@ pub struct NewtonSettings {
     pub sufficient_decrease: f64,
     /// Backtracks per line search before Newton fails. Default 40.
     pub max_backtracks: u32,
-    /// Project every element Hessian to PSD (otherwise only as a fallback when the system
-    /// matrix is indefinite). Default false.
+    /// The old switch for `filter = "clamp"`: true projects every element Hessian to PSD.
+    /// Kept as an alias; it contradicts any filter other than `none` and `clamp`.
+    /// Default false.
     pub project_hessian: bool,
+    /// The Hessian filter (see [`super::filter`]): `none` (the default: exact Hessians,
+    /// clamped only when the system is indefinite), `clamp`, `abs`, `on-demand`,
+    /// `progressive`.
+    pub filter: HessianFilter,
+    /// `ε` of the filter, >= 0: every filtered eigenvalue is at least this. Default 0.
+    pub filter_epsilon: f64,
+    /// Where the filter decomposes: `element` (the 12×12 element Hessian, the default) or
+    /// `stress` (the material's 9×9 dP/dF).
+    pub filter_space: FilterSpace,
     /// Fail the step when the tolerance is not met within `max_iterations` (otherwise the last
     /// iterate is used, as in the course, and counted as unconverged). Default false.
     pub require_convergence: bool,
@@ -69,6 +81,9 @@ impl Default for NewtonSettings {
             sufficient_decrease: 1e-8,
             max_backtracks: 40,
             project_hessian: false,
+            filter: HessianFilter::None,
+            filter_epsilon: 0.0,
+            filter_space: FilterSpace::Element,
             require_convergence: false,
             retry_halvings: 0,
             refactor_every: 1,
@@ -77,8 +92,36 @@ impl Default for NewtonSettings {
 }
 
 impl NewtonSettings {
+    /// The filter the system matrix uses (`project_hessian = true` is `filter = "clamp"`).
+    pub fn filter_settings(&self) -> FilterSettings {
+        let filter = match (self.project_hessian, self.filter) {
+            (true, HessianFilter::None) => HessianFilter::Clamp,
+            (_, f) => f,
+        };
+        FilterSettings {
+            filter,
+            epsilon: self.filter_epsilon,
+            space: self.filter_space,
+        }
+    }
+
     /// Check every field's range; the message names the field and the valid range.
     pub fn validate(&self) -> Result<(), String> {
+        if !(self.filter_epsilon.is_finite() && self.filter_epsilon >= 0.0) {
+            return Err(format!(
+                "newton.filter_epsilon must be finite and >= 0 (got {})",
+                self.filter_epsilon
+            ));
+        }
+        if self.project_hessian
+            && !matches!(self.filter, HessianFilter::None | HessianFilter::Clamp)
+        {
+            return Err(format!(
+                "newton.project_hessian = true means newton.filter = \"clamp\", which contradicts \
+                 newton.filter = \"{}\"; set only newton.filter",
+                self.filter
+            ));
+        }
         let checks = [
             (
                 self.max_iterations >= 1,
@@ -312,7 +355,7 @@ impl Newton {
         Self {
             settings,
             trace: NewtonTrace::default(),
-            system: ImplicitSystem::new(solver, settings.project_hessian),
+            system: ImplicitSystem::new(solver, settings.filter_settings()),
             potential: IncrementalPotential::default(),
             constraints: None,
             dx: Vec::new(),
@@ -406,6 +449,7 @@ impl Newton {
         self.trace.converged = false;
         let t = model.time();
         self.system.set_mass_term(!p.quasi_static);
+        self.system.begin_solve();
         // A constrained solve starts feasible when it can: at the guess if it is outside every
         // obstacle, else at the start-of-step positions.
         if let Some(c) = &self.constraints
