@@ -2,7 +2,8 @@
 //! ([`ElementFilter`], the eigenvalue map of `fem/filter.rs`) each assembly of the system
 //! matrix uses, and which one the reassembly uses when the system turns out indefinite.
 //!
-//! With `ε = filter_epsilon` and `k` the Newton iteration within one solve (0 first):
+//! With `ε = filter_epsilon` and `k` the Newton iteration within one solve (0 first; with
+//! modified Newton, the factorizations within the solve, since only those assemble):
 //!
 //! | filter | first assembly | if the system is indefinite |
 //! |---|---|---|
