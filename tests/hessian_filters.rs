@@ -576,3 +576,61 @@ fn bad_filter_input_is_refused_with_the_key_and_the_valid_names() {
         &["newton.project_hessian", "newton.filter", "abs"],
     );
 }
+
+#[test]
+fn stable_neo_hookean_closed_form_eigensystem_matches_the_numerical_one() {
+    use softbench::material::{Material, Matrix9, StVenantKirchhoff, StableNeoHookean};
+    let lame = LameParameters::from_youngs_poisson(1e4, 0.45).unwrap();
+    let snh = StableNeoHookean::new(lame);
+    let mut rng = Rng::new(9);
+    let mut negative = 0;
+    for sample in 0..200 {
+        let spread = [0.05, 0.5, 1.5][sample % 3];
+        let f = nalgebra::Matrix3::identity()
+            + nalgebra::Matrix3::from_fn(|_, _| rng.range(-spread, spread));
+        let d = snh.first_piola_derivative(&f).unwrap();
+        let (values, vectors) = snh.stress_eigensystem(&f).expect("a closed form");
+        let scale = d.norm();
+        // Orthonormal eigenvectors that rebuild dP/dF ...
+        let orthogonality = (vectors.transpose() * vectors - Matrix9::identity()).norm();
+        assert!(
+            orthogonality < 1e-12,
+            "F = {f}: QᵀQ − I = {orthogonality:.3e}"
+        );
+        let rebuilt = vectors * Matrix9::from_diagonal(&values) * vectors.transpose();
+        assert!(
+            (rebuilt - d).norm() <= 1e-12 * scale,
+            "F = {f}: Q Λ Qᵀ differs from dP/dF by {:.3e} (|D| = {scale:.3e})",
+            (rebuilt - d).norm()
+        );
+        // ... with the eigenvalues of the numerical decomposition.
+        let mut closed: Vec<f64> = values.iter().copied().collect();
+        let mut numerical: Vec<f64> = d.symmetric_eigenvalues().iter().copied().collect();
+        closed.sort_by(f64::total_cmp);
+        numerical.sort_by(f64::total_cmp);
+        for (a, b) in closed.iter().zip(&numerical) {
+            assert!(
+                (a - b).abs() <= 1e-12 * scale,
+                "F = {f}: {closed:?} vs {numerical:?}"
+            );
+        }
+        negative += usize::from(closed[0] < 0.0);
+        // The stress-space filter through the closed form equals the one through the
+        // numerical decomposition.
+        let filter = ElementFilter {
+            space: FilterSpace::Stress,
+            ..ElementFilter::CLAMP
+        };
+        let (mut closed_form, mut numeric) = (d, d);
+        let changed = filter.apply_eigensystem(&values, &vectors, &mut closed_form);
+        assert_eq!(changed, filter.apply(&mut numeric), "F = {f}");
+        assert!((closed_form - numeric).norm() <= 1e-10 * scale, "F = {f}");
+    }
+    assert!(negative >= 20, "too few indefinite samples: {negative}");
+    // Materials without a closed form say so (their filters decompose numerically).
+    let stvk = StVenantKirchhoff::new(lame);
+    assert!(
+        stvk.stress_eigensystem(&nalgebra::Matrix3::identity())
+            .is_none()
+    );
+}

@@ -20,8 +20,10 @@
 //! `V Bᵀ (dP/dF) B` to the element Hessian (ε in Pa). The map is a congruence, so a PSD
 //! 9×9 gives a PSD 12×12; the 9×9 decomposition is cheaper and never touches the three
 //! translation modes, which the element Hessian has as exact zeros.
+//! A material with its dP/dF eigensystem in closed form (`Material::stress_eigensystem`:
+//! stable Neo-Hookean) skips the 9×9 decomposition ([`ElementFilter::apply_eigensystem`]).
 
-use nalgebra::{SMatrix, SymmetricEigen};
+use nalgebra::{SMatrix, SVector, SymmetricEigen};
 
 crate::named_enum! {
     /// Which matrix an element filter decomposes (`integrator.newton.filter_space`).
@@ -103,6 +105,28 @@ impl ElementFilter {
     /// bit-for-bit what it was). Allocates nothing.
     pub fn apply<M: Filterable>(&self, m: &mut M) -> bool {
         m.filter_with(self)
+    }
+}
+
+impl ElementFilter {
+    /// Filter the 9×9 `m` whose eigensystem is known in closed form (`values`, orthonormal
+    /// `vectors` as columns): `m` becomes `Q diag(φ(λ)) Qᵀ` when the filter is needed,
+    /// otherwise it is left bit-for-bit as it is. Returns whether it changed.
+    pub fn apply_eigensystem(
+        &self,
+        values: &SVector<f64, 9>,
+        vectors: &SMatrix<f64, 9, 9>,
+        m: &mut SMatrix<f64, 9, 9>,
+    ) -> bool {
+        if !self.needed(values.min(), values.amax()) {
+            return false;
+        }
+        let mut scaled = *vectors;
+        for (mut col, l) in scaled.column_iter_mut().zip(values.iter()) {
+            col *= self.map(*l);
+        }
+        *m = scaled * vectors.transpose();
+        true
     }
 }
 

@@ -152,7 +152,10 @@ fn hessians<M: Material>(
                 FilterScope::Every | FilterScope::EveryFlagging => true,
             };
             if active && filter.space == FilterSpace::Stress {
-                let changed = filter.apply(&mut d);
+                let changed = match m.stress_eigensystem(&f) {
+                    Some((values, vectors)) => filter.apply_eigensystem(&values, &vectors, &mut d),
+                    None => filter.apply(&mut d),
+                };
                 rest.hessian_from_stress_derivative(&d, h);
                 count += usize::from(changed);
                 remember(filter, &flags[e], changed);
