@@ -380,7 +380,8 @@ fn tables() -> BTreeMap<String, Vec<(String, Vec<String>)>> {
 #[test]
 fn the_registry_tables_list_exactly_the_registered_names() {
     let kinds: Vec<&str> = softbench::study::kinds().iter().map(|k| k.name).collect();
-    let registered: [(&str, Vec<&str>); 7] = [
+    use softbench::integrate::newton::{Criterion, Direction, Globalization, LbfgsInitial};
+    let registered: [(&str, Vec<&str>); 11] = [
         ("study-kinds", kinds),
         ("methods", Method::names()),
         ("linear-solvers", LinearSolverKind::names()),
@@ -388,6 +389,10 @@ fn the_registry_tables_list_exactly_the_registered_names() {
         ("contact-responses", ContactResponse::names()),
         ("obstacle-kinds", ObstacleKind::names()),
         ("hessian-filters", HessianFilter::names()),
+        ("newton-directions", Direction::names()),
+        ("newton-globalizations", Globalization::names()),
+        ("newton-criteria", Criterion::names()),
+        ("lbfgs-initials", LbfgsInitial::names()),
     ];
     let found = tables();
     for (name, names) in &registered {

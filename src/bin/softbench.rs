@@ -21,6 +21,7 @@ use softbench::export::{DisplayError, ExportFormat};
 use softbench::fem::FilterSpace;
 use softbench::integrate::HessianFilter;
 use softbench::integrate::methods::METHODS;
+use softbench::integrate::newton;
 use softbench::interrupt::{self, Signal};
 use softbench::lock::{FolderLock, LockError, Wait, Waiting};
 use softbench::material::MaterialKind;
@@ -525,7 +526,7 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
 
 fn list() -> anyhow::Result<ExitCode> {
     let mut out = std::io::stdout().lock();
-    let families: [(&str, Vec<Listing>); 9] = [
+    let families: [(&str, Vec<Listing>); 13] = [
         ("integrators (integrator.method)", METHODS.listing()),
         (
             "linear solvers (integrator.linear_solver)",
@@ -538,6 +539,22 @@ fn list() -> anyhow::Result<ExitCode> {
         (
             "hessian filter spaces (integrator.newton.filter_space)",
             FilterSpace::listing(),
+        ),
+        (
+            "Newton directions (integrator.newton.direction)",
+            newton::Direction::listing(),
+        ),
+        (
+            "globalizations (integrator.newton.globalization)",
+            newton::Globalization::listing(),
+        ),
+        (
+            "convergence criteria (integrator.newton.criterion)",
+            newton::Criterion::listing(),
+        ),
+        (
+            "L-BFGS initial Hessians (integrator.newton.lbfgs_initial)",
+            newton::LbfgsInitial::listing(),
         ),
         ("materials (material.model)", MaterialKind::listing()),
         (

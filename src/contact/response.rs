@@ -247,6 +247,10 @@ impl Integrator for WithContactResponse {
         self.inner.internal_steps()
     }
 
+    fn drain_iteration_log(&mut self, out: &mut Vec<crate::integrate::newton::IterationRecord>) {
+        self.inner.drain_iteration_log(out);
+    }
+
     fn advance(
         &mut self,
         model: &mut Model,

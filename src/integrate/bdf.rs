@@ -303,6 +303,10 @@ impl Integrator for Bdf {
         false
     }
 
+    fn drain_iteration_log(&mut self, out: &mut Vec<super::newton::IterationRecord>) {
+        self.inner.drain_iteration_log(out);
+    }
+
     fn reset(&mut self) {
         self.inner.reset();
         self.step = None;

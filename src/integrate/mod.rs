@@ -108,6 +108,10 @@ pub trait Integrator: Send {
         &[]
     }
 
+    /// Move the Newton iteration records of the last step into `out` (methods on the Newton
+    /// loop with `integrator.newton.log_iterations`; nothing by default).
+    fn drain_iteration_log(&mut self, _out: &mut Vec<newton::IterationRecord>) {}
+
     /// One step of `dt`: [`Integrator::advance`] plus the shared bookkeeping — evaluation
     /// counts, wall time, the check that the new state is finite, and the clock.
     fn step(

@@ -37,6 +37,10 @@ pub struct StepReport {
     pub newton_iterations: u32,
     /// Newton solves that stopped at the iteration cap without meeting the tolerance.
     pub newton_unconverged: u32,
+    /// Newton solves that stopped because their criterion (`integrator.newton.criterion`) was
+    /// met, and those that stopped because the predicted decrease fell below round-off.
+    pub newton_criterion_stops: u32,
+    pub newton_roundoff_stops: u32,
     /// Line-search step reductions.
     pub line_search_backtracks: u32,
     /// Linear solves of a step's system (mass-matrix solves are counted apart).
@@ -80,6 +84,11 @@ pub struct StepReport {
     pub projected_elements: u64,
     /// Times a failed step was retried as two steps of half the size.
     pub dt_halvings: u32,
+    /// Trust-region subproblems that stopped at `trust_region_cg_iterations` (their last CG
+    /// iterate taken as the step).
+    pub capped_subproblems: u32,
+    /// Line searches or steps whose first length a step filter capped.
+    pub filtered_steps: u32,
     /// Model evaluations during the step.
     pub evaluations: EvalCounters,
     /// Wall time per phase.
@@ -105,6 +114,8 @@ impl StepReport {
         self.newton_iterations += other.newton_iterations;
         self.local_iterations += other.local_iterations;
         self.newton_unconverged += other.newton_unconverged;
+        self.newton_criterion_stops += other.newton_criterion_stops;
+        self.newton_roundoff_stops += other.newton_roundoff_stops;
         self.line_search_backtracks += other.line_search_backtracks;
         self.linear_solves += other.linear_solves;
         self.mass_solves += other.mass_solves;
@@ -129,6 +140,8 @@ impl StepReport {
         self.indefinite_fallbacks += other.indefinite_fallbacks;
         self.projected_elements += other.projected_elements;
         self.dt_halvings += other.dt_halvings;
+        self.capped_subproblems += other.capped_subproblems;
+        self.filtered_steps += other.filtered_steps;
         self.times.assemble += other.times.assemble;
         self.times.factor += other.times.factor;
         self.times.solve += other.times.solve;

@@ -239,6 +239,10 @@ impl<S: Scheme> Integrator for NewtonIntegrator<S> {
         self.scheme.reset();
     }
 
+    fn drain_iteration_log(&mut self, out: &mut Vec<super::newton::IterationRecord>) {
+        self.newton.drain_log(out);
+    }
+
     fn advance(
         &mut self,
         model: &mut Model,

@@ -192,6 +192,10 @@ impl Integrator for Static {
         self.loaded = false;
     }
 
+    fn drain_iteration_log(&mut self, out: &mut Vec<super::newton::IterationRecord>) {
+        self.inner.drain_iteration_log(out);
+    }
+
     fn advance(
         &mut self,
         model: &mut Model,

@@ -165,6 +165,11 @@ impl ImplicitSystem {
         Ok(self.matrix.as_ref().expect("assembled"))
     }
 
+    /// The last assembled matrix (None before the first assembly).
+    pub fn matrix(&self) -> Option<&SymmetricMatrix> {
+        self.matrix.as_ref()
+    }
+
     /// Factor the assembled matrix. A factorization that reports negative pivots (LDLᵀ) is
     /// counted as done but returned as `Indefinite`: the matrix is not positive definite.
     fn factor_current(&mut self, x: &[f64], report: &mut StepReport) -> Result<(), SolveError> {

@@ -1,6 +1,7 @@
 //! `softbench simulate` as a library call: one scene, one integrator, into an output folder
 //! (trajectory.csv, final_positions.csv, summary.json; frames/ with an export format;
-//! run.snapshots, filmstrip.png and animation.gif with pictures).
+//! run.snapshots, filmstrip.png and animation.gif with pictures; iterations.csv with
+//! `integrator.newton.log_iterations`).
 //!
 //! [`Simulation::prepare`] builds everything and finds every bad input before anything is
 //! written; [`Simulation::run`] runs and writes.
@@ -8,6 +9,7 @@
 use std::path::{Path, PathBuf};
 
 use super::body::BodySurface;
+use super::iterations::{ITERATIONS_CSV, IterationRows};
 use super::observed::{Frames, ObserveError, Recording, run_observed};
 use super::summary::SummaryFile;
 use crate::data::DataPaths;
@@ -207,7 +209,31 @@ impl Simulation {
             progress: options.progress,
         };
         let run = scene.config.run;
-        let observed = run_observed(&mut scene, &run, recording, &mut write_row)?;
+        let iterations_path = out.join(ITERATIONS_CSV);
+        let mut iterations = if scene.config.integrator.newton.log_iterations {
+            Some(AtomicFile::create(&iterations_path).map_err(write_error(&iterations_path))?)
+        } else {
+            // A previous run's log would describe another run.
+            match std::fs::remove_file(&iterations_path) {
+                Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                    return Err(write_error(&iterations_path)(e));
+                }
+                _ => None,
+            }
+        };
+        let observed = match iterations.as_mut() {
+            Some(file) => {
+                let mut rows = IterationRows::new(&mut write_row, file.writer())
+                    .map_err(write_error(&iterations_path))?;
+                let observed = run_observed(&mut scene, &run, recording, &mut rows)?;
+                rows.flush().map_err(write_error(&iterations_path))?;
+                observed
+            }
+            None => run_observed(&mut scene, &run, recording, &mut write_row)?,
+        };
+        if let Some(file) = iterations {
+            file.commit().map_err(write_error(&iterations_path))?;
+        }
         if let Some(snapshots) = &observed.snapshots {
             snapshots.write(&out.join(RUN_SNAPSHOTS))?;
             draw_pictures(out, snapshots, Coloring::VolumeRatio)?;

@@ -266,6 +266,14 @@ impl Observer for SnapshotRecorder<'_> {
         self.inner.sample(sample)
     }
 
+    fn newton_iterations(
+        &mut self,
+        step: usize,
+        records: &[crate::integrate::newton::IterationRecord],
+    ) -> std::io::Result<()> {
+        self.inner.newton_iterations(step, records)
+    }
+
     fn after_step(&mut self, step: usize, model: &Model, state: &State) -> io::Result<()> {
         self.inner.after_step(step, model, state)?;
         if state.q.iter().all(|x| x.is_finite()) {

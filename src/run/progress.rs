@@ -83,6 +83,14 @@ impl Observer for RunProgress<'_> {
         self.inner.sample(sample)
     }
 
+    fn newton_iterations(
+        &mut self,
+        step: usize,
+        records: &[crate::integrate::newton::IterationRecord],
+    ) -> std::io::Result<()> {
+        self.inner.newton_iterations(step, records)
+    }
+
     fn after_step(&mut self, step: usize, model: &Model, state: &State) -> std::io::Result<()> {
         self.bar.set_position(step as u64);
         let now = Instant::now();

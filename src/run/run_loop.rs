@@ -156,6 +156,16 @@ pub trait Observer {
     fn after_step(&mut self, _step: usize, _model: &Model, _state: &State) -> std::io::Result<()> {
         Ok(())
     }
+
+    /// The Newton iteration records of step `step` (only with
+    /// `integrator.newton.log_iterations`; a failed step's too). Default: nothing.
+    fn newton_iterations(
+        &mut self,
+        _step: usize,
+        _records: &[crate::integrate::newton::IterationRecord],
+    ) -> std::io::Result<()> {
+        Ok(())
+    }
 }
 
 impl<F: FnMut(&Sample) -> std::io::Result<()>> Observer for F {
@@ -405,6 +415,7 @@ pub fn run(
     // Adaptive methods' accepted internal steps: since the last row, and over the run.
     let mut row_dts: Vec<f64> = Vec::new();
     let mut run_dts: Vec<f64> = Vec::new();
+    let mut iteration_records = Vec::new();
     let momenta = metrics.momenta(model, state);
     let no_work = RowWork {
         report: &StepReport::default(),
@@ -429,7 +440,13 @@ pub fn run(
             break;
         }
         balance.before_step(model, state, dt);
-        match integrator.step(model, state, dt) {
+        let stepped = integrator.step(model, state, dt);
+        integrator.drain_iteration_log(&mut iteration_records);
+        if !iteration_records.is_empty() {
+            observer.newton_iterations(step, &iteration_records)?;
+            iteration_records.clear();
+        }
+        match stepped {
             Ok(report) => {
                 step_seconds.push(report.times.total);
                 row_dts.extend_from_slice(integrator.internal_steps());

@@ -320,6 +320,7 @@ fn validate(c: &SceneConfig, path: &Path) -> Result<(), SceneError> {
     c.integrator
         .validate()
         .map_err(|m| invalid("integrator", m))?;
+    validate_newton_components(c, path)?;
     for (i, o) in c.obstacles.iter().enumerate() {
         o.validate(&format!("obstacles[{i}]"))
             .map_err(|e| invalid(&e.key, e.message))?;
@@ -327,6 +328,60 @@ fn validate(c: &SceneConfig, path: &Path) -> Result<(), SceneError> {
     c.contact
         .validate(c.integrator.method)
         .map_err(|e| invalid(&e.key, e.message))?;
+    Ok(())
+}
+
+/// The Newton loop's components apply to methods on it, and the constrained contact
+/// response chooses its own direction and test; `gravity-gradient` needs gravity.
+fn validate_newton_components(c: &SceneConfig, path: &Path) -> Result<(), SceneError> {
+    let invalid = |key: &str, message: String| SceneError::Invalid {
+        path: path.to_owned(),
+        key: key.into(),
+        message,
+    };
+    let n = &c.integrator.newton;
+    let defaults = crate::integrate::NewtonSettings::default();
+    let chosen = [
+        ("criterion", n.criterion != defaults.criterion),
+        ("direction", n.direction != defaults.direction),
+        ("globalization", n.globalization != defaults.globalization),
+        ("log_iterations", n.log_iterations),
+    ];
+    let method = c.integrator.method;
+    if let Some((key, _)) = chosen.iter().find(|(_, set)| *set) {
+        if !method.uses_newton() {
+            return Err(invalid(
+                &format!("integrator.newton.{key}"),
+                format!(
+                    "applies to methods on the Newton loop, and `{method}` is not one (those \
+                     are the methods `softbench list` marks newton = yes)"
+                ),
+            ));
+        }
+        if key != &"log_iterations"
+            && !c.obstacles.is_empty()
+            && c.contact.response.facts().in_newton_loop
+        {
+            return Err(invalid(
+                &format!("integrator.newton.{key}"),
+                format!(
+                    "contact.response = \"{}\" chooses the direction (a QP) and tests its \
+                     Lagrangian gradient itself: leave newton.{key} at its default",
+                    c.contact.response
+                ),
+            ));
+        }
+    }
+    if n.criterion == crate::integrate::newton::Criterion::GravityGradient
+        && c.forces.gravity.iter().all(|g| *g == 0.0)
+    {
+        return Err(invalid(
+            "integrator.newton.criterion",
+            "`gravity-gradient` is relative to the body's weight, and forces.gravity is zero: \
+             choose another criterion (scaled-gradient, relative-gradient, ...)"
+                .into(),
+        ));
+    }
     Ok(())
 }
 
