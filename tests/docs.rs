@@ -14,7 +14,7 @@ mod common;
 use common::TempDir;
 use softbench::contact::{ContactResponse, ObstacleKind};
 use softbench::data::DataPaths;
-use softbench::integrate::Method;
+use softbench::integrate::{HessianFilter, Method};
 use softbench::material::MaterialKind;
 use softbench::parallel::Parallelism;
 use softbench::scene::{self, LoadedScene, SceneConfig};
@@ -381,13 +381,14 @@ fn tables() -> BTreeMap<String, Vec<(String, Vec<String>)>> {
 fn the_registry_tables_list_exactly_the_registered_names() {
     let kinds: Vec<&str> = softbench::study::kinds().iter().map(|k| k.name).collect();
     use softbench::integrate::newton::{Criterion, Direction, Globalization, LbfgsInitial};
-    let registered: [(&str, Vec<&str>); 10] = [
+    let registered: [(&str, Vec<&str>); 11] = [
         ("study-kinds", kinds),
         ("methods", Method::names()),
         ("linear-solvers", LinearSolverKind::names()),
         ("materials", MaterialKind::names()),
         ("contact-responses", ContactResponse::names()),
         ("obstacle-kinds", ObstacleKind::names()),
+        ("hessian-filters", HessianFilter::names()),
         ("newton-directions", Direction::names()),
         ("newton-globalizations", Globalization::names()),
         ("newton-criteria", Criterion::names()),

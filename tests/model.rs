@@ -352,13 +352,7 @@ fn projected_hessian_is_positive_semidefinite_under_compression() {
         .unwrap();
     let raw_min = h.to_dense().symmetric_eigenvalues().min();
     model
-        .hessian(
-            &q,
-            &mut h,
-            HessianOptions {
-                project_elements: true,
-            },
-        )
+        .hessian(&q, &mut h, HessianOptions::projected())
         .unwrap();
     let projected_min = h.to_dense().symmetric_eigenvalues().min();
     let scale = h.to_dense().norm();

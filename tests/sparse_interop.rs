@@ -69,9 +69,7 @@ fn csc_hessian_equals_the_dense_hessian() {
     assert_eq!(csc.row_indices(), h.pattern().row_idx());
     let projected = {
         let mut p = model.new_hessian();
-        let options = HessianOptions {
-            project_elements: true,
-        };
+        let options = HessianOptions::projected();
         model.hessian(&q, &mut p, options).unwrap();
         p
     };
@@ -121,13 +119,7 @@ fn matrix_market_export_reads_back_to_the_same_matrix() {
     let q = deformed(&model);
     let mut h = model.new_hessian();
     model
-        .hessian(
-            &q,
-            &mut h,
-            HessianOptions {
-                project_elements: true,
-            },
-        )
+        .hessian(&q, &mut h, HessianOptions::projected())
         .unwrap();
     let mut text = Vec::new();
     h.write_matrix_market(&mut text).unwrap();

@@ -18,6 +18,8 @@ use softbench::console;
 use softbench::contact::{ContactResponse, ObstacleKind};
 use softbench::data::{DataError, DataPaths};
 use softbench::export::{DisplayError, ExportFormat};
+use softbench::fem::FilterSpace;
+use softbench::integrate::HessianFilter;
 use softbench::integrate::methods::METHODS;
 use softbench::integrate::newton;
 use softbench::interrupt::{self, Signal};
@@ -524,11 +526,19 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
 
 fn list() -> anyhow::Result<ExitCode> {
     let mut out = std::io::stdout().lock();
-    let families: [(&str, Vec<Listing>); 11] = [
+    let families: [(&str, Vec<Listing>); 13] = [
         ("integrators (integrator.method)", METHODS.listing()),
         (
             "linear solvers (integrator.linear_solver)",
             LINEAR_SOLVERS.listing(),
+        ),
+        (
+            "hessian filters (integrator.newton.filter)",
+            HessianFilter::listing(),
+        ),
+        (
+            "hessian filter spaces (integrator.newton.filter_space)",
+            FilterSpace::listing(),
         ),
         (
             "Newton directions (integrator.newton.direction)",

@@ -20,6 +20,7 @@
 
 use crate::integrate::StepError;
 use crate::integrate::StepReport;
+use crate::integrate::filter::FilterSettings;
 use crate::integrate::system::ImplicitSystem;
 use crate::model::Model;
 use crate::solve::{LinearSolverKind, SolverSettings};
@@ -52,7 +53,7 @@ impl Correction {
         let system = (!explicit).then(|| {
             ImplicitSystem::new(
                 LinearSolverKind::cholesky().build(&SolverSettings::default()),
-                false,
+                FilterSettings::default(),
             )
         });
         Self {

@@ -1,6 +1,7 @@
 //! The linear tetrahedron with single-point quadrature: rest-shape data, the deformation
 //! gradient, element energy, 12-vector gradient and 12×12 Hessian, element masses, and the
-//! projection of element Hessians to positive semi-definite.
+//! projection of element Hessians to positive semi-definite and their eigenvalue filters
+//! (`filter.rs`: clamp, absolute value, blends; on the 12×12 or on the 9×9 dP/dF).
 //!
 //! Element vectors are ordered `[x_a, y_a, z_a]` for vertices a = 0..4 (index `3a + i`).
 //! Element matrices are stored *block-major* in a 144-entry slice: the 3×3 block coupling
@@ -8,10 +9,14 @@
 //! [`block_offset`]`(4, a, b)`, column-major within the block, so assembly reads each block
 //! as one contiguous run.
 
+mod filter;
 mod mass;
 mod projection;
 mod tet;
 
+pub use filter::{
+    ElementFilter, FilterScope, FilterSpace, Filterable, ROUNDOFF, UnknownFilterSpace,
+};
 pub use mass::{consistent_mass_matrix, lumped_vertex_mass};
 pub use projection::{ProjectToPsd, project_to_psd};
 pub use tet::{DegenerateTet, Matrix12, TetRest};

@@ -4,6 +4,7 @@
 //! First order; cheap, but it trusts the linearization — the course handout warns that it
 //! explodes on the armadillo once it is dragged.
 
+use super::filter::FilterSettings;
 use super::system::ImplicitSystem;
 use super::{Integrator, State, StepError, StepReport};
 use crate::model::Model;
@@ -17,11 +18,11 @@ pub struct LinearlyImplicitEuler {
 }
 
 impl LinearlyImplicitEuler {
-    /// Linearly-implicit Euler solving its system with `solver`; `project_hessian` projects
-    /// element Hessians always (otherwise only when the system is indefinite).
-    pub fn new(solver: Box<dyn LinearSolver>, project_hessian: bool) -> Self {
+    /// Linearly-implicit Euler solving its system with `solver`, element Hessians through
+    /// `filter` (`integrator.newton.filter`; its one solve per step is iteration 0).
+    pub fn new(solver: Box<dyn LinearSolver>, filter: FilterSettings) -> Self {
         Self {
-            system: ImplicitSystem::new(solver, project_hessian),
+            system: ImplicitSystem::new(solver, filter),
             rhs: Vec::new(),
             mv: Vec::new(),
         }
@@ -60,6 +61,7 @@ impl Integrator for LinearlyImplicitEuler {
         }
         // (M + dt^2 K + dt D) v' = M v + dt f(q): damping -D v' taken implicitly.
         self.system.set_damping(model, &state.q, dt, report)?;
+        self.system.begin_solve();
         self.system.factor(model, &state.q, dt * dt, report)?;
         self.system.solve(model, &state.q, &mut self.rhs, report)?;
         for ((q, v), v_new) in state.q.iter_mut().zip(state.v.iter_mut()).zip(&self.rhs) {

@@ -168,7 +168,7 @@ static BUILTIN: [MethodEntry; 26] = [
     explicit("adaptive-midpoint", 2, "explicit midpoint with step-doubling error control", |s, _| adaptive("adaptive-midpoint", s, Box::new(midpoint::midpoint()))),
     explicit("adaptive-rk4", 4, "RK4 with step-doubling error control", |s, _| adaptive("adaptive-rk4", s, Box::new(rk4::rk4()))),
     explicit("dopri5", 5, "Dormand-Prince 5(4) with embedded error control", |s, _| Box::new(Adaptive::embedded(dopri5::dopri5(), s.adaptive))),
-    MethodEntry { name: "linearly-implicit-euler", description: "one Newton step of backward Euler per step", order: 1, explicit: false, newton: false, linear_solver: true, constrained_contact: false, build: |s, _| Box::new(LinearlyImplicitEuler::new(s.linear_solver.build(&s.solver), s.newton.project_hessian)) },
+    MethodEntry { name: "linearly-implicit-euler", description: "one Newton step of backward Euler per step", order: 1, explicit: false, newton: false, linear_solver: true, constrained_contact: false, build: |s, _| Box::new(LinearlyImplicitEuler::new(s.linear_solver.build(&s.solver), s.newton.filter_settings())) },
     implicit("backward-euler", 1, true, "Newton with line search; unconditionally stable, dissipative", |s, c| newton_scheme(s, c, BackwardEuler)),
     implicit("implicit-midpoint", 2, false, "Newton on the midpoint; symplectic, no numerical damping", |s, c| newton_scheme(s, c, ImplicitMidpoint)),
     implicit("bdf1", 1, true, "BDF order 1 (= backward Euler)", |s, c| bdf("bdf1", 1, s, c)),

@@ -21,6 +21,7 @@ pub mod bdf;
 pub mod colouring;
 pub mod dopri5;
 pub mod explicit_euler;
+pub mod filter;
 pub mod implicit_midpoint;
 pub mod linearly_implicit_euler;
 mod mass_inverse;
@@ -41,6 +42,7 @@ pub mod verlet;
 pub mod xpbd;
 
 pub use adaptive::{Adaptive, AdaptiveSettings};
+pub use filter::{FilterSettings, HessianFilter, UnknownHessianFilter};
 pub use mass_inverse::Dynamics;
 pub use methods::{IntegratorSettings, Method, MethodEntry, register_method};
 pub use newton::NewtonSettings;

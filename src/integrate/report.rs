@@ -79,6 +79,9 @@ pub struct StepReport {
     pub amg_reuses: u32,
     /// Times an indefinite system matrix was replaced by its projected (PSD) form.
     pub indefinite_fallbacks: u32,
+    /// Element matrices (tets, springs) the Hessian filter changed, summed over every
+    /// assembly of the step (`integrator.newton.filter`; fallbacks included).
+    pub projected_elements: u64,
     /// Times a failed step was retried as two steps of half the size.
     pub dt_halvings: u32,
     /// Trust-region subproblems that stopped at `trust_region_cg_iterations` (their last CG
@@ -135,6 +138,7 @@ impl StepReport {
             self.factor_scheduler = other.factor_scheduler;
         }
         self.indefinite_fallbacks += other.indefinite_fallbacks;
+        self.projected_elements += other.projected_elements;
         self.dt_halvings += other.dt_halvings;
         self.capped_subproblems += other.capped_subproblems;
         self.filtered_steps += other.filtered_steps;

@@ -1,13 +1,18 @@
 //! The linear system of implicit methods, `H = M + beta K(x)`: assembled into the model's
 //! fixed pattern, factored by any [`LinearSolver`] (symbolic analysis once), solved per
-//! right-hand side. If `H` turns out indefinite (a failed Cholesky pivot, CG meeting negative
-//! curvature, or negative pivots counted by LDLᵀ, which factors indefinite matrices without
-//! failing), it is reassembled with element Hessians projected to PSD — which makes `H`
-//! positive definite — and the fallback is counted in the step report. Every caller needs a
-//! positive definite `H` (Newton's direction must descend), so a matrix still indefinite after
-//! projection is an error, never a solution.
+//! right-hand side. Element Hessians go through the Hessian filter of the settings
+//! ([`super::filter`]). If `H` turns out indefinite (a failed Cholesky pivot, CG meeting
+//! negative curvature, or negative pivots counted by LDLᵀ, which factors indefinite matrices
+//! without failing) and the filter has a fallback (`none`, `on-demand`), it is reassembled
+//! with the fallback's PSD element matrices — which makes `H` positive definite — and the
+//! fallback is counted in the step report. Every caller needs a positive definite `H`
+//! (Newton's direction must descend), so a matrix still indefinite after filtering is an
+//! error, never a solution. Element matrices the filter changed are counted
+//! (`projected_elements`) at every assembly.
 
+use super::filter::FilterSettings;
 use super::{StepError, StepReport};
+use crate::fem::ElementFilter;
 use crate::model::{HessianOptions, Model};
 use crate::solve::{LinearSolver, SolveError};
 use crate::sparse::SymmetricMatrix;
@@ -17,9 +22,11 @@ use std::time::Instant;
 pub struct ImplicitSystem {
     solver: Box<dyn LinearSolver>,
     matrix: Option<SymmetricMatrix>,
-    /// Project element Hessians always (not only as a fallback).
-    always_project: bool,
-    /// Whether the current factorization is of the projected matrix.
+    /// The Hessian filter.
+    filter: FilterSettings,
+    /// Assemblies since [`Self::begin_solve`]: the Newton iteration of `progressive`.
+    iteration: u32,
+    /// Whether the current matrix is PSD by construction (no fallback left).
     projected: bool,
     /// Last (x, beta) assembled, so the fallback can reassemble the same matrix.
     beta: f64,
@@ -65,11 +72,13 @@ fn record_solver(stats: &crate::solve::SolverStats, report: &mut StepReport) {
 }
 
 impl ImplicitSystem {
-    pub fn new(solver: Box<dyn LinearSolver>, always_project: bool) -> Self {
+    /// A system whose element Hessians go through `filter`.
+    pub fn new(solver: Box<dyn LinearSolver>, filter: FilterSettings) -> Self {
         Self {
             solver,
             matrix: None,
-            always_project,
+            filter,
+            iteration: 0,
             projected: false,
             beta: 0.0,
             rhs_copy: Vec::new(),
@@ -83,6 +92,17 @@ impl ImplicitSystem {
         }
     }
 
+    /// A new nonlinear solve starts: the next assembly is its iteration 0 (for filters that
+    /// change with the iteration).
+    pub fn begin_solve(&mut self) {
+        self.iteration = 0;
+    }
+
+    /// The filter settings.
+    pub fn filter(&self) -> &FilterSettings {
+        &self.filter
+    }
+
     /// Assemble `M + beta K` (the default) or, without the mass term, `beta K` (a static
     /// solve, whose matrix is singular unless something holds the body).
     pub fn set_mass_term(&mut self, on: bool) {
@@ -93,7 +113,7 @@ impl ImplicitSystem {
         &mut self,
         model: &mut Model,
         x: &[f64],
-        project: bool,
+        filter: Option<ElementFilter>,
         report: &mut StepReport,
     ) -> Result<(), StepError> {
         let start = Instant::now();
@@ -104,13 +124,8 @@ impl ImplicitSystem {
             self.matrix = Some(m);
         }
         let h = self.matrix.as_mut().expect("created above");
-        model.hessian(
-            x,
-            h,
-            HessianOptions {
-                project_elements: project,
-            },
-        )?;
+        model.hessian(x, h, HessianOptions { filter })?;
+        report.projected_elements += model.filtered_elements() as u64;
         if self.mass_term {
             model.mass().scale_and_add_to(self.beta, h);
         } else {
@@ -124,13 +139,18 @@ impl ImplicitSystem {
                 self.damping.as_ref().expect("assembled with the step"),
             );
         }
-        self.projected = project;
+        self.projected = match (filter, self.filter.fallback()) {
+            (None, _) => false,
+            (Some(_), None) => true,
+            (Some(f), Some(fallback)) => f == fallback,
+        };
         report.times.assemble += start.elapsed().as_secs_f64();
         Ok(())
     }
 
-    /// Assemble `M + beta K(x)` without factoring it, element Hessians projected when
-    /// `project`, for a caller that hands the matrix to another solver (the contact QP).
+    /// Assemble `M + beta K(x)` without factoring it, element Hessians through a PSD filter
+    /// when `project` (the settings' filter if it is PSD by construction, else its fallback),
+    /// for a caller that hands the matrix to another solver (the contact QP).
     pub fn assemble_matrix(
         &mut self,
         model: &mut Model,
@@ -140,7 +160,8 @@ impl ImplicitSystem {
         report: &mut StepReport,
     ) -> Result<&SymmetricMatrix, StepError> {
         self.beta = beta;
-        self.assemble(model, x, project, report)?;
+        let filter = project.then(|| self.filter.psd(self.iteration));
+        self.assemble(model, x, filter, report)?;
         Ok(self.matrix.as_ref().expect("assembled"))
     }
 
@@ -217,11 +238,13 @@ impl ImplicitSystem {
     ) -> Result<(), StepError> {
         self.beta = beta;
         self.reusable = false;
-        self.assemble(model, x, self.always_project, report)?;
+        let first = self.filter.first(self.iteration);
+        self.iteration = self.iteration.saturating_add(1);
+        self.assemble(model, x, first, report)?;
         match self.factor_current(x, report) {
             Err(e) if is_indefinite(&e) && !self.projected => {
                 report.indefinite_fallbacks += 1;
-                self.assemble(model, x, true, report)?;
+                self.assemble(model, x, self.filter.fallback(), report)?;
                 self.factor_current(x, report)?;
             }
             other => other?,
@@ -275,7 +298,7 @@ impl ImplicitSystem {
             && !self.projected
         {
             report.indefinite_fallbacks += 1;
-            self.assemble(model, x_assembled, true, report)?;
+            self.assemble(model, x_assembled, self.filter.fallback(), report)?;
             self.factor_current(x_assembled, report)?;
             rhs.copy_from_slice(&self.rhs_copy);
             let start = Instant::now();

@@ -54,6 +54,15 @@ pub trait Material: Copy + Send + Sync + std::fmt::Debug {
     /// dP/dF as a 9×9 matrix over column-major `vec(F)` (symmetric).
     fn first_piola_derivative(&self, f: &Matrix3<f64>) -> Result<Matrix9, InvalidDeformation>;
 
+    /// The eigensystem of dP/dF in closed form, where the model has one: the nine
+    /// eigenvalues and, as columns, orthonormal eigenvectors over column-major `vec(F)`.
+    /// `None` (the default): Hessian filters in the `stress` space decompose dP/dF
+    /// numerically.
+    #[inline]
+    fn stress_eigensystem(&self, _f: &Matrix3<f64>) -> Option<(SVector<f64, 9>, Matrix9)> {
+        None
+    }
+
     /// For one tet vertex with shape gradient `n` (F changes by `δx nᵀ` when the vertex moves
     /// by δx): `P n` and the vertex's 3×3 Hessian block `Σ_{c,d} n_c n_d ∂P_{·c}/∂F_{·d}`
     /// (per unit rest volume). Vertex block descent needs only these; a material with a

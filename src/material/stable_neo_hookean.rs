@@ -15,8 +15,11 @@
 //! mu = 4/3 mu_lame, lambda = lambda_lame + 5/6 mu_lame, which makes the model linearize to the
 //! given Lamé constants.
 
-use super::{InvalidDeformation, LameParameters, Material, Matrix9, cofactor, det_hessian, vec9};
-use nalgebra::{Matrix3, Vector3};
+use super::{
+    InvalidDeformation, LameParameters, Material, Matrix9, RotationVariantSvd, cofactor,
+    det_hessian, vec9,
+};
+use nalgebra::{Matrix3, SVector, Vector3};
 
 /// The Stable Neo-Hookean energy with its own (reparameterized) constants.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -106,6 +109,59 @@ impl Material for StableNeoHookean {
             h[(i, i)] += diagonal;
         }
         Ok(h)
+    }
+
+    /// Closed form (Smith, de Goes, Kim 2018, section 4): with F = U diag(σ) Vᵀ (the
+    /// rotation-variant SVD), I_C + 1 = |σ|² + 1, J = σ₀σ₁σ₂ and μ' = μ (1 − 1/(I_C + 1)),
+    /// - twists `U (e_i e_kᵀ − e_k e_iᵀ) Vᵀ / √2`: `μ' + λ (J − α) σ_m`,
+    /// - flips `U (e_i e_kᵀ + e_k e_iᵀ) Vᵀ / √2`: `μ' − λ (J − α) σ_m` (m the third index),
+    /// - scalings `U diag(q) Vᵀ`, q the eigenvectors of the 3×3
+    ///   `A_ik = 2μ/(I_C + 1)² σ_i σ_k + λ ĉ_i ĉ_k + [i = k] μ' + [i ≠ k] λ (J − α) σ_m`,
+    ///   `ĉ_i = J / σ_i` (the cofactor's singular values).
+    ///
+    /// The rank-one terms vanish on twists and flips (F and cof F are diagonal in the U, V
+    /// frame), and d²J/dF² is `±σ_m` on them. `None` when the SVD fails (a non-finite F).
+    fn stress_eigensystem(&self, f: &Matrix3<f64>) -> Option<(SVector<f64, 9>, Matrix9)> {
+        let svd = RotationVariantSvd::new(f)?;
+        let s = svd.sigma;
+        let ic1 = s.norm_squared() + 1.0;
+        let dj = s[0] * s[1] * s[2] - self.alpha;
+        let shear = self.mu * (1.0 - 1.0 / ic1);
+        let c = 2.0 * self.mu / (ic1 * ic1);
+        let cof = Vector3::new(s[1] * s[2], s[0] * s[2], s[0] * s[1]);
+        let a = Matrix3::from_fn(|i, k| {
+            c * s[i] * s[k]
+                + self.lambda * cof[i] * cof[k]
+                + if i == k {
+                    shear
+                } else {
+                    self.lambda * dj * s[3 - i - k]
+                }
+        });
+        let scaling = a.symmetric_eigen();
+        let mut values = SVector::<f64, 9>::zeros();
+        let mut vectors = Matrix9::zeros();
+        let frame = |m: Matrix3<f64>| vec9(&(svd.u * m * svd.v.transpose()));
+        for n in 0..3 {
+            values[n] = scaling.eigenvalues[n];
+            let q: Vector3<f64> = scaling.eigenvectors.column(n).into();
+            vectors.set_column(n, &frame(Matrix3::from_diagonal(&q)));
+        }
+        let r = std::f64::consts::FRAC_1_SQRT_2;
+        for (n, (i, k)) in [(0, 1), (0, 2), (1, 2)].into_iter().enumerate() {
+            let third = s[3 - i - k];
+            let mut twist = Matrix3::zeros();
+            twist[(i, k)] = r;
+            twist[(k, i)] = -r;
+            let mut flip = Matrix3::zeros();
+            flip[(i, k)] = r;
+            flip[(k, i)] = r;
+            values[3 + n] = shear + self.lambda * dj * third;
+            values[6 + n] = shear - self.lambda * dj * third;
+            vectors.set_column(3 + n, &frame(twist));
+            vectors.set_column(6 + n, &frame(flip));
+        }
+        Some((values, vectors))
     }
 
     /// Closed form: contracting dP/dF with `n ⊗ n` turns `I` into `|n|² I`, `vec(F) vec(F)ᵀ`

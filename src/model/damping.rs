@@ -140,13 +140,7 @@ impl Model {
                     .stiffness_scratch
                     .take()
                     .unwrap_or_else(|| self.new_hessian());
-                let result = self.hessian(
-                    q,
-                    &mut k,
-                    HessianOptions {
-                        project_elements: true,
-                    },
-                );
+                let result = self.hessian(q, &mut k, HessianOptions::projected());
                 if result.is_ok() {
                     k.mul_vec(v, &mut extra);
                     f.iter_mut().zip(&extra).for_each(|(fi, e)| *fi += beta * e);

@@ -1,10 +1,13 @@
 //! The elastic potential of a tet mesh: element loops over linear tets, generic over the
 //! material so the per-element code has no dynamic dispatch.
 
-use crate::fem::{ProjectToPsd, TetRest, pack_matrix12, unpack_matrix12};
+use crate::fem::{
+    ElementFilter, FilterScope, FilterSpace, ProjectToPsd, TetRest, pack_matrix12, unpack_matrix12,
+};
 use crate::material::{Material, MaterialModel, with_material};
 use crate::parallel::{Parallelism, for_each_chunk};
 use nalgebra::Vector3;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 /// Elements per parallel task (and per partial energy sum, so sums never depend on threads).
 pub(crate) const CHUNK: usize = 256;
@@ -55,15 +58,21 @@ impl ElasticBody {
         with_material!(&self.material, |m| gradients(m, self, par, x, buf))
     }
 
-    /// Element Hessians into `buf` (144 per tet, block-major), optionally projected to PSD.
+    /// Element Hessians into `buf` (144 per tet, block-major), through `filter` if given
+    /// (see [`crate::fem::ElementFilter`]); `flags` (one per tet) is the on-demand filter's
+    /// memory, read and written only by a filter of that scope. Returns how many element
+    /// matrices the filter changed.
     pub fn hessians(
         &self,
         par: Parallelism,
         x: &[Vector3<f64>],
-        project: bool,
+        filter: Option<&ElementFilter>,
+        flags: &[AtomicBool],
         buf: &mut [f64],
-    ) -> Result<(), ElementFailure> {
-        with_material!(&self.material, |m| hessians(m, self, par, x, project, buf))
+    ) -> Result<usize, ElementFailure> {
+        with_material!(&self.material, |m| hessians(
+            m, self, par, x, filter, flags, buf
+        ))
     }
 }
 
@@ -119,28 +128,72 @@ fn hessians<M: Material>(
     body: &ElasticBody,
     par: Parallelism,
     x: &[Vector3<f64>],
-    project: bool,
+    filter: Option<&ElementFilter>,
+    flags: &[AtomicBool],
     buf: &mut [f64],
-) -> Result<(), ElementFailure> {
+) -> Result<usize, ElementFailure> {
+    let filtered = AtomicUsize::new(0);
     for_each_chunk(par, buf, 144 * CHUNK, |ci, out| {
+        let mut count = 0;
         for (k, h) in out.chunks_exact_mut(144).enumerate() {
             let e = ci * CHUNK + k;
             let rest = &body.rest[e];
             let f = rest.deformation_gradient(&element_positions(&body.tets[e], x));
-            let d = m.first_piola_derivative(&f).map_err(|err| ElementFailure {
+            let mut d = m.first_piola_derivative(&f).map_err(|err| ElementFailure {
                 tet: e,
                 det_f: err.det_f,
             })?;
-            rest.hessian_from_stress_derivative(&d, h);
-            if project {
-                let mut mat = unpack_matrix12(h);
-                if mat.project_to_psd() {
-                    pack_matrix12(&mat, h);
+            let Some(filter) = filter else {
+                rest.hessian_from_stress_derivative(&d, h);
+                continue;
+            };
+            let active = match filter.scope {
+                FilterScope::Flagged => flags[e].load(Ordering::Relaxed),
+                FilterScope::Every | FilterScope::EveryFlagging => true,
+            };
+            if active && filter.space == FilterSpace::Stress {
+                let changed = match m.stress_eigensystem(&f) {
+                    Some((values, vectors)) => filter.apply_eigensystem(&values, &vectors, &mut d),
+                    None => filter.apply(&mut d),
+                };
+                rest.hessian_from_stress_derivative(&d, h);
+                count += usize::from(changed);
+                remember(filter, &flags[e], changed);
+            } else {
+                rest.hessian_from_stress_derivative(&d, h);
+                if active {
+                    let mut mat = unpack_matrix12(h);
+                    let changed = filter.apply(&mut mat);
+                    if changed {
+                        pack_matrix12(&mat, h);
+                    }
+                    count += usize::from(changed);
+                    remember(filter, &flags[e], changed);
                 }
             }
         }
+        filtered.fetch_add(count, Ordering::Relaxed);
         Ok(())
-    })
+    })?;
+    Ok(filtered.into_inner())
+}
+
+/// The on-demand memory after filtering one element (see [`FilterScope`]).
+#[inline]
+fn remember(filter: &ElementFilter, flag: &AtomicBool, changed: bool) {
+    match filter.scope {
+        FilterScope::Every => {}
+        FilterScope::Flagged => {
+            if !changed {
+                flag.store(false, Ordering::Relaxed);
+            }
+        }
+        FilterScope::EveryFlagging => {
+            if changed {
+                flag.store(true, Ordering::Relaxed);
+            }
+        }
+    }
 }
 
 impl ElasticBody {

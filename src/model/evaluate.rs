@@ -6,8 +6,10 @@
 use super::elastic::ElementFailure;
 use super::pattern::{gather_matrix, gather_vector};
 use super::{FIXED, HessianOptions, Model, ModelError, PotentialParts};
+use crate::fem::FilterScope;
 use crate::sparse::SymmetricMatrix;
 use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
 
 impl Model {
     pub(super) fn load_state(&mut self, q: &[f64]) -> Result<(), ModelError> {
@@ -165,30 +167,51 @@ impl Model {
         self.counters.hessian += 1;
         let par = self.parallelism;
         let b = &mut self.buffers;
+        let filter = options.filter.as_ref();
+        b.filtered = 0;
         if let Some(body) = &self.elastic {
             b.tet_matrices.resize(144 * body.tets.len(), 0.0);
+            if b.tet_flags.len() != body.tets.len() {
+                b.tet_flags = (0..body.tets.len())
+                    .map(|_| AtomicBool::new(false))
+                    .collect();
+            }
             let res = body.hessians(
                 par,
                 &self.positions,
-                options.project_elements,
+                filter,
+                &b.tet_flags,
                 &mut b.tet_matrices,
             );
-            if let Err(f) = res {
-                return Err(self.element_error(f));
+            match res {
+                Ok(n) => b.filtered += n,
+                Err(f) => return Err(self.element_error(f)),
             }
         }
         b.spring_matrices.resize(36 * self.springs.len(), 0.0);
-        for (s, out) in self
+        b.spring_flags.resize(self.springs.len(), false);
+        for ((s, out), flag) in self
             .springs
             .iter()
             .zip(b.spring_matrices.chunks_exact_mut(36))
+            .zip(b.spring_flags.iter_mut())
         {
-            s.hessian(
+            let active = match filter.map(|f| f.scope) {
+                Some(FilterScope::Flagged) => *flag,
+                _ => true,
+            };
+            let changed = s.hessian_filtered(
                 &self.positions[s.i],
                 &self.positions[s.j],
-                options.project_elements,
+                filter.filter(|_| active),
                 out,
             );
+            b.filtered += usize::from(changed);
+            match filter.map(|f| f.scope) {
+                Some(FilterScope::Flagged) if active => *flag = changed,
+                Some(FilterScope::EveryFlagging) if changed => *flag = true,
+                _ => {}
+            }
         }
         self.gather_element_matrices(h.values_mut());
         let values = h.values_mut();
@@ -197,7 +220,7 @@ impl Model {
             p.hessian(
                 self.time,
                 &self.positions,
-                options.project_elements,
+                filter.is_some(),
                 &mut |v, block| {
                     let f = dofs.free_index(v);
                     if f != FIXED {

@@ -36,6 +36,7 @@ pub use spectrum::{HighestMode, SpectrumError, SpectrumSettings, highest_mode};
 pub use springs::Spring;
 pub use vertex_potential::{Anchors, VertexPotential};
 
+use crate::fem::ElementFilter;
 use crate::material::MaterialModel;
 use crate::mesh::TetMesh;
 use crate::parallel::Parallelism;
@@ -44,6 +45,7 @@ use elastic::ElasticBody;
 use nalgebra::Vector3;
 use pattern::ElementGather;
 use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
 
 /// What to do with tets of negative rest volume.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -127,10 +129,27 @@ impl PotentialParts {
 }
 
 /// Options of a Hessian evaluation.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct HessianOptions {
-    /// Project every element Hessian to positive semi-definite (eigenvalue clamp).
-    pub project_elements: bool,
+    /// The eigenvalue filter of every element matrix (tets and springs; vertex potentials
+    /// are projected whenever a filter is given); `None` for the exact Hessian.
+    pub filter: Option<ElementFilter>,
+}
+
+impl HessianOptions {
+    /// Every element matrix projected to PSD (eigenvalues clamped at 0 on the 12×12).
+    pub fn projected() -> Self {
+        Self {
+            filter: Some(ElementFilter::CLAMP),
+        }
+    }
+
+    /// Through `filter`.
+    pub fn filtered(filter: ElementFilter) -> Self {
+        Self {
+            filter: Some(filter),
+        }
+    }
 }
 
 /// Scratch space reused by every evaluation (element matrices allocated on first use, so
@@ -142,6 +161,12 @@ struct Buffers {
     tet_matrices: Vec<f64>,
     spring_vectors: Vec<f64>,
     spring_matrices: Vec<f64>,
+    /// The on-demand filter's memory: which tets and springs had a negative eigenvalue
+    /// (see [`crate::fem::FilterScope`]).
+    tet_flags: Vec<AtomicBool>,
+    spring_flags: Vec<bool>,
+    /// Element matrices the filter changed in the last Hessian evaluation.
+    filtered: usize,
 }
 
 /// A conservative system over the free DOFs `q` (see the module docs).
@@ -288,6 +313,12 @@ impl Model {
     /// Change how element loops run (results do not change).
     pub fn set_parallelism(&mut self, par: Parallelism) {
         self.parallelism = par;
+    }
+
+    /// Element matrices (tets and springs) the filter changed in the last Hessian
+    /// evaluation; 0 without a filter.
+    pub fn filtered_elements(&self) -> usize {
+        self.buffers.filtered
     }
 
     /// Evaluation counts since construction or the last reset.

@@ -1,5 +1,6 @@
 //! Springs between two vertices: energy `k/2 (|x_i - x_j| - L)^2` with gradient and Hessian.
 
+use crate::fem::ElementFilter;
 use nalgebra::{Matrix3, Vector3};
 
 /// A spring joining vertices `i` and `j` with rest length `rest_length` (>= 0), stiffness
@@ -45,17 +46,37 @@ impl Spring {
     /// clamped to 0, which makes the block positive semi-definite.
     #[inline]
     pub fn hessian(&self, xi: &Vector3<f64>, xj: &Vector3<f64>, project: bool, out: &mut [f64]) {
+        self.hessian_filtered(xi, xj, project.then_some(&ElementFilter::CLAMP), out);
+    }
+
+    /// [`Self::hessian`] through an eigenvalue filter, in closed form: the 6×6 matrix has
+    /// eigenvalues `2k` (stretch, > 0), `2k t` twice (transverse, `t = 1 - L/l`) and three
+    /// zeros (translations); the filter maps `2k t` to `φ(2k t)` (see
+    /// [`crate::fem::ElementFilter`]) and leaves the others. Returns whether it changed `t`.
+    #[inline]
+    pub fn hessian_filtered(
+        &self,
+        xi: &Vector3<f64>,
+        xj: &Vector3<f64>,
+        filter: Option<&ElementFilter>,
+        out: &mut [f64],
+    ) -> bool {
         let d = xi - xj;
         let l = d.norm();
         let k = self.stiffness;
+        let mut changed = false;
         let block = if self.rest_length == 0.0 || l == 0.0 {
             Matrix3::identity() * k
         } else {
             let u = d / l;
             let uu = u * u.transpose();
             let mut t = 1.0 - self.rest_length / l;
-            if project {
-                t = t.max(0.0);
+            if let Some(f) = filter {
+                let transverse = 2.0 * k * t;
+                if f.needed(transverse.min(2.0 * k), transverse.abs().max(2.0 * k)) {
+                    t = f.map(transverse) / (2.0 * k);
+                    changed = true;
+                }
             }
             (uu + (Matrix3::identity() - uu) * t) * k
         };
@@ -66,6 +87,7 @@ impl Spring {
                 *dst = sign * src;
             }
         }
+        changed
     }
 }
 

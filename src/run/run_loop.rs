@@ -111,6 +111,9 @@ pub struct Sample {
     pub internal_dt_min: Option<f64>,
     pub internal_dt_median: Option<f64>,
     pub internal_dt_max: Option<f64>,
+    /// Element matrices the Hessian filter changed since the previous row (summed over
+    /// every assembly; see `integrator.newton.filter`).
+    pub projected_elements: u64,
 }
 
 /// Smallest, median and largest of a set of step sizes (s).
@@ -313,6 +316,7 @@ fn sample(
         internal_dt_min: w.internal_dt.map(|s| s.min),
         internal_dt_median: w.internal_dt.map(|s| s.median),
         internal_dt_max: w.internal_dt.map(|s| s.max),
+        projected_elements: work.projected_elements,
     }
 }
 

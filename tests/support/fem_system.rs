@@ -43,13 +43,7 @@ pub fn fem_system(mesh: TetMesh) -> FemSystem {
     }
     let mut h = model.new_hessian();
     model
-        .hessian(
-            &x,
-            &mut h,
-            HessianOptions {
-                project_elements: true,
-            },
-        )
+        .hessian(&x, &mut h, HessianOptions::projected())
         .unwrap();
     model.mass().scale_and_add_to(1e-4, &mut h);
     FemSystem {

@@ -45,6 +45,7 @@ pub use settings::{
 mod potential;
 mod vectors;
 
+use super::filter::HessianFilter;
 pub use super::system::ImplicitSystem;
 use super::{State, StepError, StepReport};
 use crate::model::{Model, ModelError};
@@ -145,7 +146,7 @@ impl Newton {
         Self {
             settings,
             trace: NewtonTrace::default(),
-            system: ImplicitSystem::new(solver, settings.project_hessian),
+            system: ImplicitSystem::new(solver, settings.filter_settings()),
             potential: IncrementalPotential::default(),
             constraints: None,
             step_filter: None,
@@ -267,6 +268,7 @@ impl Newton {
         self.solves += 1;
         let t = model.time();
         self.system.set_mass_term(!p.quasi_static);
+        self.system.begin_solve();
         // A constrained solve starts feasible when it can: at the guess if it is outside every
         // obstacle, else at the start-of-step positions.
         if let Some(c) = &self.constraints
@@ -432,7 +434,11 @@ impl Newton {
                 self.record(record, Stop::Cap, start);
                 return Ok(false);
             }
-            let before = (report.linear_iterations, report.factorizations);
+            let before = (
+                report.linear_iterations,
+                report.factorizations,
+                report.projected_elements,
+            );
             if iteration == 0 && s.globalization == Globalization::TrustRegion {
                 radius = self.first_radius(model);
             }
@@ -445,6 +451,7 @@ impl Newton {
             record.decrement = -slope;
             record.linear_iterations = report.linear_iterations - before.0;
             record.factorizations = report.factorizations - before.1;
+            record.projected_elements = report.projected_elements - before.2;
             if s.criterion.needs_direction() && s.criterion.met(s.tolerance, &record) {
                 self.record(record, Stop::Criterion, start);
                 return Ok(true);
@@ -629,7 +636,7 @@ impl Newton {
         scales: &Scales,
         report: &mut StepReport,
     ) -> Result<f64, StepError> {
-        let project = self.settings.project_hessian;
+        let project = self.settings.filter_settings().filter != HessianFilter::None;
         self.system
             .assemble_matrix(model, x, p.beta, project, report)?;
         self.subproblem(radius, scales, report);

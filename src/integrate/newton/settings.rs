@@ -3,6 +3,9 @@
 //! initial Hessian. Each component is a row of a `named_enum!` table (name, description),
 //! listed by `softbench list`; adding one is a row here plus its arm where it acts.
 
+use crate::fem::FilterSpace;
+use crate::integrate::filter::{FilterSettings, HessianFilter};
+
 crate::named_enum! {
     /// How a Newton iteration picks its direction (`integrator.newton.direction`).
     pub enum Direction: "Newton direction", UnknownDirection {
@@ -111,9 +114,19 @@ pub struct NewtonSettings {
     /// Backtracks per line search (rejected trust-region steps per iteration) before Newton
     /// fails. Default 40.
     pub max_backtracks: u32,
-    /// Project every element Hessian to PSD (otherwise only as a fallback when the system
-    /// matrix is indefinite). Default false.
+    /// The old switch for `filter = "clamp"`: true projects every element Hessian to PSD.
+    /// Kept as an alias; it contradicts any filter other than `none` and `clamp`.
+    /// Default false.
     pub project_hessian: bool,
+    /// The Hessian filter (see [`crate::integrate::filter`]): `none` (the default: exact
+    /// Hessians, clamped only when the system is indefinite), `clamp`, `abs`, `on-demand`,
+    /// `progressive`.
+    pub filter: HessianFilter,
+    /// `ε` of the filter, >= 0: every filtered eigenvalue is at least this. Default 0.
+    pub filter_epsilon: f64,
+    /// Where the filter decomposes: `element` (the 12×12 element Hessian, the default) or
+    /// `stress` (the material's 9×9 dP/dF).
+    pub filter_space: FilterSpace,
     /// Fail the step when the tolerance is not met within `max_iterations` (otherwise the last
     /// iterate is used, as in the course, and counted as unconverged). Default false.
     pub require_convergence: bool,
@@ -155,6 +168,9 @@ impl Default for NewtonSettings {
             sufficient_decrease: 1e-8,
             max_backtracks: 40,
             project_hessian: false,
+            filter: HessianFilter::None,
+            filter_epsilon: 0.0,
+            filter_space: FilterSpace::Element,
             require_convergence: false,
             retry_halvings: 0,
             refactor_every: 1,
@@ -168,9 +184,37 @@ impl Default for NewtonSettings {
 }
 
 impl NewtonSettings {
+    /// The filter the system matrix uses (`project_hessian = true` is `filter = "clamp"`).
+    pub fn filter_settings(&self) -> FilterSettings {
+        let filter = match (self.project_hessian, self.filter) {
+            (true, HessianFilter::None) => HessianFilter::Clamp,
+            (_, f) => f,
+        };
+        FilterSettings {
+            filter,
+            epsilon: self.filter_epsilon,
+            space: self.filter_space,
+        }
+    }
+
     /// Check every field's range and the components' combination; the message names the
     /// field and what is valid.
     pub fn validate(&self) -> Result<(), String> {
+        if !(self.filter_epsilon.is_finite() && self.filter_epsilon >= 0.0) {
+            return Err(format!(
+                "newton.filter_epsilon must be finite and >= 0 (got {})",
+                self.filter_epsilon
+            ));
+        }
+        if self.project_hessian
+            && !matches!(self.filter, HessianFilter::None | HessianFilter::Clamp)
+        {
+            return Err(format!(
+                "newton.project_hessian = true means newton.filter = \"clamp\", which contradicts \
+                 newton.filter = \"{}\"; set only newton.filter",
+                self.filter
+            ));
+        }
         let checks = [
             (
                 self.max_iterations >= 1,
