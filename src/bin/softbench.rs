@@ -18,7 +18,9 @@ use softbench::console;
 use softbench::contact::{ContactResponse, ObstacleKind};
 use softbench::data::{DataError, DataPaths};
 use softbench::export::{DisplayError, ExportFormat};
+use softbench::integrate::acceleration::Acceleration;
 use softbench::integrate::methods::METHODS;
+use softbench::integrate::vbd::VbdSweep;
 use softbench::interrupt::{self, Signal};
 use softbench::lock::{FolderLock, LockError, Wait, Waiting};
 use softbench::material::MaterialKind;
@@ -523,12 +525,17 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
 
 fn list() -> anyhow::Result<ExitCode> {
     let mut out = std::io::stdout().lock();
-    let families: [(&str, Vec<Listing>); 7] = [
+    let families: [(&str, Vec<Listing>); 9] = [
         ("integrators (integrator.method)", METHODS.listing()),
         (
             "linear solvers (integrator.linear_solver)",
             LINEAR_SOLVERS.listing(),
         ),
+        (
+            "local-solver accelerations (integrator.vbd/projective_dynamics.acceleration)",
+            Acceleration::listing(),
+        ),
+        ("vbd sweeps (integrator.vbd.sweep)", VbdSweep::listing()),
         ("materials (material.model)", MaterialKind::listing()),
         (
             "contact responses (contact.response)",
