@@ -15,6 +15,8 @@ use common::TempDir;
 use softbench::contact::{ContactResponse, ObstacleKind};
 use softbench::data::DataPaths;
 use softbench::integrate::Method;
+use softbench::integrate::acceleration::Acceleration;
+use softbench::integrate::vbd::VbdSweep;
 use softbench::material::MaterialKind;
 use softbench::parallel::Parallelism;
 use softbench::scene::{self, LoadedScene, SceneConfig};
@@ -380,13 +382,15 @@ fn tables() -> BTreeMap<String, Vec<(String, Vec<String>)>> {
 #[test]
 fn the_registry_tables_list_exactly_the_registered_names() {
     let kinds: Vec<&str> = softbench::study::kinds().iter().map(|k| k.name).collect();
-    let registered: [(&str, Vec<&str>); 6] = [
+    let registered: [(&str, Vec<&str>); 8] = [
         ("study-kinds", kinds),
         ("methods", Method::names()),
         ("linear-solvers", LinearSolverKind::names()),
         ("materials", MaterialKind::names()),
         ("contact-responses", ContactResponse::names()),
         ("obstacle-kinds", ObstacleKind::names()),
+        ("accelerations", Acceleration::names()),
+        ("vbd-sweeps", VbdSweep::names()),
     ];
     let found = tables();
     for (name, names) in &registered {

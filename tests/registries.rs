@@ -1,12 +1,15 @@
 //! Claims about the registries: every registered linear solver, material, contact response,
-//! obstacle kind and export format appears in `softbench list` with its description, and can
-//! be parsed (and, for solvers and materials, built) from the name it is listed under; a
-//! program can register its own linear solver and find it by name.
+//! obstacle kind, export format, local-solver acceleration and VBD sweep appears in
+//! `softbench list` with its description, and can be parsed (and, for solvers and materials,
+//! built) from the name it is listed under; a program can register its own linear solver and
+//! find it by name.
 
 use std::process::Command;
 
 use softbench::contact::{ContactResponse, ObstacleKind};
 use softbench::export::ExportFormat;
+use softbench::integrate::acceleration::Acceleration;
+use softbench::integrate::vbd::VbdSweep;
 use softbench::material::{LameParameters, MaterialKind, MaterialModel};
 use softbench::registry::{NamedEnum, RegisterError};
 use softbench::solve::{
@@ -80,11 +83,14 @@ fn check_enum<T: NamedEnum + std::str::FromStr + PartialEq + std::fmt::Debug>(te
 }
 
 #[test]
-fn every_contact_response_obstacle_kind_and_export_format_is_listed_and_parses() {
+fn every_contact_response_obstacle_kind_export_format_acceleration_and_sweep_is_listed_and_parses()
+{
     let text = list_output();
     check_enum::<ContactResponse>(&text);
     check_enum::<ObstacleKind>(&text);
     check_enum::<ExportFormat>(&text);
+    check_enum::<Acceleration>(&text);
+    check_enum::<VbdSweep>(&text);
 }
 
 #[test]
