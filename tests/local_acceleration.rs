@@ -143,7 +143,7 @@ fn errors(
 /// The first tried count whose error is below `tol` and stays below it at every larger count
 /// tried; `None` if the largest is still above.
 fn iterations_to(errors: &[(u32, f64)], tol: f64) -> Option<u32> {
-    match errors.iter().rposition(|&(_, e)| !(e < tol)) {
+    match errors.iter().rposition(|&(_, e)| e >= tol || e.is_nan()) {
         None => Some(errors[0].0),
         Some(i) => errors.get(i + 1).map(|&(k, _)| k),
     }

@@ -61,6 +61,8 @@ crate::named_enum! {
     }
 }
 
+// named_enum! fixes the derive list, so the default is written out.
+#[allow(clippy::derivable_impls)]
 impl Default for VbdSweep {
     fn default() -> Self {
         Self::GaussSeidel

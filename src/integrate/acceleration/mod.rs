@@ -133,6 +133,8 @@ impl std::fmt::Debug for AccelerationFacts {
     }
 }
 
+// named_enum! fixes the derive list, so the default is written out.
+#[allow(clippy::derivable_impls)]
 impl Default for Acceleration {
     fn default() -> Self {
         Self::None
