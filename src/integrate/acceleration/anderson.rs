@@ -17,7 +17,7 @@
 //! (and restarts for a singular Gram matrix) are counted in
 //! [`StepReport::anderson_fallbacks`]. Every buffer is sized in [`Accelerate::start`].
 
-use super::{Accelerate, AccelerationSettings};
+use super::accelerate::Accelerate;
 use crate::integrate::{StepError, StepReport};
 
 /// Tikhonov regularization of the unit-diagonal Gram matrix.
@@ -50,17 +50,12 @@ pub struct Anderson {
 }
 
 impl Anderson {
-    /// An Anderson accelerator with history `settings.anderson_history`.
-    pub fn new(settings: &AccelerationSettings) -> Self {
+    /// An Anderson accelerator with history `m` (differences kept, at least 1).
+    pub fn new(m: u32) -> Self {
         Self {
-            m: settings.anderson_history.max(1) as usize,
+            m: m.max(1) as usize,
             ..Self::default()
         }
-    }
-
-    /// [`Self::new`], boxed (the table's builder).
-    pub fn boxed(settings: &AccelerationSettings) -> Option<Box<dyn Accelerate>> {
-        Some(Box::new(Self::new(settings)))
     }
 
     fn restart(&mut self) {
@@ -222,17 +217,11 @@ impl Accelerate for Anderson {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::integrate::acceleration::Acceleration;
 
     /// G(x) = A x + b with a slowly contracting diagonal A: Anderson with m >= 2 solves a
     /// 2-D linear fixed point exactly in a few iterations; the plain iteration does not.
     #[test]
     fn anderson_solves_a_linear_fixed_point_far_faster_than_plain_iteration() {
-        let settings = AccelerationSettings {
-            acceleration: Acceleration::Anderson,
-            chebyshev_rho: 0.0,
-            anderson_history: 3,
-        };
         let g = |x: &[f64], out: &mut [f64]| {
             out[0] = 0.99 * x[0] + 1.0;
             out[1] = 0.95 * x[1] - 2.0;
@@ -242,7 +231,7 @@ mod tests {
             |x: &[f64]| ((x[0] - solution[0]).powi(2) + (x[1] - solution[1]).powi(2)).sqrt();
         // Energy ½‖x − x*‖² in the metric where G contracts: the safeguard never trips here.
         let mut energy = |x: &[f64]| Ok(error(x));
-        let mut anderson = Anderson::new(&settings);
+        let mut anderson = Anderson::new(3);
         let mut x = [0.0, 0.0];
         anderson.start(&x);
         let mut plain = x;

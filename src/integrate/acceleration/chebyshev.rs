@@ -10,7 +10,7 @@
 //! [`MAX_ESTIMATE`]; a ratio at or above 1 (the plain iteration is not contracting yet) leaves
 //! the step unaccelerated (ρ = 0). The ρ used is reported per step.
 
-use super::{Accelerate, AccelerationSettings};
+use super::accelerate::Accelerate;
 use crate::integrate::{StepError, StepReport};
 
 /// Plain iterations whose update norms estimate ρ.
@@ -38,17 +38,12 @@ pub struct Chebyshev {
 }
 
 impl Chebyshev {
-    /// A Chebyshev accelerator for `settings.chebyshev_rho`.
-    pub fn new(settings: &AccelerationSettings) -> Self {
+    /// A Chebyshev accelerator for `chebyshev_rho` (0: estimate ρ each step).
+    pub fn new(chebyshev_rho: f64) -> Self {
         Self {
-            given: settings.chebyshev_rho,
+            given: chebyshev_rho,
             ..Self::default()
         }
-    }
-
-    /// [`Self::new`], boxed (the table's builder).
-    pub fn boxed(settings: &AccelerationSettings) -> Option<Box<dyn Accelerate>> {
-        Some(Box::new(Self::new(settings)))
     }
 
     /// The ρ of the current step (0 before it is known).
