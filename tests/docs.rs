@@ -14,6 +14,8 @@ mod common;
 use common::TempDir;
 use softbench::contact::{ContactResponse, ObstacleKind};
 use softbench::data::DataPaths;
+use softbench::integrate::acceleration::Acceleration;
+use softbench::integrate::vbd::VbdSweep;
 use softbench::integrate::{HessianFilter, Method};
 use softbench::material::MaterialKind;
 use softbench::parallel::Parallelism;
@@ -381,7 +383,7 @@ fn tables() -> BTreeMap<String, Vec<(String, Vec<String>)>> {
 fn the_registry_tables_list_exactly_the_registered_names() {
     let kinds: Vec<&str> = softbench::study::kinds().iter().map(|k| k.name).collect();
     use softbench::integrate::newton::{Criterion, Direction, Globalization, LbfgsInitial};
-    let registered: [(&str, Vec<&str>); 11] = [
+    let registered: [(&str, Vec<&str>); 13] = [
         ("study-kinds", kinds),
         ("methods", Method::names()),
         ("linear-solvers", LinearSolverKind::names()),
@@ -393,6 +395,8 @@ fn the_registry_tables_list_exactly_the_registered_names() {
         ("newton-globalizations", Globalization::names()),
         ("newton-criteria", Criterion::names()),
         ("lbfgs-initials", LbfgsInitial::names()),
+        ("accelerations", Acceleration::names()),
+        ("vbd-sweeps", VbdSweep::names()),
     ];
     let found = tables();
     for (name, names) in &registered {

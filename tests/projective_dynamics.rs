@@ -34,7 +34,10 @@ fn body(material: &str, mass: MassKind, cells: [usize; 3], clamped: bool) -> Mod
 fn pd(iterations: u32) -> ProjectiveDynamics {
     let settings = IntegratorSettings::default();
     ProjectiveDynamics::new(
-        ProjectiveDynamicsSettings { iterations },
+        ProjectiveDynamicsSettings {
+            iterations,
+            ..Default::default()
+        },
         LinearSolverKind::cholesky().build(&settings.solver),
     )
 }

@@ -1,7 +1,9 @@
 //! Claims about the registries: every registered linear solver, material, contact response,
-//! obstacle kind, export format and Hessian filter (and filter space) appears in `softbench list` with its description, and can
-//! be parsed (and, for solvers and materials, built) from the name it is listed under; a
-//! program can register its own linear solver and find it by name.
+//! obstacle kind, export format, Hessian filter (and filter space), Newton direction,
+//! globalization, convergence criterion, L-BFGS initial Hessian, local-solver acceleration and
+//! VBD sweep appears in `softbench list` with its description, and can be parsed (and, for
+//! solvers and materials, built) from the name it is listed under; a program can register its
+//! own linear solver and find it by name.
 
 use std::process::Command;
 
@@ -9,6 +11,9 @@ use softbench::contact::{ContactResponse, ObstacleKind};
 use softbench::export::ExportFormat;
 use softbench::fem::FilterSpace;
 use softbench::integrate::HessianFilter;
+use softbench::integrate::acceleration::Acceleration;
+use softbench::integrate::newton::{Criterion, Direction, Globalization, LbfgsInitial};
+use softbench::integrate::vbd::VbdSweep;
 use softbench::material::{LameParameters, MaterialKind, MaterialModel};
 use softbench::registry::{NamedEnum, RegisterError};
 use softbench::solve::{
@@ -82,13 +87,19 @@ fn check_enum<T: NamedEnum + std::str::FromStr + PartialEq + std::fmt::Debug>(te
 }
 
 #[test]
-fn every_contact_response_obstacle_kind_export_format_and_hessian_filter_is_listed_and_parses() {
+fn every_closed_family_is_listed_and_parses() {
     let text = list_output();
     check_enum::<ContactResponse>(&text);
     check_enum::<ObstacleKind>(&text);
     check_enum::<ExportFormat>(&text);
     check_enum::<HessianFilter>(&text);
     check_enum::<FilterSpace>(&text);
+    check_enum::<Acceleration>(&text);
+    check_enum::<VbdSweep>(&text);
+    check_enum::<Direction>(&text);
+    check_enum::<Globalization>(&text);
+    check_enum::<Criterion>(&text);
+    check_enum::<LbfgsInitial>(&text);
 }
 
 #[test]

@@ -6,6 +6,7 @@ mod common;
 
 use common::bodies::{clamped_at_min_x, distance, kicked};
 use nalgebra::Vector3;
+use softbench::integrate::acceleration::Acceleration;
 use softbench::integrate::vbd::{Vbd, VbdInitialization, VbdSettings};
 use softbench::integrate::{Integrator, IntegratorSettings, Method, State};
 use softbench::material::{LameParameters, MaterialModel};
@@ -117,6 +118,7 @@ fn vbd_converges_with_every_initialization_and_with_chebyshev_acceleration() {
     // Acceleration keeps the fixed point (whether it speeds convergence depends on how well
     // rho estimates the sweep's spectral radius).
     let s = VbdSettings {
+        acceleration: Acceleration::Chebyshev,
         chebyshev_rho: 0.8,
         ..Default::default()
     };
@@ -249,6 +251,7 @@ fn thread_count_does_not_change_vbd_results() {
     let start = kicked(&model);
     let settings = VbdSettings {
         iterations: 5,
+        acceleration: Acceleration::Chebyshev,
         chebyshev_rho: 0.7,
         ..Default::default()
     };

@@ -20,8 +20,10 @@ use softbench::data::{DataError, DataPaths};
 use softbench::export::{DisplayError, ExportFormat};
 use softbench::fem::FilterSpace;
 use softbench::integrate::HessianFilter;
+use softbench::integrate::acceleration::Acceleration;
 use softbench::integrate::methods::METHODS;
 use softbench::integrate::newton;
+use softbench::integrate::vbd::VbdSweep;
 use softbench::interrupt::{self, Signal};
 use softbench::lock::{FolderLock, LockError, Wait, Waiting};
 use softbench::material::MaterialKind;
@@ -526,7 +528,7 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
 
 fn list() -> anyhow::Result<ExitCode> {
     let mut out = std::io::stdout().lock();
-    let families: [(&str, Vec<Listing>); 13] = [
+    let families: [(&str, Vec<Listing>); 15] = [
         ("integrators (integrator.method)", METHODS.listing()),
         (
             "linear solvers (integrator.linear_solver)",
@@ -556,6 +558,11 @@ fn list() -> anyhow::Result<ExitCode> {
             "L-BFGS initial Hessians (integrator.newton.lbfgs_initial)",
             newton::LbfgsInitial::listing(),
         ),
+        (
+            "local-solver accelerations (integrator.vbd/projective_dynamics.acceleration)",
+            Acceleration::listing(),
+        ),
+        ("vbd sweeps (integrator.vbd.sweep)", VbdSweep::listing()),
         ("materials (material.model)", MaterialKind::listing()),
         (
             "contact responses (contact.response)",

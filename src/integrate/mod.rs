@@ -15,6 +15,7 @@
 //!   energy, corotated elasticity); [`xpbd`] (substepped constraints, on its constraint
 //!   energy).
 
+pub mod acceleration;
 pub mod adaptive;
 pub mod backward_euler;
 pub mod bdf;

@@ -24,8 +24,15 @@
 //! linear solver. Local step:
 //! the projections of every tet, in parallel into a per-tet buffer, gathered per vertex in a
 //! fixed order, so results are identical for any thread count. Velocity `v = (x − q)/dt`.
+//!
+//! The iterations can be accelerated ([`super::acceleration`]: Chebyshev, Anderson) as a
+//! fixed-point map of the free DOFs; Anderson's safeguard evaluates the backward Euler
+//! incremental potential of the model (corotated, springs, gravity, drags, damping), the
+//! energy local/global iterations decrease.
 
-use super::vbd::incidence;
+use super::acceleration::energy::PotentialScratch;
+use super::acceleration::{Accelerate, Acceleration, AccelerationSettings, IncrementalPotential};
+use super::vbd::{DEFAULT_ANDERSON_HISTORY, incidence};
 use super::{Integrator, State, StepError, StepReport};
 use crate::fem::TetRest;
 use crate::material::{MaterialModel, RotationVariantSvd};
@@ -41,11 +48,22 @@ use nalgebra::{Matrix3, Vector3};
 pub struct ProjectiveDynamicsSettings {
     /// Local/global iterations per step. Default 10.
     pub iterations: u32,
+    /// Acceleration of the iterations: `none`, `chebyshev` or `anderson`. Default `none`.
+    pub acceleration: Acceleration,
+    /// Chebyshev's spectral radius ρ in [0, 1); 0 = estimate it each step. Default 0.
+    pub chebyshev_rho: f64,
+    /// Anderson's history m. Default 5.
+    pub anderson_history: u32,
 }
 
 impl Default for ProjectiveDynamicsSettings {
     fn default() -> Self {
-        Self { iterations: 10 }
+        Self {
+            iterations: 10,
+            acceleration: Acceleration::None,
+            chebyshev_rho: 0.0,
+            anderson_history: DEFAULT_ANDERSON_HISTORY,
+        }
     }
 }
 
@@ -55,7 +73,16 @@ impl ProjectiveDynamicsSettings {
         if self.iterations == 0 {
             return Err("projective_dynamics.iterations must be >= 1".into());
         }
-        Ok(())
+        self.acceleration_settings().validate("projective_dynamics")
+    }
+
+    /// The acceleration part.
+    pub fn acceleration_settings(&self) -> AccelerationSettings {
+        AccelerationSettings {
+            acceleration: self.acceleration,
+            chebyshev_rho: self.chebyshev_rho,
+            anderson_history: self.anderson_history,
+        }
     }
 }
 
@@ -74,6 +101,9 @@ fn unsupported(field: &str, value: impl ToString, expected: &str) -> StepError {
 pub struct ProjectiveDynamics {
     settings: ProjectiveDynamicsSettings,
     solver: Box<dyn LinearSolver>,
+    /// The acceleration (`None`: plain iterations) and its energy scratch.
+    accelerator: Option<Box<dyn Accelerate>>,
+    energy_scratch: PotentialScratch,
     /// The dt the matrices belong to and the number of DOFs they were built for.
     factored: Option<(f64, usize)>,
     /// `M + dt² Σ w Gᵀ G`; the system matrix (plus `dt² K` and `dt D`), and `D(x̂)`.
@@ -109,6 +139,8 @@ impl ProjectiveDynamics {
         Self {
             settings,
             solver,
+            accelerator: settings.acceleration_settings().build(),
+            energy_scratch: PotentialScratch::default(),
             factored: None,
             base: None,
             system: None,
@@ -271,6 +303,8 @@ impl Integrator for ProjectiveDynamics {
     ) -> Result<(), StepError> {
         let (wa, wv) = Self::weights(model)?;
         let n = model.num_dofs();
+        // Drags and the acceleration's energy are taken at the step's end.
+        model.set_time(state.t + dt);
         if self.factored != Some((dt, n)) {
             self.set_up(model, dt, wa + wv)?;
             report.symbolic_analyses += 1;
@@ -335,6 +369,10 @@ impl Integrator for ProjectiveDynamics {
         let free = dofs.free_vertices();
         // The first iterate: x̂.
         dofs.scatter(&self.x_hat, &mut self.x);
+        if let Some(acc) = self.accelerator.as_mut() {
+            acc.start(&self.x_hat);
+        }
+        let damping = self.damping.as_ref().filter(|_| model.has_damping());
         let empty: &[[usize; 4]] = &[];
         let (tets, rest): (&[[usize; 4]], &[TetRest]) = model
             .elastic_elements()
@@ -392,6 +430,17 @@ impl Integrator for ProjectiveDynamics {
             report.linear_iterations += solved.iterations as u64;
             report.max_relative_residual =
                 report.max_relative_residual.max(solved.relative_residual);
+            if let Some(acc) = self.accelerator.as_mut() {
+                let potential = IncrementalPotential {
+                    model,
+                    x_hat: &self.x_hat,
+                    q: &state.q,
+                    damping,
+                    dt,
+                };
+                let scratch = &mut self.energy_scratch;
+                acc.update(&mut self.rhs, &mut |y| potential.value(y, scratch))?;
+            }
             dofs.scatter(&self.rhs, &mut self.x);
         }
         for (i, (q, v)) in state.q.iter_mut().zip(state.v.iter_mut()).enumerate() {
@@ -401,6 +450,9 @@ impl Integrator for ProjectiveDynamics {
         }
         report.substeps = 1;
         report.local_iterations = self.settings.iterations;
+        if let Some(acc) = &self.accelerator {
+            acc.report(report);
+        }
         Ok(())
     }
 }

@@ -103,6 +103,13 @@ pub struct StepReport {
     /// Iterations of a local solver: VBD's Gauss–Seidel sweeps, projective dynamics'
     /// local/global iterations, XPBD's constraint sweeps (substeps × iterations).
     pub local_iterations: u32,
+    /// The spectral radius ρ Chebyshev acceleration used (given or estimated; the largest
+    /// over absorbed sub-steps); 0 without it or when the step stayed plain.
+    pub chebyshev_rho: f64,
+    /// Iterations whose Anderson-accelerated iterate was rejected (it raised the incremental
+    /// potential above the plain iterate's, or its least-squares problem was singular) and
+    /// whose history was restarted.
+    pub anderson_fallbacks: u32,
 }
 
 impl StepReport {
@@ -113,6 +120,8 @@ impl StepReport {
         self.rejected_substeps += other.rejected_substeps;
         self.newton_iterations += other.newton_iterations;
         self.local_iterations += other.local_iterations;
+        self.chebyshev_rho = self.chebyshev_rho.max(other.chebyshev_rho);
+        self.anderson_fallbacks += other.anderson_fallbacks;
         self.newton_unconverged += other.newton_unconverged;
         self.newton_criterion_stops += other.newton_criterion_stops;
         self.newton_roundoff_stops += other.newton_roundoff_stops;

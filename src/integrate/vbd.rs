@@ -17,10 +17,14 @@
 //! result is that of a sequential sweep in colour order for any thread count. Per-vertex tet
 //! and spring lists are built once; a step allocates nothing.
 //!
-//! Options of the paper: the initial guess ([`VbdInitialization`]) and Chebyshev
-//! semi-iterative acceleration (spectral radius estimate `chebyshev_rho`, 0 = off). Velocity
-//! is `v = (x − q)/dt`, as for backward Euler.
+//! Options: the initial guess ([`VbdInitialization`]), the sweep ([`VbdSweep`]: the
+//! paper's colour-by-colour Gauss–Seidel, or a damped block Jacobi whose steps all read the
+//! same positions, in parallel over every vertex) and an acceleration of the sweeps as a
+//! fixed-point map ([`super::acceleration`]: Chebyshev, Anderson). Velocity is
+//! `v = (x − q)/dt`, as for backward Euler.
 
+use super::acceleration::energy::PotentialScratch;
+use super::acceleration::{Accelerate, Acceleration, AccelerationSettings, IncrementalPotential};
 use super::colouring::Colouring;
 use super::{Integrator, State, StepError, StepReport};
 use crate::fem::{ProjectToPsd, TetRest};
@@ -45,17 +49,50 @@ pub enum VbdInitialization {
     Adaptive,
 }
 
+crate::named_enum! {
+    /// How a VBD sweep visits the vertices (`sweep` in `[integrator.vbd]`).
+    pub enum VbdSweep: "vbd sweep", UnknownVbdSweep {
+        /// Colour by colour, each vertex seeing the colours before it (the paper's).
+        GaussSeidel = "gauss-seidel",
+            "colour by colour: each colour sees the ones updated before it (the paper's)",
+        /// Every vertex's step from the same positions, scaled by `jacobi_damping`.
+        Jacobi = "jacobi",
+            "damped block Jacobi: every vertex's 3x3 step from the same positions, times jacobi_damping",
+    }
+}
+
+// named_enum! fixes the derive list, so the default is written out.
+#[allow(clippy::derivable_impls)]
+impl Default for VbdSweep {
+    fn default() -> Self {
+        Self::GaussSeidel
+    }
+}
+
 /// Settings of `vbd`.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct VbdSettings {
-    /// Gauss–Seidel sweeps over all vertices per step. Default 20.
+    /// Sweeps over all vertices per step. Default 20.
     pub iterations: u32,
     /// The first iterate. Default `adaptive`.
     pub initialization: VbdInitialization,
-    /// Spectral radius estimate ρ of the Chebyshev acceleration, in [0, 1); 0 turns it off.
-    /// Default 0.
+    /// Gauss–Seidel (colour by colour) or damped block Jacobi. Default `gauss-seidel`.
+    pub sweep: VbdSweep,
+    /// The factor α of the Jacobi sweep, `x_i += α Δx_i`, in (0, 1]. Default 0.5: with `A`
+    /// the Hessian of `E` (a sum of positive semi-definite 4-vertex tet terms, 2-vertex
+    /// springs, and the mass) and `D` its 3×3 block diagonal, `A ≼ 4 D` (a PSD matrix of k
+    /// blocks is at most k times its block diagonal), so `D⁻¹A` has its spectrum in (0, 4]
+    /// and the linearized iteration `I − α D⁻¹A` contracts for α < 1/2 and does not grow at
+    /// 1/2; undamped (α = 1) it can diverge on a stiff body, where neighbours' steps overshoot
+    /// together.
+    pub jacobi_damping: f64,
+    /// Acceleration of the sweeps: `none`, `chebyshev` or `anderson`. Default `none`.
+    pub acceleration: Acceleration,
+    /// Chebyshev's spectral radius ρ in [0, 1); 0 = estimate it each step. Default 0.
     pub chebyshev_rho: f64,
+    /// Anderson's history m. Default 5.
+    pub anderson_history: u32,
 }
 
 impl Default for VbdSettings {
@@ -63,10 +100,17 @@ impl Default for VbdSettings {
         Self {
             iterations: 20,
             initialization: VbdInitialization::Adaptive,
+            sweep: VbdSweep::GaussSeidel,
+            jacobi_damping: 0.5,
+            acceleration: Acceleration::None,
             chebyshev_rho: 0.0,
+            anderson_history: DEFAULT_ANDERSON_HISTORY,
         }
     }
 }
+
+/// Default `anderson_history` of both local solvers.
+pub const DEFAULT_ANDERSON_HISTORY: u32 = 5;
 
 impl VbdSettings {
     /// Check every field's range.
@@ -74,13 +118,22 @@ impl VbdSettings {
         if self.iterations == 0 {
             return Err("vbd.iterations must be >= 1".into());
         }
-        if !(0.0..1.0).contains(&self.chebyshev_rho) {
+        if !(self.jacobi_damping > 0.0 && self.jacobi_damping <= 1.0) {
             return Err(format!(
-                "vbd.chebyshev_rho must be in [0, 1) (0 = off), got {}",
-                self.chebyshev_rho
+                "vbd.jacobi_damping must be in (0, 1], got {}",
+                self.jacobi_damping
             ));
         }
-        Ok(())
+        self.acceleration_settings().validate("vbd")
+    }
+
+    /// The acceleration part.
+    pub fn acceleration_settings(&self) -> AccelerationSettings {
+        AccelerationSettings {
+            acceleration: self.acceleration,
+            chebyshev_rho: self.chebyshev_rho,
+            anderson_history: self.anderson_history,
+        }
     }
 }
 
@@ -165,9 +218,11 @@ pub struct Vbd {
     setup: Option<Setup>,
     /// Every vertex's current position (fixed ones at their prescribed positions).
     x: Vec<Vector3<f64>>,
-    /// Chebyshev history: the two previous iterates.
-    x_prev: Vec<Vector3<f64>>,
-    x_prev2: Vec<Vector3<f64>>,
+    /// The acceleration (`None`: plain sweeps), the free DOFs it works on and its energy
+    /// scratch.
+    accelerator: Option<Box<dyn Accelerate>>,
+    flat: Vec<f64>,
+    energy_scratch: PotentialScratch,
     x_hat: Vec<f64>,
     dx: Vec<f64>,
     damping: Option<SymmetricMatrix>,
@@ -185,6 +240,7 @@ impl Vbd {
     pub fn new(settings: VbdSettings) -> Self {
         Self {
             settings,
+            accelerator: settings.acceleration_settings().build(),
             ..Self::default()
         }
     }
@@ -348,15 +404,6 @@ impl<M: Material> Local<'_, M> {
     }
 }
 
-/// Chebyshev weight of iteration `k` (0-based) for spectral radius estimate `rho`.
-fn chebyshev_omega(k: u32, rho: f64, previous: f64) -> f64 {
-    match k {
-        0 => 1.0,
-        1 => 2.0 / (2.0 - rho * rho),
-        _ => 4.0 / (4.0 - rho * rho * previous),
-    }
-}
-
 impl Integrator for Vbd {
     fn name(&self) -> &'static str {
         "vbd"
@@ -385,14 +432,16 @@ impl Integrator for Vbd {
         if self.setup.as_ref().map(|s| s.num_dofs) != Some(n) || self.x.is_empty() {
             self.setup = Some(Setup::new(model));
             self.x = model.full_positions(&state.q);
-            self.x_prev = self.x.clone();
-            self.x_prev2 = self.x.clone();
             self.x_hat = vec![0.0; n];
+            self.flat = vec![0.0; n];
             let largest = self
                 .setup
                 .as_ref()
                 .map_or(0, |s| s.colouring.largest_group());
-            self.dx = vec![0.0; 3 * largest];
+            self.dx = match self.settings.sweep {
+                VbdSweep::GaussSeidel => vec![0.0; 3 * largest],
+                VbdSweep::Jacobi => vec![0.0; n],
+            };
             self.previous_v = vec![0.0; n];
             self.previous_for = None;
             if !model.vertex_potentials().is_empty() {
@@ -450,6 +499,9 @@ impl Integrator for Vbd {
         }
         report.substeps = 1;
         report.local_iterations = self.settings.iterations;
+        if let Some(acc) = &self.accelerator {
+            acc.report(report);
+        }
         Ok(())
     }
 }
@@ -470,12 +522,22 @@ impl Vbd {
         let par: Parallelism = model.parallelism();
         let free_vertices = model.dofs().free_vertices();
         let potentials = model.vertex_potentials();
-        let rho = self.settings.chebyshev_rho;
-        let mut omega = 1.0;
-        for it in 0..self.settings.iterations {
+        if let Some(acc) = self.accelerator.as_mut() {
+            model.dofs().gather(&self.x, &mut self.flat);
+            acc.start(&self.flat);
+        }
+        let damping = self.damping.as_ref().filter(|_| model.has_damping());
+        for _ in 0..self.settings.iterations {
             StepError::stop_if_requested()?;
-            for c in 0..setup.colouring.num_colours() {
-                let group = setup.colouring.group(c);
+            let groups = match self.settings.sweep {
+                VbdSweep::GaussSeidel => setup.colouring.num_colours(),
+                VbdSweep::Jacobi => 1,
+            };
+            for c in 0..groups {
+                let group = match self.settings.sweep {
+                    VbdSweep::GaussSeidel => Some(setup.colouring.group(c)),
+                    VbdSweep::Jacobi => None,
+                };
                 if !potentials.is_empty() {
                     self.vp_grad.fill(Vector3::zeros());
                     self.vp_hess.fill(Matrix3::zeros());
@@ -496,7 +558,7 @@ impl Vbd {
                     mass: model.mass(),
                     vertex_mass: model.vertex_masses(),
                     gravity: model.gravity(),
-                    damping: self.damping.as_ref().filter(|_| model.has_damping()),
+                    damping,
                     vertex_terms: (!potentials.is_empty())
                         .then_some((self.vp_grad.as_slice(), self.vp_hess.as_slice())),
                     x_hat: &self.x_hat,
@@ -504,28 +566,40 @@ impl Vbd {
                     dt,
                 };
                 let x = &self.x;
-                let out = &mut self.dx[..3 * group.len()];
+                let len = group.map_or(free_vertices.len(), <[usize]>::len);
+                let out = &mut self.dx[..3 * len];
                 for_each_chunk(par, out, 3 * CHUNK, |ci, out| {
                     for (k, o) in out.chunks_exact_mut(3).enumerate() {
-                        let d = local.step(group[ci * CHUNK + k], x)?;
+                        let i = ci * CHUNK + k;
+                        let f = group.map_or(i, |g| g[i]);
+                        let d = local.step(f, x)?;
                         o.copy_from_slice(d.as_slice());
                     }
                     Ok::<(), StepError>(())
                 })?;
-                for (k, &f) in group.iter().enumerate() {
+                let scale = match self.settings.sweep {
+                    VbdSweep::GaussSeidel => 1.0,
+                    VbdSweep::Jacobi => self.settings.jacobi_damping,
+                };
+                for k in 0..len {
+                    let f = group.map_or(k, |g| g[k]);
                     let v = free_vertices[f];
-                    self.x[v] += Vector3::from_column_slice(&self.dx[3 * k..3 * k + 3]);
+                    self.x[v] += Vector3::from_column_slice(&self.dx[3 * k..3 * k + 3]) * scale;
                 }
             }
-            if rho > 0.0 {
-                omega = chebyshev_omega(it, rho, omega);
-                if it >= 2 {
-                    for &v in free_vertices {
-                        self.x[v] = (self.x[v] - self.x_prev2[v]) * omega + self.x_prev2[v];
-                    }
-                }
-                std::mem::swap(&mut self.x_prev, &mut self.x_prev2);
-                self.x_prev.copy_from_slice(&self.x);
+            if let Some(acc) = self.accelerator.as_mut() {
+                let dofs = model.dofs();
+                dofs.gather(&self.x, &mut self.flat);
+                let potential = IncrementalPotential {
+                    model,
+                    x_hat: &self.x_hat,
+                    q: &state.q,
+                    damping,
+                    dt,
+                };
+                let scratch = &mut self.energy_scratch;
+                acc.update(&mut self.flat, &mut |y| potential.value(y, scratch))?;
+                dofs.scatter(&self.flat, &mut self.x);
             }
         }
         Ok(())

@@ -93,6 +93,11 @@ pub struct Sample {
     /// Local-solver iterations since the previous row (VBD sweeps, projective-dynamics
     /// local/global iterations, XPBD constraint sweeps).
     pub local_iterations: u64,
+    /// The largest Chebyshev spectral radius ρ used by a step since the previous row (0
+    /// without Chebyshev acceleration).
+    pub chebyshev_rho: f64,
+    /// Rejected Anderson iterates (history restarts) since the previous row.
+    pub anderson_fallbacks: u64,
     /// Symbolic analyses since the previous row.
     pub symbolic_analyses: u64,
     /// AMG hierarchy (CG's preconditioner) since the previous row: the largest operator and
@@ -305,6 +310,8 @@ fn sample(
         energy_excess: balance.excess(energies.total()),
         energy_scale: balance.scale().total(),
         local_iterations: work.local_iterations.into(),
+        chebyshev_rho: work.chebyshev_rho,
+        anderson_fallbacks: work.anderson_fallbacks.into(),
         symbolic_analyses: work.symbolic_analyses.into(),
         amg_operator_complexity: work.amg_operator_complexity,
         amg_grid_complexity: work.amg_grid_complexity,
