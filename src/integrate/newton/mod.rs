@@ -243,6 +243,25 @@ impl Newton {
         self.potential.gradient(model, self.system.damping(), p, x)
     }
 
+    /// `self.trial = x + alpha dx`.
+    fn set_trial(&mut self, x: &[f64], alpha: f64) {
+        for ((t, xi), dx) in self.trial.iter_mut().zip(x).zip(&self.dx) {
+            *t = xi + alpha * dx;
+        }
+    }
+
+    /// `E` at `self.trial`.
+    fn trial_objective(
+        &mut self,
+        model: &mut Model,
+        p: &Problem<'_>,
+    ) -> Result<Objective, ModelError> {
+        let trial = std::mem::take(&mut self.trial);
+        let outcome = self.objective(model, p, &trial);
+        self.trial = trial;
+        outcome
+    }
+
     /// Minimize `E` (see the module docs) starting from the guess in `x`; `x_ref` is the
     /// start-of-step position that sets the convergence scale. With [`Self::set_constraints`],
     /// the direction and the line search keep the iterates feasible (see
@@ -583,9 +602,10 @@ impl Newton {
         for (dx, g) in self.dx.iter_mut().zip(&self.potential.g) {
             *dx = -g;
         }
-        let mean_mass =
-            self.mass_diagonal.iter().sum::<f64>() / self.mass_diagonal.len().max(1) as f64;
-        let gamma = self.lbfgs.shanno_scale().unwrap_or(1.0 / mean_mass);
+        let gamma = self.lbfgs.shanno_scale().unwrap_or_else(|| {
+            let n = self.mass_diagonal.len().max(1) as f64;
+            n / self.mass_diagonal.iter().sum::<f64>()
+        });
         let (system, mass, rest, first) = (
             &mut self.system,
             &self.mass_diagonal,
@@ -701,12 +721,8 @@ impl Newton {
                 axpy(1.0, &self.dx, x);
                 return Ok(None);
             }
-            for ((t, xi), dx) in self.trial.iter_mut().zip(x.iter()).zip(&self.dx) {
-                *t = xi + dx;
-            }
-            let trial = std::mem::take(&mut self.trial);
-            let outcome = self.objective(model, p, &trial);
-            self.trial = trial;
+            self.set_trial(x, 1.0);
+            let outcome = self.trial_objective(model, p);
             let (ratio, next) = match outcome {
                 Ok(e) => ((current.value - e.value) / predicted, Some(e)),
                 Err(ModelError::InvertedElement { .. }) => (f64::NEG_INFINITY, None),
@@ -778,12 +794,8 @@ impl Newton {
         report: &mut StepReport,
     ) -> Result<(Objective, f64, u32), StepError> {
         let alpha = self.filtered_length(x, self.settings.initial_step, t, report)?;
-        for ((t, xi), dx) in self.trial.iter_mut().zip(x.iter()).zip(&self.dx) {
-            *t = xi + alpha * dx;
-        }
-        let trial = std::mem::take(&mut self.trial);
-        let outcome = self.objective(model, p, &trial);
-        self.trial = trial;
+        self.set_trial(x, alpha);
+        let outcome = self.trial_objective(model, p);
         match outcome {
             Ok(e) => {
                 x.copy_from_slice(&self.trial);
@@ -840,12 +852,8 @@ impl Newton {
             let small = residual <= s.tolerance * scale || -slope <= current.roundoff;
             if !feasible || small || slope >= 0.0 {
                 // Restoration, convergence or no predicted decrease: the full step.
-                for ((t, x), dx) in self.trial.iter_mut().zip(x.iter()).zip(&self.dx) {
-                    *t = x + dx;
-                }
-                let trial = std::mem::take(&mut self.trial);
-                let outcome = self.objective(model, p, &trial);
-                self.trial = trial;
+                self.set_trial(x, 1.0);
+                let outcome = self.trial_objective(model, p);
                 match outcome {
                     Ok(e) => current = e,
                     Err(ModelError::InvertedElement { .. }) if feasible => {
@@ -892,17 +900,13 @@ impl Newton {
         let mut alpha = self.filtered_length(x, s.initial_step, t, report)?;
         let mut backtracks = 0;
         loop {
-            for ((t, xi), dx) in self.trial.iter_mut().zip(x.iter()).zip(&self.dx) {
-                *t = xi + alpha * dx;
-            }
+            self.set_trial(x, alpha);
             let feasible = match (feasible_at, &self.constraints) {
                 (Some(t), Some(c)) => c.min_distance(&self.trial, t) >= -PENETRATION_TOLERANCE,
                 _ => true,
             };
             if feasible {
-                let trial = std::mem::take(&mut self.trial);
-                let outcome = self.objective(model, p, &trial);
-                self.trial = trial;
+                let outcome = self.trial_objective(model, p);
                 match outcome {
                     Ok(e) if e.value <= current.value + s.sufficient_decrease * alpha * slope => {
                         x.copy_from_slice(&self.trial);
