@@ -11,7 +11,9 @@
 //! (`catch_unwind`), an error that names the file, and bounded time and memory — by size
 //! budgets lowered for the run (see `softbench::limits`), a watchdog that fails the test when a
 //! case is still running after [`CASE_CAP`] (naming the target, seed, case and input, while the
-//! case runs: it runs on a worker thread), and the process's peak memory at the end.
+//! case runs: it runs on a worker thread), and the process's peak memory at the end. Cases run
+//! on one worker per core (`SOFTBENCH_FUZZ_WORKERS` overrides); they are drawn in order from
+//! one seeded stream, so a case's input does not depend on the number of workers.
 //!
 //! The default (`cargo test`) is the CI slice: [`DEFAULT_CASES`] cases per target, seed 13.
 //! The long mode is the same test with more cases; targets can be picked (comma-separated) to
@@ -258,16 +260,29 @@ struct Target<F> {
 thread_local! {
     /// Whether a fuzz case is running (its panics are reported with the input instead).
     static IN_CASE: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+    /// This worker's index (0 on the main thread), so a check can keep its files apart.
+    static WORKER: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
 }
 
-/// Runs `target.check` on `cases` mutations of its seeds on a worker thread, under a
-/// watchdog; panics (naming the seed, target and case, with the input) on a panic inside
-/// softbench, an error without a message, or a case still running after `cap` — reported
-/// while it runs, so a hang is a failure, not a stuck test (the stuck worker is left behind
-/// and ends with the process).
+/// Worker threads per target: `SOFTBENCH_FUZZ_WORKERS`, or one per core. The cases and
+/// their inputs do not depend on it (they are drawn in order on the main thread).
+fn workers() -> usize {
+    std::env::var("SOFTBENCH_FUZZ_WORKERS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .filter(|&w| w > 0)
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+}
+
+/// Runs `target.check` on `cases` mutations of its seeds on [`workers`] worker threads,
+/// under a watchdog; panics (naming the seed, target and case, with the input) on a panic
+/// inside softbench, an error without a message, or a case still running after `cap` —
+/// reported while it runs, so a hang is a failure, not a stuck test (the stuck worker is left
+/// behind and ends with the process). The cases are drawn in order from one seeded stream on
+/// this thread, so case k's input is the same whatever the number of workers.
 fn fuzz<F>(target: Target<F>, seed: u64, cases: u64, cap: Duration) -> FuzzCount
 where
-    F: Fn(&[Vec<u8>]) -> Result<(), String> + Send + 'static,
+    F: Fn(&[Vec<u8>]) -> Result<(), String> + Send + Sync + 'static,
 {
     let Target {
         name,
@@ -275,27 +290,40 @@ where
         mutate,
         check,
     } = target;
+    let check = Arc::new(check);
     let mut rng = Rng::new(seed ^ softbench::study::fnv1a(name.as_bytes()));
-    let (to_worker, inbox) = mpsc::channel::<Arc<Files>>();
-    let (outbox, from_worker) = mpsc::channel::<Outcome>();
-    let worker = std::thread::Builder::new()
-        .name(format!("fuzz-{name}"))
-        .spawn(move || {
-            for files in inbox {
-                IN_CASE.set(true);
-                let outcome = catch_unwind(AssertUnwindSafe(|| check(&files)));
-                IN_CASE.set(false);
-                let outcome = match outcome {
-                    Ok(Ok(())) => Outcome::Accepted,
-                    Ok(Err(message)) => Outcome::Refused(message),
-                    Err(_) => Outcome::Panicked,
-                };
-                if outbox.send(outcome).is_err() {
-                    break;
-                }
-            }
+    let (to_workers, inbox) = mpsc::channel::<(u64, Arc<Files>)>();
+    let inbox = Arc::new(std::sync::Mutex::new(inbox));
+    let (outbox, from_workers) = mpsc::channel::<(u64, Outcome)>();
+    let pool = workers();
+    let handles: Vec<_> = (0..pool)
+        .map(|w| {
+            let (inbox, outbox, check) = (Arc::clone(&inbox), outbox.clone(), Arc::clone(&check));
+            std::thread::Builder::new()
+                .name(format!("fuzz-{name}-{w}"))
+                .spawn(move || {
+                    WORKER.set(w);
+                    loop {
+                        // The lock is held only while waiting for the next case.
+                        let next = inbox.lock().map(|rx| rx.recv());
+                        let Ok(Ok((case, files))) = next else { break };
+                        IN_CASE.set(true);
+                        let outcome = catch_unwind(AssertUnwindSafe(|| check(&files)));
+                        IN_CASE.set(false);
+                        let outcome = match outcome {
+                            Ok(Ok(())) => Outcome::Accepted,
+                            Ok(Err(message)) => Outcome::Refused(message),
+                            Err(_) => Outcome::Panicked,
+                        };
+                        if outbox.send((case, outcome)).is_err() {
+                            break;
+                        }
+                    }
+                })
+                .expect("cannot start a fuzz worker")
         })
-        .expect("cannot start a fuzz worker");
+        .collect();
+    drop(outbox);
     let show = |files: &Files| -> Vec<String> {
         files
             .iter()
@@ -311,43 +339,71 @@ where
     };
     let mut count = FuzzCount::default();
     let start = std::time::Instant::now();
-    for case in 0..cases {
-        let seed_files = &seeds[below(&mut rng, seeds.len())];
-        // Mutate one of the seed's files (TetGen has two).
-        let mut files = seed_files.clone();
-        let which = below(&mut rng, files.len());
-        files[which] = mutate(&mut rng, &files[which]);
-        let files = Arc::new(files);
-        to_worker
-            .send(Arc::clone(&files))
-            .expect("the fuzz worker is gone");
-        match from_worker.recv_timeout(cap) {
-            Ok(Outcome::Accepted) => count.accepted += 1,
-            Ok(Outcome::Refused(message)) if message.is_empty() => panic!(
-                "{}: an error without a message; input:\n{:?}",
-                replay(case),
-                show(&files)
-            ),
-            Ok(Outcome::Refused(_)) => count.refused += 1,
-            Ok(Outcome::Panicked) => {
-                panic!("{} panicked; input:\n{:?}", replay(case), show(&files))
+    // The cases on a worker now: when each was handed over, and its input.
+    let mut running: std::collections::BTreeMap<u64, (std::time::Instant, Arc<Files>)> =
+        std::collections::BTreeMap::new();
+    let mut next = 0;
+    while next < cases || !running.is_empty() {
+        // A case is handed over only when a worker is free, so its clock is its own.
+        while next < cases && running.len() < pool {
+            let seed_files = &seeds[below(&mut rng, seeds.len())];
+            // Mutate one of the seed's files (TetGen has two).
+            let mut files = seed_files.clone();
+            let which = below(&mut rng, files.len());
+            files[which] = mutate(&mut rng, &files[which]);
+            let files = Arc::new(files);
+            to_workers
+                .send((next, Arc::clone(&files)))
+                .expect("the fuzz workers are gone");
+            running.insert(next, (std::time::Instant::now(), files));
+            next += 1;
+        }
+        let oldest = running
+            .values()
+            .map(|(t, _)| *t)
+            .min()
+            .expect("a case is running");
+        let wait = cap.saturating_sub(oldest.elapsed());
+        match from_workers.recv_timeout(wait) {
+            Ok((case, outcome)) => {
+                let (_, files) = running.remove(&case).expect("an unknown case finished");
+                match outcome {
+                    Outcome::Accepted => count.accepted += 1,
+                    Outcome::Refused(message) if message.is_empty() => panic!(
+                        "{}: an error without a message; input:\n{:?}",
+                        replay(case),
+                        show(&files)
+                    ),
+                    Outcome::Refused(_) => count.refused += 1,
+                    Outcome::Panicked => {
+                        panic!("{} panicked; input:\n{:?}", replay(case), show(&files))
+                    }
+                }
             }
-            Err(RecvTimeoutError::Timeout) => panic!(
-                "{} is still running after {cap:?}: a hang; input:\n{:?}",
-                replay(case),
-                show(&files)
-            ),
+            Err(RecvTimeoutError::Timeout) => {
+                if let Some((case, (_, files))) =
+                    running.iter().find(|(_, (t, _))| t.elapsed() >= cap)
+                {
+                    panic!(
+                        "{} is still running after {cap:?}: a hang; input:\n{:?}",
+                        replay(*case),
+                        show(files)
+                    );
+                }
+            }
             Err(RecvTimeoutError::Disconnected) => {
-                panic!("{}: the fuzz worker died", replay(case))
+                panic!("the fuzz workers of {name} died")
             }
         }
     }
-    drop(to_worker);
-    worker.join().expect("the fuzz worker panicked");
+    drop(to_workers);
+    for handle in handles {
+        handle.join().expect("a fuzz worker panicked");
+    }
     let seconds = start.elapsed().as_secs_f64();
     eprintln!(
-        "fuzz {name}: {cases} cases in {seconds:.1} s ({:.0} cases/s), {} accepted, {} refused \
-         with an error",
+        "fuzz {name}: {cases} cases in {seconds:.1} s ({:.0} cases/s on {pool} workers), {} \
+         accepted, {} refused with an error",
         cases as f64 / seconds.max(1e-9),
         count.accepted,
         count.refused
@@ -365,7 +421,7 @@ struct FuzzCount {
 /// Runs `target` if it is [`selected`], with the seed and number of cases of this run.
 fn run<F>(target: Target<F>, cases: u64)
 where
-    F: Fn(&[Vec<u8>]) -> Result<(), String> + Send + 'static,
+    F: Fn(&[Vec<u8>]) -> Result<(), String> + Send + Sync + 'static,
 {
     if !selected(target.name) {
         return;
@@ -626,20 +682,24 @@ fn study_target(n: u64) {
             "no shipped study of kind `{kind}` to fuzz from"
         );
     }
-    // The study is written next to a copy of the shipped scenes, so its scene paths resolve.
+    // The study is written next to a copy of the shipped scenes, so its scene paths resolve:
+    // one folder per worker.
     let dir = std::env::temp_dir().join(format!("softbench-fuzz-study-{}", std::process::id()));
-    let scenes = dir.join("scenes");
-    std::fs::create_dir_all(&scenes).unwrap();
-    for (path, text) in shipped("experiments/scenes") {
-        std::fs::write(scenes.join(path.file_name().unwrap()), text).unwrap();
+    for w in 0..workers() {
+        let scenes = dir.join(format!("w{w}")).join("scenes");
+        std::fs::create_dir_all(&scenes).unwrap();
+        for (path, text) in shipped("experiments/scenes") {
+            std::fs::write(scenes.join(path.file_name().unwrap()), text).unwrap();
+        }
     }
-    let path = dir.join("fuzz.toml");
+    let folder = dir.clone();
     run(
         Target {
             name: "study",
             seeds,
             mutate: mutate_text,
             check: move |f: &[Vec<u8>]| {
+                let path = folder.join(format!("w{}", WORKER.get())).join("fuzz.toml");
                 std::fs::write(&path, &f[0]).unwrap();
                 let quick = f[0].len().is_multiple_of(2);
                 named(
