@@ -599,6 +599,13 @@ fn unknown_components_and_combinations_that_do_not_apply_are_refused_with_their_
             vec!["integrator.newton.lbfgs_history=0"],
             vec!["lbfgs_history"],
         ),
+        (
+            vec![
+                "integrator.newton.roundoff_stop=false",
+                "integrator.method=rk4",
+            ],
+            vec!["integrator.newton.roundoff_stop", "rk4"],
+        ),
     ] {
         let done = simulate_cantilever(&out, &set);
         let stderr = String::from_utf8_lossy(&done.stderr);
@@ -610,5 +617,46 @@ fn unknown_components_and_combinations_that_do_not_apply_are_refused_with_their_
             );
         }
         assert!(!out.join("trajectory.csv").exists(), "{set:?} wrote output");
+    }
+}
+
+/// With the round-off stop (the default) a solve ends where the energy can no longer tell a
+/// decrease, above a tight gradient tolerance; `roundoff_stop = false` goes on with full
+/// steps and meets it, and ends at working precision (a `roundoff` stop) when the tolerance
+/// is out of reach.
+#[test]
+fn going_past_the_roundoff_stop_meets_gradient_tolerances_the_energy_cannot_resolve() {
+    let state = kicked(&stiff_cantilever());
+    let dt = 0.02;
+    let settings = |tolerance: f64, roundoff_stop: bool| NewtonSettings {
+        tolerance,
+        max_iterations: 50,
+        roundoff_stop,
+        ..Default::default()
+    };
+    let residual = |r: &IterationRecord| Criterion::ScaledGradient.residual(r);
+    let stopped = logged_solve(&mut stiff_cantilever(), &state, dt, settings(1e-12, true));
+    let last = stopped.last().unwrap();
+    assert_eq!(last.stop, Stop::Roundoff, "{stopped:?}");
+    assert!(residual(last) > 1e-12, "{:e}", residual(last));
+    let past = logged_solve(&mut stiff_cantilever(), &state, dt, settings(1e-12, false));
+    let end = past.last().unwrap();
+    assert_eq!(end.stop, Stop::Criterion, "{past:?}");
+    assert!(residual(end) <= 1e-12 && residual(end) < residual(last));
+    // The iterates agree up to the round-off point: only the stop differs.
+    for (a, b) in stopped.iter().zip(&past).take(stopped.len() - 1) {
+        assert_eq!(a.gradient_norm.to_bits(), b.gradient_norm.to_bits());
+    }
+    // Out of reach: ends at working precision, not at the cap.
+    let floor = logged_solve(&mut stiff_cantilever(), &state, dt, settings(0.0, false));
+    let end = floor.last().unwrap();
+    assert_eq!(end.stop, Stop::Roundoff, "{floor:?}");
+    assert!(floor.len() < 50 && residual(end) < 1e-12, "{floor:?}");
+    // `residual` is what every criterion compares with its tolerance.
+    for r in &floor {
+        for &c in Criterion::ALL {
+            let (a, b) = (c.residual(r), criterion_value(c, r));
+            assert!(a == b || (a.is_nan() && b.is_nan()), "{c:?}: {a} vs {b}");
+        }
     }
 }

@@ -312,6 +312,24 @@ impl Integrator for Bdf {
         self.step = None;
     }
 
+    /// The BDF step's potential once the history is in use for this `dt`; `None` for an
+    /// extrapolated start-up step (three solves, not one minimization) or a changed `dt`
+    /// (the history would be cleared first).
+    fn freeze_step(
+        &mut self,
+        model: &mut Model,
+        state: &State,
+        dt: f64,
+    ) -> Option<Result<super::FrozenStep, StepError>> {
+        let same_dt = matches!(self.step, Some(h) if (h - dt).abs() <= 1e-12 * dt);
+        let scheme = self.inner.scheme();
+        if !same_dt || (self.extrapolated_startup && scheme.history.len() + 1 < scheme.order) {
+            return None;
+        }
+        self.inner.scheme_mut().mode = Mode::Bdf;
+        self.inner.freeze_step(model, state, dt)
+    }
+
     fn advance(
         &mut self,
         model: &mut Model,

@@ -48,7 +48,7 @@ pub use mass_inverse::Dynamics;
 pub use methods::{IntegratorSettings, Method, MethodEntry, register_method};
 pub use newton::NewtonSettings;
 pub use report::{PhaseTimes, StepError, StepReport};
-pub use scheme::{NewtonIntegrator, Scheme, StepProblem};
+pub use scheme::{FrozenStep, NewtonIntegrator, Scheme, StepProblem, solve_frozen};
 
 use crate::model::Model;
 use std::time::Instant;
@@ -112,6 +112,19 @@ pub trait Integrator: Send {
     /// Move the Newton iteration records of the last step into `out` (methods on the Newton
     /// loop with `integrator.newton.log_iterations`; nothing by default).
     fn drain_iteration_log(&mut self, _out: &mut Vec<newton::IterationRecord>) {}
+
+    /// For a method on the Newton loop: the incremental potential its next step of `dt` from
+    /// `state` minimizes, frozen so another Newton can solve it ([`scheme::solve_frozen`]);
+    /// `None` (the default) for a method that minimizes none (explicit methods, local
+    /// solvers). Takes no step; may evaluate the model, as the step's preparation would.
+    fn freeze_step(
+        &mut self,
+        _model: &mut Model,
+        _state: &State,
+        _dt: f64,
+    ) -> Option<Result<scheme::FrozenStep, StepError>> {
+        None
+    }
 
     /// One step of `dt`: [`Integrator::advance`] plus the shared bookkeeping — evaluation
     /// counts, wall time, the check that the new state is finite, and the clock.

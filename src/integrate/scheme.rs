@@ -191,35 +191,65 @@ impl<S: Scheme> NewtonIntegrator<S> {
         let prepared = self.scheme.prepare(model, state, dt, p);
         report.absorb(&p.work);
         prepared?;
-        // Damping D evaluated at the scheme's point, or at the start-of-step positions if
-        // that point inverts an element.
-        if p.damping_weight > 0.0 {
-            self.newton.prepare_damping(
-                model,
-                &p.damping_at,
-                &state.q,
-                p.damping_weight,
-                report,
-            )?;
-        } else {
-            self.newton.clear_damping();
-        }
-        model.set_time(p.force_time);
-        self.x.clone_from(&p.guess);
-        let problem = Problem {
-            x_hat: &p.x_hat,
-            x_ref: &state.q,
-            beta: p.beta,
-            damping_anchor: &p.damping_anchor,
-            linear: &p.linear,
-            quasi_static: p.quasi_static,
-            force_scale: p.force_scale,
-        };
-        self.newton.minimize(model, &problem, &mut self.x, report)?;
+        minimize_problem(&mut self.newton, model, p, &state.q, &mut self.x, report)?;
         self.scheme.finish(state, dt, &self.x, p);
         report.substeps += 1;
         Ok(())
     }
+}
+
+/// One step's incremental potential, frozen from a trajectory so that any [`Newton`] can
+/// solve it ([`solve_frozen`]): the solver study solves the same steps with every
+/// combination of the loop's components.
+#[derive(Clone, Debug, Default)]
+pub struct FrozenStep {
+    /// What the step minimizes, as its scheme prepared it.
+    pub problem: StepProblem,
+    /// The start-of-step positions.
+    pub start: Vec<f64>,
+}
+
+/// Solve `frozen` with `newton` from its guess into `x`: the minimization a step of its
+/// scheme makes, with `newton`'s components. The model's clock is set to the force time.
+pub fn solve_frozen(
+    newton: &mut Newton,
+    model: &mut Model,
+    frozen: &FrozenStep,
+    x: &mut Vec<f64>,
+    report: &mut StepReport,
+) -> Result<(), StepError> {
+    minimize_problem(newton, model, &frozen.problem, &frozen.start, x, report)
+}
+
+/// The minimization of a prepared step: damping set up, the clock at the force time, `x`
+/// from the guess to the minimizer.
+fn minimize_problem(
+    newton: &mut Newton,
+    model: &mut Model,
+    p: &StepProblem,
+    start: &[f64],
+    x: &mut Vec<f64>,
+    report: &mut StepReport,
+) -> Result<(), StepError> {
+    // Damping D evaluated at the scheme's point, or at the start-of-step positions if that
+    // point inverts an element.
+    if p.damping_weight > 0.0 {
+        newton.prepare_damping(model, &p.damping_at, start, p.damping_weight, report)?;
+    } else {
+        newton.clear_damping();
+    }
+    model.set_time(p.force_time);
+    x.clone_from(&p.guess);
+    let problem = Problem {
+        x_hat: &p.x_hat,
+        x_ref: start,
+        beta: p.beta,
+        damping_anchor: &p.damping_anchor,
+        linear: &p.linear,
+        quasi_static: p.quasi_static,
+        force_scale: p.force_scale,
+    };
+    newton.minimize(model, &problem, x, report)
 }
 
 impl<S: Scheme> Integrator for NewtonIntegrator<S> {
@@ -241,6 +271,24 @@ impl<S: Scheme> Integrator for NewtonIntegrator<S> {
 
     fn drain_iteration_log(&mut self, out: &mut Vec<super::newton::IterationRecord>) {
         self.newton.drain_log(out);
+    }
+
+    fn freeze_step(
+        &mut self,
+        model: &mut Model,
+        state: &State,
+        dt: f64,
+    ) -> Option<Result<FrozenStep, StepError>> {
+        let mut frozen = FrozenStep {
+            start: state.q.clone(),
+            ..FrozenStep::default()
+        };
+        frozen.problem.reset(state.q.len());
+        Some(
+            self.scheme
+                .prepare(model, state, dt, &mut frozen.problem)
+                .map(|()| frozen),
+        )
     }
 
     fn advance(

@@ -192,6 +192,17 @@ impl Integrator for Static {
         self.loaded = false;
     }
 
+    /// The equilibrium under the full loads at the end of the step (what a step solves when
+    /// no ramp is needed).
+    fn freeze_step(
+        &mut self,
+        model: &mut Model,
+        state: &State,
+        dt: f64,
+    ) -> Option<Result<super::FrozenStep, StepError>> {
+        self.inner.freeze_step(model, state, dt)
+    }
+
     fn drain_iteration_log(&mut self, out: &mut Vec<super::newton::IterationRecord>) {
         self.inner.drain_iteration_log(out);
     }

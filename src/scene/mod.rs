@@ -346,6 +346,7 @@ fn validate_newton_components(c: &SceneConfig, path: &Path) -> Result<(), SceneE
         ("direction", n.direction != defaults.direction),
         ("globalization", n.globalization != defaults.globalization),
         ("log_iterations", n.log_iterations),
+        ("roundoff_stop", !n.roundoff_stop),
     ];
     let method = c.integrator.method;
     if let Some((key, _)) = chosen.iter().find(|(_, set)| *set) {
@@ -358,7 +359,7 @@ fn validate_newton_components(c: &SceneConfig, path: &Path) -> Result<(), SceneE
                 ),
             ));
         }
-        if key != &"log_iterations"
+        if !matches!(*key, "log_iterations" | "roundoff_stop")
             && !c.obstacles.is_empty()
             && c.contact.response.facts().in_newton_loop
         {

@@ -96,6 +96,24 @@ impl Criterion {
         }
     }
 
+    /// The number this criterion compares with its tolerance at `r`: the gradient norm over
+    /// its scale, half the decrement, the step, or the decrease over the energy's scale (NaN
+    /// where the record cannot answer: no direction, or k = 0 for `step` and `energy`). For a
+    /// nonzero scale, [`Self::met`] is `residual <= tolerance`.
+    pub fn residual(self, r: &IterationRecord) -> f64 {
+        let g = r.gradient_norm;
+        let later = |v: f64| if r.iteration > 0 { v } else { f64::NAN };
+        match self {
+            Self::ScaledGradient => g / r.scaled_gradient_scale,
+            Self::Gradient => g,
+            Self::RelativeGradient => g / r.initial_gradient,
+            Self::GravityGradient => g / r.gravity_scale,
+            Self::Decrement => 0.5 * r.decrement,
+            Self::Step => later(r.step_norm),
+            Self::Energy => later(r.energy_decrease.abs() / r.energy_scale),
+        }
+    }
+
     /// Whether the test needs the iteration's direction (it is made after the direction).
     pub fn needs_direction(self) -> bool {
         self == Self::Decrement

@@ -409,6 +409,8 @@ impl Newton {
         let mut reached = Reached::START;
         let mut radius = 0.0;
         let mut iteration = 0;
+        // Past the round-off point (`roundoff_stop = false`): the gradient norm there.
+        let mut past_roundoff: Option<f64> = None;
         loop {
             StepError::stop_if_requested()?;
             self.gradient(model, p, x)?;
@@ -449,6 +451,14 @@ impl Newton {
                 self.record(record, Stop::Criterion, start);
                 return Ok(true);
             }
+            // Past the round-off, a full step that did not lower the gradient ends the solve:
+            // the iterate is at working precision.
+            if let Some(previous) = past_roundoff
+                && g_norm.partial_cmp(&previous) != Some(std::cmp::Ordering::Less)
+            {
+                self.record(record, Stop::Roundoff, start);
+                return Ok(true);
+            }
             if iteration == s.max_iterations {
                 self.record(record, Stop::Cap, start);
                 return Ok(false);
@@ -486,8 +496,22 @@ impl Newton {
                 // and the iterate is converged to working precision.
                 axpy(1.0, &self.dx, x);
                 self.trace.roundoff_accepted = true;
-                self.record(record, Stop::Roundoff, start);
-                return Ok(true);
+                if s.roundoff_stop || s.globalization == Globalization::TrustRegion {
+                    self.record(record, Stop::Roundoff, start);
+                    return Ok(true);
+                }
+                // Go on with full steps, judged by the criterion and the gradient alone.
+                let previous = current.value;
+                current = self.objective(model, p, x)?;
+                reached = Reached {
+                    step_length: 1.0,
+                    step_norm: self.dx.iter().fold(0.0f64, |m, d| m.max(d.abs())),
+                    energy_decrease: previous - current.value,
+                    backtracks: 0,
+                };
+                past_roundoff = Some(g_norm);
+                self.record(record, Stop::Running, start);
+                continue;
             }
             let previous = current.value;
             let (next, alpha, backtracks) = match s.globalization {

@@ -153,6 +153,12 @@ pub struct NewtonSettings {
     /// Keep a record of every iteration (written to `iterations.csv` by `simulate`).
     /// Default false.
     pub log_iterations: bool,
+    /// End the solve where the predicted decrease falls below the energy's round-off (the
+    /// `roundoff` stop; the default, true). False goes on past it with full steps judged by
+    /// the criterion alone, until the criterion, the cap, or a full step that does not lower
+    /// the gradient norm (then the `roundoff` stop): a gradient criterion can then be met
+    /// below the ~1e-7 the energy can resolve. Line-search and full-step globalizations only.
+    pub roundoff_stop: bool,
 }
 
 impl Default for NewtonSettings {
@@ -179,6 +185,7 @@ impl Default for NewtonSettings {
             trust_radius: 0.0,
             trust_region_cg_iterations: 500,
             log_iterations: false,
+            roundoff_stop: true,
         }
     }
 }
