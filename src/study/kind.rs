@@ -22,6 +22,7 @@ use crate::parallel::Parallelism;
 use crate::plot::PlotError;
 use crate::run::OutcomeKind;
 use crate::scene::SceneConfig;
+use std::path::Path;
 
 /// A study kind: what one run measures and how its results are shown. Methods with a
 /// default are the plain case (no settings table, no references, no charts of its own).
@@ -240,8 +241,9 @@ pub(super) trait Kind: Sync {
     /// observed orders).
     fn report_findings(&self, _: &mut String, _: &Table) {}
 
-    /// The kind's own charts of one scene (before the time histories and phases).
-    fn scene_charts(&self, _: &SceneRows, _: &mut Emit) -> Result<(), PlotError> {
+    /// The kind's own charts of one scene (before the time histories and phases); `dir` is
+    /// the results folder, for the tables its runs wrote next to their series.
+    fn scene_charts(&self, _: &SceneRows, _dir: &Path, _: &mut Emit) -> Result<(), PlotError> {
         Ok(())
     }
 

@@ -2,13 +2,14 @@
 //! [`Kind`](super::kind::Kind) plus one line here; `tests/study_kinds.rs` runs every kind listed.
 
 use super::kind::Kind;
-use super::{stability, trajectory, work_precision};
+use super::{solver, stability, trajectory, work_precision};
 
 /// Every kind a study can measure.
-pub(super) static KINDS: [&dyn Kind; 3] = [
+pub(super) static KINDS: [&dyn Kind; 4] = [
     &trajectory::Trajectory,
     &work_precision::WorkPrecision,
     &stability::Stability,
+    &solver::Solver,
 ];
 
 /// The registered kind named `name`, if there is one.

@@ -27,7 +27,7 @@ struct SceneSource {
     line: usize,
 }
 
-/// Longest run id (a file name, with `-trials.csv` appended, must stay under 255 bytes).
+/// Longest run id (a file name, with `-iterations.csv` appended, must stay under 255 bytes).
 const MAX_RUN_ID: usize = 200;
 
 /// Read, expand and check a study. `quick` applies its `[quick]` settings; the scenes' data

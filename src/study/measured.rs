@@ -9,6 +9,9 @@ use crate::pipeline::{self, BodySurface, Recording};
 use crate::run::{Observer, Outcome, RunSummary, Sample};
 use crate::scene::{self, RunConfig, Scene};
 
+/// The names of the tables a run may write next to its series ([`Measured::tables`]).
+pub const SERIES_TABLES: [&str; 3] = ["trials", "iterations", "solves"];
+
 /// The result of one run.
 #[derive(Clone, Debug, Default)]
 pub struct Measured {
@@ -22,8 +25,9 @@ pub struct Measured {
     pub cells: Vec<(&'static str, String)>,
     /// The per-step series for `series/<run-id>.csv`.
     pub series: Vec<Sample>,
-    /// The table of `series/<run-id>-trials.csv` (stability trials).
-    pub trials: Option<super::table::Table>,
+    /// Tables of their own, each written as `series/<run-id>-<name>.csv` (a stability run's
+    /// `trials`, a solver run's `iterations` and `solves`); the names are [`SERIES_TABLES`].
+    pub tables: Vec<(&'static str, super::table::Table)>,
     /// The body's surface at a few times (`series/<run-id>.snapshots`), for pictures.
     pub snapshots: Option<crate::render::Snapshots>,
 }

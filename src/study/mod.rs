@@ -35,6 +35,7 @@ pub mod shard;
 mod shard_record;
 mod shared;
 mod shared_store;
+pub mod solver;
 mod spec;
 pub mod stability;
 pub mod table;

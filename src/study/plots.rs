@@ -67,7 +67,7 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
             params: &distinct,
             rows: &rows,
         };
-        kind.scene_charts(&of_scene, &mut emit)?;
+        kind.scene_charts(&of_scene, dir, &mut emit)?;
         // Time histories, if the kind draws them.
         if let Some(caption) = kind.energy_caption() {
             for (suffix, group) in by_time_step(kind.by_time_step(), runs, &rows) {

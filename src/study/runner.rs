@@ -147,7 +147,11 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
             crate::io::remove_stale_partials(&lock_dir).map_err(io(&lock_dir))?;
             let own: std::collections::HashSet<String> = assigned
                 .iter()
-                .flat_map(|r| [format!("{}.csv", r.id), format!("{}-trials.csv", r.id)])
+                .flat_map(|r| {
+                    let tables =
+                        super::measured::SERIES_TABLES.map(|t| format!("{}-{t}.csv", r.id));
+                    std::iter::once(format!("{}.csv", r.id)).chain(tables)
+                })
                 .collect();
             let series = dir.join("series");
             crate::io::remove_stale_partials_of(&series, |target| own.contains(target))
@@ -470,9 +474,10 @@ fn record(
             .write(&path)
             .map_err(|e| RunError::Run(e.to_string()))?;
     }
-    if let Some(trials) = &m.trials {
-        let path = dir.join("series").join(format!("{}-trials.csv", spec.id));
-        trials
+    for (name, table) in &m.tables {
+        debug_assert!(super::measured::SERIES_TABLES.contains(name));
+        let path = dir.join("series").join(format!("{}-{name}.csv", spec.id));
+        table
             .write(&path)
             .map_err(|error| RunError::Io { path, error })?;
     }

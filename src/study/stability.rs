@@ -43,6 +43,7 @@ use crate::run::balance::GROWN;
 use crate::run::{Observer, Outcome, OutcomeKind, RunSummary, Sample};
 use crate::scene::{RunConfig, SceneConfig};
 use std::fmt::Write;
+use std::path::Path;
 
 /// Columns of a stability study's `runs.csv` after the run's identity.
 pub const COLUMNS: &[&str] = &[
@@ -363,7 +364,7 @@ impl Kind for Stability {
         report_settings(out, file);
     }
 
-    fn scene_charts(&self, s: &SceneRows, emit: &mut Emit) -> Result<(), PlotError> {
+    fn scene_charts(&self, s: &SceneRows, _: &Path, emit: &mut Emit) -> Result<(), PlotError> {
         scene_charts(s, emit)
     }
 
@@ -1367,7 +1368,7 @@ pub(super) fn measure(
     m.set("trials", trials.len().to_string());
     let total: f64 = trials.iter().map(|t| t.summary.totals.times.total).sum();
     m.set("trials_wall_seconds", cell(Some(total)));
-    m.trials = Some(trial_table(&trials, shared.reference));
+    m.tables = vec![("trials", trial_table(&trials, shared.reference))];
     m.snapshots = pictured.and_then(|dt| {
         let mut trials = trials;
         let t = trials.iter_mut().find(|t| t.dt == dt)?;

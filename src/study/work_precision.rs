@@ -29,6 +29,7 @@ use crate::plot::{Chart, LineChart, PlotError, Series};
 use crate::scene::SceneConfig;
 use std::collections::BTreeMap;
 use std::fmt::Write;
+use std::path::Path;
 
 /// Columns of a work-precision study's `runs.csv` after the run's identity.
 pub const COLUMNS: &[&str] = &[
@@ -269,7 +270,7 @@ impl Kind for WorkPrecision {
         orders(out, runs);
     }
 
-    fn scene_charts(&self, s: &SceneRows, emit: &mut Emit) -> Result<(), PlotError> {
+    fn scene_charts(&self, s: &SceneRows, _: &Path, emit: &mut Emit) -> Result<(), PlotError> {
         scene_charts(s, emit)
     }
 
