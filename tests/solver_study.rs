@@ -121,6 +121,18 @@ fn every_run_of_a_scene_solves_the_same_steps_and_newton_reaches_what_descent_do
         // Newton converges quadratically: a handful of iterations per step to 1e-8.
         let newton: u32 = cell("newton", "iterations_1e-8").parse().unwrap();
         assert!((2..=20).contains(&newton), "{scene}: newton {newton}");
+        // Past the energy's round-off the trust region goes on too (full steps in the region).
+        let trust: u32 = rows
+            .iter()
+            .find(|r| runs.get(r, "integrator.newton.globalization") == Some("trust-region"))
+            .and_then(|r| runs.get(r, "iterations_1e-8"))
+            .unwrap()
+            .parse()
+            .unwrap();
+        assert!(
+            trust >= newton,
+            "{scene}: trust region {trust}, newton {newton}"
+        );
         // Steepest descent in the mass metric does not get there within 40 iterations a step,
         // and says why.
         assert_eq!(cell("gradient-descent", "iterations_1e-8"), "");

@@ -257,6 +257,12 @@ pub(super) trait Kind: Sync {
         false
     }
 
+    /// Whether the kind's rows carry time per step by phase (the phase chart), as runs of
+    /// trajectories do.
+    fn draws_phases(&self) -> bool {
+        true
+    }
+
     /// Whether the phase chart shows only each line's run at its smallest dt.
     fn phases_at_smallest_dt(&self) -> bool {
         false

@@ -93,23 +93,25 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
                 }
             }
         }
-        let phase_rows: Vec<&Vec<String>> = if kind.phases_at_smallest_dt() {
-            smallest_dt_rows(runs, params, &rows)
-        } else {
-            rows.clone()
-        };
-        emit(
-            format!("phases-{slug}"),
-            "Mean wall time per step split by phase (assembly of forces/Hessians, \
-             factorization, solves, contact QPs, everything else).",
-            Chart::Stacked(phase_chart(
-                scene,
-                kind.dt_columns(),
-                runs,
-                params,
-                &phase_rows,
-            )),
-        )?;
+        if kind.draws_phases() {
+            let phase_rows: Vec<&Vec<String>> = if kind.phases_at_smallest_dt() {
+                smallest_dt_rows(runs, params, &rows)
+            } else {
+                rows.clone()
+            };
+            emit(
+                format!("phases-{slug}"),
+                "Mean wall time per step split by phase (assembly of forces/Hessians, \
+                 factorization, solves, contact QPs, everything else).",
+                Chart::Stacked(phase_chart(
+                    scene,
+                    kind.dt_columns(),
+                    runs,
+                    params,
+                    &phase_rows,
+                )),
+            )?;
+        }
     }
     plots.extend(pictures(dir, runs, params, kind.picture_rows())?);
     remove_stale(dir, &plots);

@@ -7,9 +7,10 @@
 //! The states come from one trajectory per scene: the scene's scheme with default Newton
 //! settings converged to `driver_tolerance` (required), so every run of a scene solves the same
 //! problems, bit for bit; each row carries their fingerprint to show it. A run's own criterion
-//! and tolerance do not decide anything: each solve runs until its step falls below the
-//! energy's round-off (the `roundoff` stop) or `max_iterations`, and every criterion is read off
-//! the log afterwards (the iterates do not depend on the criterion).
+//! and tolerance do not decide anything: each solve goes on past the energy's round-off with
+//! full steps (`roundoff_stop = false`) until a full step no longer lowers the gradient (the
+//! `roundoff` stop: working precision) or `max_iterations`, and every criterion is read off the
+//! log afterwards (the iterates do not depend on the criterion).
 
 use super::charts::{Emit, SceneRows, label};
 use super::config::StudyFile;
@@ -387,9 +388,10 @@ impl Kind for Solver {
                 "Solver study: the incremental potentials of steps {} of each scene's \
                  trajectory (its scheme with default Newton settings, converged to a \
                  scaled-gradient tolerance of {:e}, at most {} iterations a step, required), \
-                 each solved {} time(s) by every run's components until the step falls below \
-                 the energy's round-off or **{} iterations** (a tolerance not reached within \
-                 them is empty). `runs.csv`'s ladder is read under `{}`, summed over the steps; \
+                 each solved {} time(s) by every run's components to working precision (past \
+                 the energy's round-off with full steps, until one no longer lowers the \
+                 gradient) or **{} iterations** (a tolerance not reached within them is \
+                 empty). `runs.csv`'s ladder is read under `{}`, summed over the steps; \
                  `series/<run>-solves.csv` has every criterion. Wall seconds run from the \
                  start of a solve to the acceptance of the iterate that meets the tolerance \
                  (the median over the repeats, with the lowest and highest); the first solve \
@@ -406,6 +408,11 @@ impl Kind for Solver {
 
     fn scene_charts(&self, s: &SceneRows, dir: &Path, emit: &mut Emit) -> Result<(), PlotError> {
         scene_charts(s, dir, emit)
+    }
+
+    /// Its rows are solves of frozen steps, not steps of a trajectory.
+    fn draws_phases(&self) -> bool {
+        false
     }
 
     /// Time and iterations to each tolerance of the ladder.
@@ -994,9 +1001,9 @@ fn scene_charts(s: &SceneRows, dir: &Path, emit: &mut Emit) -> Result<(), PlotEr
                 format!("{stem}-{}-step{step}", s.slug),
                 &format!(
                     "The {criterion} residual of each iterate of step {step}'s solve against \
-                     the {}, one line per run (log scale); a line ends where the step fell \
-                     below the energy's round-off, with a large marker where it ended \
-                     otherwise (the iteration cap or a failure).",
+                     the {}, one line per run (log scale); a line ends at working precision \
+                     (a full step that no longer lowered the gradient), with a large marker \
+                     where it ended otherwise (the iteration cap or a failure).",
                     if x_column == "iteration" {
                         "iteration"
                     } else {
@@ -1010,7 +1017,11 @@ fn scene_charts(s: &SceneRows, dir: &Path, emit: &mut Emit) -> Result<(), PlotEr
     Ok(())
 }
 
-/// Per tolerance of the ladder: wall time (with its range over the repeats) and iterations.
+/// The ladder's tolerances the findings rank at: a loose one (what graphics runs use) and a
+/// tight one; `runs.csv` has them all.
+const RANKED: [usize; 2] = [1, 3];
+
+/// At [`RANKED`] tolerances: wall time (with its range over the repeats) and iterations.
 fn rankings(s: &SceneRows) -> Vec<Ranking> {
     let runs = s.runs;
     let mut out = Vec::new();
@@ -1031,7 +1042,8 @@ fn rankings(s: &SceneRows) -> Vec<Ranking> {
             runs.get(r, "solve_max_iterations").unwrap_or_default()
         )
     };
-    for (level, tolerance) in TOLERANCES.iter().enumerate() {
+    for level in RANKED {
+        let tolerance = TOLERANCES[level];
         let [iterations, seconds, low, high, ..] = LADDER_COLUMNS[level];
         out.extend(findings::ranking_with_spread(
             s,

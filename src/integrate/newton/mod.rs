@@ -496,19 +496,11 @@ impl Newton {
                 // and the iterate is converged to working precision.
                 axpy(1.0, &self.dx, x);
                 self.trace.roundoff_accepted = true;
-                if s.roundoff_stop || s.globalization == Globalization::TrustRegion {
+                if s.roundoff_stop {
                     self.record(record, Stop::Roundoff, start);
                     return Ok(true);
                 }
-                // Go on with full steps, judged by the criterion and the gradient alone.
-                let previous = current.value;
-                current = self.objective(model, p, x)?;
-                reached = Reached {
-                    step_length: 1.0,
-                    step_norm: self.dx.iter().fold(0.0f64, |m, d| m.max(d.abs())),
-                    energy_decrease: previous - current.value,
-                    backtracks: 0,
-                };
+                reached = self.past_roundoff(model, p, x, &mut current)?;
                 past_roundoff = Some(g_norm);
                 self.record(record, Stop::Running, start);
                 continue;
@@ -533,10 +525,17 @@ impl Newton {
                     )? {
                         Some(accepted) => accepted,
                         None => {
-                            // The predicted decrease fell below round-off inside the region.
+                            // The predicted decrease fell below round-off inside the region
+                            // (the step was taken).
                             self.trace.roundoff_accepted = true;
-                            self.record(record, Stop::Roundoff, start);
-                            return Ok(true);
+                            if s.roundoff_stop {
+                                self.record(record, Stop::Roundoff, start);
+                                return Ok(true);
+                            }
+                            reached = self.past_roundoff(model, p, x, &mut current)?;
+                            past_roundoff = Some(g_norm);
+                            self.record(record, Stop::Running, start);
+                            continue;
                         }
                     }
                 }
@@ -551,6 +550,25 @@ impl Newton {
             };
             self.record(record, Stop::Running, start);
         }
+    }
+
+    /// After a full step `self.dx` taken below the energy's round-off (`roundoff_stop =
+    /// false`): the objective at the new `x` into `current`, and how the step reached it.
+    fn past_roundoff(
+        &mut self,
+        model: &mut Model,
+        p: &Problem<'_>,
+        x: &[f64],
+        current: &mut Objective,
+    ) -> Result<Reached, StepError> {
+        let previous = current.value;
+        *current = self.objective(model, p, x)?;
+        Ok(Reached {
+            step_length: 1.0,
+            step_norm: self.dx.iter().fold(0.0f64, |m, d| m.max(d.abs())),
+            energy_decrease: previous - current.value,
+            backtracks: 0,
+        })
     }
 
     /// The direction of `settings.direction` from `x` into `self.dx`; returns `g·dx` (< 0).

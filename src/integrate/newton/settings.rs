@@ -157,7 +157,7 @@ pub struct NewtonSettings {
     /// `roundoff` stop; the default, true). False goes on past it with full steps judged by
     /// the criterion alone, until the criterion, the cap, or a full step that does not lower
     /// the gradient norm (then the `roundoff` stop): a gradient criterion can then be met
-    /// below the ~1e-7 the energy can resolve. Line-search and full-step globalizations only.
+    /// below the ~1e-7 the energy can resolve.
     pub roundoff_stop: bool,
 }
 
