@@ -336,3 +336,38 @@ fn what_a_solver_study_cannot_measure_is_refused_at_load_naming_the_key() {
         assert!(error.contains("bad.toml"), "{error}");
     }
 }
+
+/// A multistep scheme's step is frozen with its history: BDF2's steps 1 (a lower-order
+/// start) and 4 are one minimization each; BDF3's extrapolated start-up step is not, and the
+/// run says so.
+#[test]
+fn a_bdf_step_is_frozen_with_its_history_and_its_start_up_step_is_refused_by_name() {
+    let tmp = TempDir::new("solver-bdf");
+    let (runs, _) = run_study(
+        &tmp,
+        "bdf",
+        "[[methods]]\nmethod = \"bdf2\"\n\n[solver]\nsteps = [1, 4]\n",
+    );
+    for r in &runs.rows {
+        let n: u32 = runs.get(r, "iterations_1e-8").unwrap().parse().unwrap();
+        assert!((1..=20).contains(&n), "{n}");
+    }
+    tmp.write("beam.toml", BEAM);
+    let path = tmp.write(
+        "startup.toml",
+        "name = \"startup\"\nstudy = \"solver\"\nscenes = [\"beam.toml\"]\n\
+         [[methods]]\nmethod = \"bdf3\"\n\
+         [solver]\nsteps = [1]\n",
+    );
+    let study = load(&path, false, &DataPaths::new(None)).unwrap_or_else(|e| panic!("{e}"));
+    let dir = tmp.path().join("startup");
+    let done = run(&study, &options(&dir)).unwrap();
+    assert_eq!(done.not_ok.len(), 1, "{:?}", done.not_ok);
+    let runs = Table::read(&dir.join("runs.csv")).unwrap().unwrap();
+    assert_eq!(runs.get(&runs.rows[0], "outcome"), Some("solver-failed"));
+    let report = std::fs::read_to_string(dir.join("report.md")).unwrap();
+    assert!(
+        report.contains("does not minimize one incremental potential at step 1"),
+        "{report}"
+    );
+}

@@ -242,6 +242,17 @@ impl Bdf {
         }
     }
 
+    /// Whether the kept history was made with steps of `dt` (else a step clears it first).
+    fn history_is_for(&self, dt: f64) -> bool {
+        matches!(self.step, Some(h) if (h - dt).abs() <= 1e-12 * dt)
+    }
+
+    /// Whether the next step is an extrapolated start-up step (the history is still short).
+    fn extrapolating_startup(&self) -> bool {
+        let scheme = self.inner.scheme();
+        self.extrapolated_startup && scheme.history.len() + 1 < scheme.order
+    }
+
     /// One step of `dt` without retries; leaves `state` unchanged on error.
     fn single(
         &mut self,
@@ -250,12 +261,11 @@ impl Bdf {
         dt: f64,
         report: &mut StepReport,
     ) -> Result<(), StepError> {
-        if !matches!(self.step, Some(h) if (h - dt).abs() <= 1e-12 * dt) {
+        if !self.history_is_for(dt) {
             self.inner.scheme_mut().clear();
             self.step = Some(dt);
         }
-        let scheme = self.inner.scheme();
-        if !(self.extrapolated_startup && scheme.history.len() + 1 < scheme.order) {
+        if !self.extrapolating_startup() {
             self.inner.scheme_mut().mode = Mode::Bdf;
             return self.inner.solve_step(model, state, dt, report);
         }
@@ -312,18 +322,17 @@ impl Integrator for Bdf {
         self.step = None;
     }
 
-    /// The BDF step's potential once the history is in use for this `dt`; `None` for an
-    /// extrapolated start-up step (three solves, not one minimization) or a changed `dt`
-    /// (the history would be cleared first).
+    /// The BDF step's potential with the history kept for this `dt` (none at the start);
+    /// `None` for an extrapolated start-up step (three solves, not one minimization) or a
+    /// history made with another `dt` (the step would clear it first).
     fn freeze_step(
         &mut self,
         model: &mut Model,
         state: &State,
         dt: f64,
     ) -> Option<Result<super::FrozenStep, StepError>> {
-        let same_dt = matches!(self.step, Some(h) if (h - dt).abs() <= 1e-12 * dt);
-        let scheme = self.inner.scheme();
-        if !same_dt || (self.extrapolated_startup && scheme.history.len() + 1 < scheme.order) {
+        let history_kept = self.history_is_for(dt) || self.inner.scheme().history.is_empty();
+        if !history_kept || self.extrapolating_startup() {
             return None;
         }
         self.inner.scheme_mut().mode = Mode::Bdf;

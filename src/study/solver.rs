@@ -94,48 +94,17 @@ const LADDER_COLUMNS: [[&str; 7]; 5] = [
     ],
 ];
 
-/// Columns of a solver study's `runs.csv` after the run's identity.
-pub const COLUMNS: &[&str] = &[
+/// `runs.csv`'s columns before the ladder's.
+const HEAD_COLUMNS: [&str; 5] = [
     "dt",
     "outcome",
     "criterion",
     "solved_steps",
     "problems_fingerprint",
-    "iterations_1e-2",
-    "seconds_1e-2",
-    "seconds_low_1e-2",
-    "seconds_high_1e-2",
-    "factorizations_1e-2",
-    "linear_iterations_1e-2",
-    "backtracks_1e-2",
-    "iterations_1e-4",
-    "seconds_1e-4",
-    "seconds_low_1e-4",
-    "seconds_high_1e-4",
-    "factorizations_1e-4",
-    "linear_iterations_1e-4",
-    "backtracks_1e-4",
-    "iterations_1e-6",
-    "seconds_1e-6",
-    "seconds_low_1e-6",
-    "seconds_high_1e-6",
-    "factorizations_1e-6",
-    "linear_iterations_1e-6",
-    "backtracks_1e-6",
-    "iterations_1e-8",
-    "seconds_1e-8",
-    "seconds_low_1e-8",
-    "seconds_high_1e-8",
-    "factorizations_1e-8",
-    "linear_iterations_1e-8",
-    "backtracks_1e-8",
-    "iterations_1e-10",
-    "seconds_1e-10",
-    "seconds_low_1e-10",
-    "seconds_high_1e-10",
-    "factorizations_1e-10",
-    "linear_iterations_1e-10",
-    "backtracks_1e-10",
+];
+
+/// `runs.csv`'s columns after the ladder's.
+const TAIL_COLUMNS: [&str; 14] = [
     "final_residual",
     "iterations_total",
     "seconds_total",
@@ -152,6 +121,36 @@ pub const COLUMNS: &[&str] = &[
     "peak_rss_mib",
 ];
 
+/// [`HEAD_COLUMNS`], the ladder's columns in order, then [`TAIL_COLUMNS`].
+const ALL_COLUMNS: [&str; 5 + 35 + 14] = {
+    let mut out = [""; 5 + 35 + 14];
+    let mut i = 0;
+    while i < HEAD_COLUMNS.len() {
+        out[i] = HEAD_COLUMNS[i];
+        i += 1;
+    }
+    let mut level = 0;
+    while level < LADDER_COLUMNS.len() {
+        let mut k = 0;
+        while k < LADDER_COLUMNS[level].len() {
+            out[i] = LADDER_COLUMNS[level][k];
+            i += 1;
+            k += 1;
+        }
+        level += 1;
+    }
+    let mut k = 0;
+    while k < TAIL_COLUMNS.len() {
+        out[i] = TAIL_COLUMNS[k];
+        i += 1;
+        k += 1;
+    }
+    out
+};
+
+/// Columns of a solver study's `runs.csv` after the run's identity.
+pub const COLUMNS: &[&str] = &ALL_COLUMNS;
+
 /// The `[solver]` table: which steps, read under which criterion, capped where.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -162,7 +161,7 @@ pub struct SolverStudySettings {
     pub steps: Vec<usize>,
     /// The criterion `runs.csv`'s ladder is read under (`solves.csv` has every criterion).
     #[serde(default = "default_criterion")]
-    pub criterion: String,
+    pub criterion: Criterion,
     /// The cap on each solve's iterations (a tolerance not reached within it is reported so).
     #[serde(default = "default_max_iterations")]
     pub max_iterations: u32,
@@ -181,8 +180,8 @@ pub struct SolverStudySettings {
 fn default_steps() -> Vec<usize> {
     vec![1]
 }
-fn default_criterion() -> String {
-    Criterion::ScaledGradient.name().to_owned()
+fn default_criterion() -> Criterion {
+    Criterion::ScaledGradient
 }
 fn default_max_iterations() -> u32 {
     100
@@ -472,9 +471,6 @@ fn check(
     crate::limits::STEPS
         .check_usize(Some(last))
         .map_err(|e| bad("solver.steps", format!("step {last}: {e}")))?;
-    if let Err(e) = s.criterion.parse::<Criterion>() {
-        return Err(bad("solver.criterion", e.to_string()));
-    }
     for (key, n) in [
         ("solver.max_iterations", s.max_iterations),
         ("solver.driver_max_iterations", s.driver_max_iterations),
@@ -578,7 +574,7 @@ pub fn measure(
     parallelism: Parallelism,
 ) -> Result<Measured, String> {
     reset_peak_rss();
-    let criterion: Criterion = s.criterion.parse().map_err(|e| format!("{e}"))?;
+    let criterion = s.criterion;
     let mut scene = build(spec, parallelism).map_err(|e| e.to_string())?;
     let dt = scene.config.run.dt;
     let settings = scene

@@ -79,38 +79,36 @@ pub struct IterationRecord {
 }
 
 impl Criterion {
-    /// Whether `record` meets this criterion at `tolerance`. A test a record cannot answer
-    /// (a decrement not computed, a step or decrease at k = 0) is not met.
+    /// Whether `record` meets this criterion at `tolerance`: `value <= tolerance * scale`
+    /// ([`Self::measure`]). A test a record cannot answer (a decrement not computed, a step or
+    /// decrease at k = 0) is not met.
     pub fn met(self, tolerance: f64, r: &IterationRecord) -> bool {
-        let g = r.gradient_norm;
-        match self {
-            Self::ScaledGradient => g <= tolerance * r.scaled_gradient_scale,
-            Self::Gradient => g <= tolerance,
-            Self::RelativeGradient => g <= tolerance * r.initial_gradient,
-            Self::GravityGradient => g <= tolerance * r.gravity_scale,
-            Self::Decrement => 0.5 * r.decrement <= tolerance,
-            Self::Step => r.iteration > 0 && r.step_norm <= tolerance,
-            Self::Energy => {
-                r.iteration > 0 && r.energy_decrease.abs() <= tolerance * r.energy_scale
-            }
-        }
+        let (value, scale) = self.measure(r);
+        value <= tolerance * scale
     }
 
-    /// The number this criterion compares with its tolerance at `r`: the gradient norm over
-    /// its scale, half the decrement, the step, or the decrease over the energy's scale (NaN
-    /// where the record cannot answer: no direction, or k = 0 for `step` and `energy`). For a
-    /// nonzero scale, [`Self::met`] is `residual <= tolerance`.
+    /// The number this criterion compares with its tolerance at `r`, `value / scale`: the
+    /// gradient norm over its scale, half the decrement, the step, or the decrease over the
+    /// energy's scale (NaN where the record cannot answer).
     pub fn residual(self, r: &IterationRecord) -> f64 {
+        let (value, scale) = self.measure(r);
+        value / scale
+    }
+
+    /// What the criterion measures at `r` and the scale its tolerance is relative to (1 for
+    /// an absolute test); the value is NaN where the record cannot answer (no direction, or
+    /// k = 0 for `step` and `energy`).
+    fn measure(self, r: &IterationRecord) -> (f64, f64) {
         let g = r.gradient_norm;
         let later = |v: f64| if r.iteration > 0 { v } else { f64::NAN };
         match self {
-            Self::ScaledGradient => g / r.scaled_gradient_scale,
-            Self::Gradient => g,
-            Self::RelativeGradient => g / r.initial_gradient,
-            Self::GravityGradient => g / r.gravity_scale,
-            Self::Decrement => 0.5 * r.decrement,
-            Self::Step => later(r.step_norm),
-            Self::Energy => later(r.energy_decrease.abs() / r.energy_scale),
+            Self::ScaledGradient => (g, r.scaled_gradient_scale),
+            Self::Gradient => (g, 1.0),
+            Self::RelativeGradient => (g, r.initial_gradient),
+            Self::GravityGradient => (g, r.gravity_scale),
+            Self::Decrement => (0.5 * r.decrement, 1.0),
+            Self::Step => (later(r.step_norm), 1.0),
+            Self::Energy => (later(r.energy_decrease.abs()), r.energy_scale),
         }
     }
 

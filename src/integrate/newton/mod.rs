@@ -491,28 +491,21 @@ impl Newton {
                 self.x_prev.copy_from_slice(x);
                 self.g_prev.copy_from_slice(&self.potential.g);
             }
-            if -slope <= current.roundoff {
-                // The decrease is below the energy's round-off: the Armijo test cannot tell,
-                // and the iterate is converged to working precision.
-                axpy(1.0, &self.dx, x);
-                self.trace.roundoff_accepted = true;
-                if s.roundoff_stop {
-                    self.record(record, Stop::Roundoff, start);
-                    return Ok(true);
-                }
-                reached = self.past_roundoff(model, p, x, &mut current)?;
-                past_roundoff = Some(g_norm);
-                self.record(record, Stop::Running, start);
-                continue;
-            }
             let previous = current.value;
-            let (next, alpha, backtracks) = match s.globalization {
-                Globalization::Backtracking => {
-                    self.line_search(model, p, x, &current, slope, None, iteration, report)?
-                }
-                Globalization::FullStep => self.full_step(model, p, x, iteration, t, report)?,
-                Globalization::TrustRegion => {
-                    match self.trust_region_step(
+            // `None`: the predicted decrease is below the energy's round-off, where the Armijo
+            // test cannot tell a decrease from noise, and the full step was taken.
+            let accepted = if -slope <= current.roundoff {
+                axpy(1.0, &self.dx, x);
+                None
+            } else {
+                match s.globalization {
+                    Globalization::Backtracking => Some(
+                        self.line_search(model, p, x, &current, slope, None, iteration, report)?,
+                    ),
+                    Globalization::FullStep => {
+                        Some(self.full_step(model, p, x, iteration, t, report)?)
+                    }
+                    Globalization::TrustRegion => self.trust_region_step(
                         model,
                         p,
                         x,
@@ -522,22 +515,21 @@ impl Newton {
                         t,
                         iteration,
                         report,
-                    )? {
-                        Some(accepted) => accepted,
-                        None => {
-                            // The predicted decrease fell below round-off inside the region
-                            // (the step was taken).
-                            self.trace.roundoff_accepted = true;
-                            if s.roundoff_stop {
-                                self.record(record, Stop::Roundoff, start);
-                                return Ok(true);
-                            }
-                            reached = self.past_roundoff(model, p, x, &mut current)?;
-                            past_roundoff = Some(g_norm);
-                            self.record(record, Stop::Running, start);
-                            continue;
-                        }
+                    )?,
+                }
+            };
+            let (next, alpha, backtracks) = match accepted {
+                Some(accepted) => accepted,
+                None => {
+                    // Converged to working precision; with `roundoff_stop = false`, go on with
+                    // full steps judged by the criterion and the gradient alone.
+                    self.trace.roundoff_accepted = true;
+                    if s.roundoff_stop {
+                        self.record(record, Stop::Roundoff, start);
+                        return Ok(true);
                     }
+                    past_roundoff = Some(g_norm);
+                    (self.objective(model, p, x)?, 1.0, 0)
                 }
             };
             current = next;
@@ -550,25 +542,6 @@ impl Newton {
             };
             self.record(record, Stop::Running, start);
         }
-    }
-
-    /// After a full step `self.dx` taken below the energy's round-off (`roundoff_stop =
-    /// false`): the objective at the new `x` into `current`, and how the step reached it.
-    fn past_roundoff(
-        &mut self,
-        model: &mut Model,
-        p: &Problem<'_>,
-        x: &[f64],
-        current: &mut Objective,
-    ) -> Result<Reached, StepError> {
-        let previous = current.value;
-        *current = self.objective(model, p, x)?;
-        Ok(Reached {
-            step_length: 1.0,
-            step_norm: self.dx.iter().fold(0.0f64, |m, d| m.max(d.abs())),
-            energy_decrease: previous - current.value,
-            backtracks: 0,
-        })
     }
 
     /// The direction of `settings.direction` from `x` into `self.dx`; returns `g·dx` (< 0).
