@@ -171,28 +171,34 @@ fn integrate(model: &mut Model, method: Method, start: &State, t_end: f64, steps
 }
 
 /// The registered methods whose order `every_method_not_listed_keeps_its_order_with_damping`
-/// does not measure, and why. Every other registered method is measured.
+/// does not measure, and why. Every other registered method is measured, but the adaptive
+/// ones (their error control, not dt, sets their steps: tests/adaptive.rs and
+/// tests/implicit_runge_kutta.rs measure them).
 const ORDER_NOT_MEASURED: &[(&str, &str)] = &[
-    (
-        "adaptive-explicit-euler",
-        "its error control, not dt, sets its steps",
-    ),
-    (
-        "adaptive-symplectic-euler",
-        "its error control, not dt, sets its steps",
-    ),
-    (
-        "adaptive-midpoint",
-        "its error control, not dt, sets its steps",
-    ),
-    ("adaptive-rk4", "its error control, not dt, sets its steps"),
-    ("dopri5", "its error control, not dt, sets its steps"),
     // A defect, not a limit of the test: with this damping BDF4–6 converge at order 2 (the
     // slope is 2.0 from 400 to 1600 steps), while without damping BDF4 and BDF5 reach their
     // order (tests/integrator_convergence.rs). Measure them here once that is fixed.
     ("bdf4", "second order with damping (a defect to fix)"),
     ("bdf5", "second order with damping (a defect to fix)"),
     ("bdf6", "second order with damping (a defect to fix)"),
+    // A limit of the method: RODAS3 is third order only with the exact Jacobian, and its
+    // matrix leaves out the derivative of D(q) v in q (Rayleigh's stiffness part and strain-
+    // rate damping vary with q): with this damping it is first order (0.99). ROS2, a W-method,
+    // keeps order 2 (measured here); tests/implicit_runge_kutta.rs measures RODAS3 with
+    // constant damping.
+    (
+        "rodas3",
+        "first order with damping that varies with the positions",
+    ),
+    // A property of the method, not of the code: ESDIRK4(3) has stage order 2, and the
+    // stiffness-proportional Rayleigh term (beta omega^2 h near 2 on this block's highest
+    // modes) makes those modes stiff: pairwise 3.99, 3.51, 3.44 from 25 to 200 steps (order
+    // reduction). tests/implicit_runge_kutta.rs measures order 4 with strain-rate and mass-
+    // proportional damping.
+    (
+        "esdirk43",
+        "order reduction under stiff stiffness-proportional damping",
+    ),
     (
         "projective-dynamics",
         "refuses the block's stable Neo-Hookean material",
@@ -222,6 +228,7 @@ fn every_method_not_listed_keeps_its_order_with_damping() {
     }
     let measured: Vec<Method> = Method::all()
         .into_iter()
+        .filter(|m| !m.is_adaptive())
         .filter(|m| ORDER_NOT_MEASURED.iter().all(|(n, _)| *n != m.name()))
         .collect();
     assert!(measured.len() >= 15, "{measured:?}");

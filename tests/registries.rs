@@ -1,7 +1,7 @@
 //! Claims about the registries: every registered linear solver, material, contact response,
 //! obstacle kind, export format, Hessian filter (and filter space), Newton direction,
-//! globalization, convergence criterion, L-BFGS initial Hessian, local-solver acceleration and
-//! VBD sweep appears in `softbench list` with its description, and can be parsed (and, for
+//! globalization, convergence criterion, L-BFGS initial Hessian, step-size controller,
+//! local-solver acceleration and VBD sweep appears in `softbench list` with its description, and can be parsed (and, for
 //! solvers and materials, built) from the name it is listed under; a program can register its
 //! own linear solver and find it by name.
 
@@ -100,6 +100,7 @@ fn every_closed_family_is_listed_and_parses() {
     check_enum::<Globalization>(&text);
     check_enum::<Criterion>(&text);
     check_enum::<LbfgsInitial>(&text);
+    check_enum::<softbench::integrate::Controller>(&text);
 }
 
 #[test]

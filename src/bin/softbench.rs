@@ -528,7 +528,7 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
 
 fn list() -> anyhow::Result<ExitCode> {
     let mut out = std::io::stdout().lock();
-    let families: [(&str, Vec<Listing>); 15] = [
+    let families: [(&str, Vec<Listing>); 16] = [
         ("integrators (integrator.method)", METHODS.listing()),
         (
             "linear solvers (integrator.linear_solver)",
@@ -557,6 +557,10 @@ fn list() -> anyhow::Result<ExitCode> {
         (
             "L-BFGS initial Hessians (integrator.newton.lbfgs_initial)",
             newton::LbfgsInitial::listing(),
+        ),
+        (
+            "step-size controllers (integrator.adaptive.controller)",
+            softbench::integrate::Controller::listing(),
         ),
         (
             "local-solver accelerations (integrator.vbd/projective_dynamics.acceleration)",

@@ -3,14 +3,22 @@
 //! over between calls.
 //!
 //! The local error comes either from step doubling (the seeds' Baraff–Witkin scheme: one step
-//! of h against two of h/2, for any explicit method; the two-half-step result is kept) or from
-//! an embedded Runge–Kutta pair (Dormand–Prince 5(4)). Its size is the RMS over all DOFs of
-//! `e_i / (atol + rtol * max(|y_i|, |y_new_i|))` with `y = [q, v]`; a step is accepted when
-//! that is <= 1, and the next step is `h * safety * (1 / err)^(1 / (p + 1))`, with p the order
-//! of the error estimate, the change clamped to [`AdaptiveSettings::min_shrink`,
+//! of h against two of h/2, around any method; the two-half-step result is kept) or from an
+//! embedded pair ([`EmbeddedPair`]: Dormand–Prince 5(4), and the implicit TR-BDF2,
+//! ESDIRK3(2) and ESDIRK4(3) of [`super::dirk`]). Its size is the RMS over all DOFs of
+//! `e_i / (atol + rtol * max(|y_i|, |y_new_i|))` with `y = [q, v]`, as ODE solvers measure it;
+//! a step is accepted when that is <= 1. The next step comes from a [`Controller`] (I, PI or
+//! PID, `adaptive.controller`), times `safety`, clamped to [`AdaptiveSettings::min_shrink`,
 //! `AdaptiveSettings::max_growth`].
+//!
+//! An attempt that fails — a Newton solve that fails or stops unconverged at its cap, a linear
+//! solve that fails, an inverted element, a non-finite state — is rejected like one whose
+//! error is too large, retried `min_shrink` times smaller, and counted apart
+//! (`failed_substeps`), so Newton's iteration cap decides how many steps are taken, never
+//! whether an unconverged stage is kept.
 
-use super::runge_kutta::{ExplicitRungeKutta, StageOutput};
+use super::controller::{Controller, StepController};
+use super::embedded::{EmbeddedPair, StageOutput};
 use super::{Integrator, State, StepError, StepReport};
 use crate::model::Model;
 
@@ -18,10 +26,16 @@ use crate::model::Model;
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct AdaptiveSettings {
-    /// Relative error tolerance per step. Default 1e-6.
+    /// Relative error tolerance per step (`rtol`). Default 1e-6.
+    #[serde(alias = "rtol")]
     pub tolerance: f64,
-    /// Absolute error tolerance per step (units of q and v). Default 1e-9.
+    /// Absolute error tolerance per step (`atol`, units of q and v). Default 1e-9.
+    #[serde(alias = "atol")]
     pub absolute_tolerance: f64,
+    /// The step-size controller. Default `i` (elementary).
+    pub controller: Controller,
+    /// The controller's gains `[k1, k2, k3]`; default: the controller's own.
+    pub gains: Option<[f64; 3]>,
     /// Safety factor on the proposed step. Default 0.9.
     pub safety: f64,
     /// Smallest internal step before the step fails with `StepTooSmall` (s). Default 1e-12.
@@ -44,6 +58,8 @@ impl Default for AdaptiveSettings {
         Self {
             tolerance: 1e-6,
             absolute_tolerance: 1e-9,
+            controller: Controller::I,
+            gains: None,
             safety: 0.9,
             min_dt: 1e-12,
             max_dt: None,
@@ -54,12 +70,75 @@ impl Default for AdaptiveSettings {
     }
 }
 
+impl AdaptiveSettings {
+    /// The controller's gains: `gains` if set, else the controller's defaults.
+    pub fn controller_gains(&self) -> [f64; 3] {
+        self.gains.unwrap_or(self.controller.facts().0)
+    }
+
+    /// Check every field's range; the message names the field and the valid range.
+    pub fn validate(&self) -> Result<(), String> {
+        let positive = [
+            ("adaptive.tolerance", self.tolerance),
+            ("adaptive.min_dt", self.min_dt),
+        ];
+        for (key, v) in positive {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(format!("{key} must be a positive number (got {v})"));
+            }
+        }
+        if !(self.absolute_tolerance.is_finite() && self.absolute_tolerance >= 0.0) {
+            return Err(format!(
+                "adaptive.absolute_tolerance must be >= 0 (got {})",
+                self.absolute_tolerance
+            ));
+        }
+        if !(self.safety > 0.0 && self.safety <= 1.0) {
+            return Err(format!(
+                "adaptive.safety must be in (0, 1] (got {})",
+                self.safety
+            ));
+        }
+        if !(self.min_shrink > 0.0 && self.min_shrink < 1.0) {
+            return Err(format!(
+                "adaptive.min_shrink must be in (0, 1) (got {})",
+                self.min_shrink
+            ));
+        }
+        if !(self.max_growth > 1.0 && self.max_growth.is_finite()) {
+            return Err(format!(
+                "adaptive.max_growth must be > 1 (got {})",
+                self.max_growth
+            ));
+        }
+        if let Some(g) = self.gains
+            && !g.iter().all(|k| k.is_finite() && (-2.0..=2.0).contains(k))
+        {
+            return Err(format!(
+                "adaptive.gains must be three numbers in [-2, 2] (got {g:?})"
+            ));
+        }
+        if let Some(g) = self.gains
+            && g[0] <= 0.0
+        {
+            return Err(format!("adaptive.gains[0] (k1) must be > 0 (got {})", g[0]));
+        }
+        if self.max_dt.is_some_and(|m| !(m.is_finite() && m > 0.0)) {
+            return Err("adaptive.max_dt must be a positive number".into());
+        }
+        if self.max_substeps == 0 {
+            return Err("adaptive.max_substeps must be >= 1".into());
+        }
+        Ok(())
+    }
+}
+
 /// Where the error estimate comes from.
 pub enum ErrorEstimate {
     /// One step of h against two of h/2 with the given method.
     StepDoubling(Box<dyn Integrator>),
-    /// The embedded pair of an explicit Runge–Kutta tableau.
-    Embedded(Box<ExplicitRungeKutta>),
+    /// An embedded pair.
+    Embedded(Box<dyn EmbeddedPair>),
 }
 
 /// An adaptive integrator (see the module docs).
@@ -75,6 +154,7 @@ pub struct Adaptive {
     error: Vec<f64>,
     /// The accepted internal steps of the last call (see [`Integrator::internal_steps`]).
     accepted: Vec<f64>,
+    controller: StepController,
 }
 
 impl Adaptive {
@@ -87,18 +167,18 @@ impl Adaptive {
         Self::new(name, ErrorEstimate::StepDoubling(inner), settings)
     }
 
-    /// Step control with the embedded error of `rk` (its tableau must have embedded weights).
-    pub fn embedded(rk: ExplicitRungeKutta, settings: AdaptiveSettings) -> Self {
-        assert!(
-            rk.tableau().b_embedded.is_some(),
-            "{} has no embedded pair",
-            rk.tableau().name
-        );
-        Self::new(
-            rk.tableau().name,
-            ErrorEstimate::Embedded(Box::new(rk)),
-            settings,
-        )
+    /// Step control with the embedded error of `pair`, under its name.
+    pub fn embedded(pair: Box<dyn EmbeddedPair>, settings: AdaptiveSettings) -> Self {
+        Self::new(pair.name(), ErrorEstimate::Embedded(pair), settings)
+    }
+
+    /// The same under another name (`adaptive-esdirk43` around `esdirk43`).
+    pub fn embedded_named(
+        name: &'static str,
+        pair: Box<dyn EmbeddedPair>,
+        settings: AdaptiveSettings,
+    ) -> Self {
+        Self::new(name, ErrorEstimate::Embedded(pair), settings)
     }
 
     fn new(name: &'static str, estimate: ErrorEstimate, settings: AdaptiveSettings) -> Self {
@@ -112,6 +192,7 @@ impl Adaptive {
             current: State::default(),
             error: Vec::new(),
             accepted: Vec::new(),
+            controller: StepController::new(settings.controller_gains()),
         }
     }
 
@@ -124,7 +205,16 @@ impl Adaptive {
     fn error_order(&self) -> u32 {
         match &self.estimate {
             ErrorEstimate::StepDoubling(inner) => inner.order(),
-            ErrorEstimate::Embedded(rk) => rk.tableau().order - 1,
+            ErrorEstimate::Embedded(pair) => pair.error_order(),
+        }
+    }
+
+    /// Whether a failed attempt may be retried smaller: the failures a smaller step can cure.
+    fn retriable(&self, e: &StepError) -> bool {
+        match e {
+            StepError::NonFinite { .. } | StepError::InvertedElement { .. } => true,
+            StepError::NewtonFailed { .. } | StepError::Solver(_) => !self.is_explicit(),
+            _ => false,
         }
     }
 
@@ -156,14 +246,14 @@ impl Adaptive {
                     ev[i] = self.half.v[i] - self.full.v[i];
                 }
             }
-            ErrorEstimate::Embedded(rk) => {
+            ErrorEstimate::Embedded(pair) => {
                 self.error.resize(2 * n, 0.0);
                 let out = StageOutput {
                     q: &mut self.half.q,
                     v: &mut self.half.v,
                     error: Some(&mut self.error),
                 };
-                rk.stages(model, state, h, out, report)?;
+                pair.attempt(model, state, h, out, report)?;
             }
         }
         let s = &self.settings;
@@ -187,16 +277,38 @@ impl Integrator for Adaptive {
     fn order(&self) -> u32 {
         match &self.estimate {
             ErrorEstimate::StepDoubling(inner) => inner.order(),
-            ErrorEstimate::Embedded(rk) => rk.tableau().order,
+            ErrorEstimate::Embedded(pair) => pair.order(),
         }
     }
 
     fn is_explicit(&self) -> bool {
-        true
+        match &self.estimate {
+            ErrorEstimate::StepDoubling(inner) => inner.is_explicit(),
+            ErrorEstimate::Embedded(pair) => pair.is_explicit(),
+        }
+    }
+
+    fn check_model(&self, model: &Model) -> Result<(), StepError> {
+        match &self.estimate {
+            ErrorEstimate::StepDoubling(inner) => inner.check_model(model),
+            ErrorEstimate::Embedded(pair) => pair.check_model(model),
+        }
+    }
+
+    fn drain_iteration_log(&mut self, out: &mut Vec<super::newton::IterationRecord>) {
+        match &mut self.estimate {
+            ErrorEstimate::StepDoubling(inner) => inner.drain_iteration_log(out),
+            ErrorEstimate::Embedded(pair) => pair.drain_iteration_log(out),
+        }
     }
 
     fn reset(&mut self) {
         self.h = None;
+        self.controller.reset();
+        match &mut self.estimate {
+            ErrorEstimate::StepDoubling(inner) => inner.reset(),
+            ErrorEstimate::Embedded(pair) => pair.reset(),
+        }
     }
 
     fn internal_steps(&self) -> &[f64] {
@@ -211,7 +323,7 @@ impl Integrator for Adaptive {
         report: &mut StepReport,
     ) -> Result<(), StepError> {
         let s = self.settings;
-        let exponent = 1.0 / (self.error_order() as f64 + 1.0);
+        let k = self.error_order() as f64 + 1.0;
         let max_dt = s.max_dt.unwrap_or(f64::INFINITY).min(dt);
         let mut proposed = self.h.unwrap_or(dt).min(max_dt);
         let mut current = std::mem::take(&mut self.current);
@@ -223,6 +335,7 @@ impl Integrator for Adaptive {
             StepError::stop_if_requested()?;
             attempts += 1;
             if attempts > s.max_substeps {
+                self.current = current;
                 return Err(StepError::TooManySubsteps {
                     substeps: s.max_substeps,
                     dt: proposed,
@@ -231,37 +344,46 @@ impl Integrator for Adaptive {
             // Finish the interval exactly; a last step within 1e-12 of the rest takes the rest.
             let last = proposed >= remaining * (1.0 - 1e-12);
             let h = if last { remaining } else { proposed };
+            let unconverged = report.newton_unconverged;
             let outcome = self.attempt(model, &current, h, report);
+            // An unconverged stage makes the estimate meaningless: a failed attempt.
             let err = match outcome {
-                Ok(e) if e.is_finite() => Some(e),
-                // A failed or non-finite attempt is a rejection with the largest reduction.
-                Ok(_) | Err(StepError::NonFinite { .. } | StepError::InvertedElement { .. }) => {
-                    None
+                Ok(e) if e.is_finite() && report.newton_unconverged == unconverged => Some(e),
+                Ok(_) => None,
+                Err(e) if self.retriable(&e) => None,
+                Err(e) => {
+                    self.current = current;
+                    return Err(e);
                 }
-                Err(e) => return Err(e),
             };
-            let factor = match err {
-                Some(e) if e > 0.0 => {
-                    (s.safety * e.powf(-exponent)).clamp(s.min_shrink, s.max_growth)
+            match err {
+                Some(e) if e <= 1.0 => {
+                    let factor = (s.safety * self.controller.accepted(e, k))
+                        .clamp(s.min_shrink, s.max_growth);
+                    std::mem::swap(&mut current, &mut self.half);
+                    current.t += h;
+                    remaining = if last { 0.0 } else { remaining - h };
+                    report.substeps += 1;
+                    self.accepted.push(h);
+                    // Keep the proposal of a full step: a truncated last step says nothing new.
+                    if !last || h >= proposed {
+                        proposed = (h * factor).min(max_dt);
+                    }
                 }
-                Some(_) => s.max_growth,
-                None => s.min_shrink,
-            };
-            if matches!(err, Some(e) if e <= 1.0) {
-                std::mem::swap(&mut current, &mut self.half);
-                current.t += h;
-                remaining = if last { 0.0 } else { remaining - h };
-                report.substeps += 1;
-                self.accepted.push(h);
-                // Keep the proposal of a full step: a truncated last step says nothing new.
-                if !last || h >= proposed {
-                    proposed = (h * factor).min(max_dt);
+                Some(e) => {
+                    report.rejected_substeps += 1;
+                    let factor = (s.safety * self.controller.rejected(e, k)).max(s.min_shrink);
+                    proposed = h * factor;
                 }
-            } else {
-                report.rejected_substeps += 1;
-                proposed = h * factor;
+                None => {
+                    report.rejected_substeps += 1;
+                    report.failed_substeps += 1;
+                    self.controller.failed();
+                    proposed = h * s.min_shrink;
+                }
             }
             if proposed < s.min_dt {
+                self.current = current;
                 return Err(StepError::StepTooSmall {
                     dt: proposed,
                     min_dt: s.min_dt,

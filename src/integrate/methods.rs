@@ -12,6 +12,7 @@ use super::adaptive::Adaptive;
 use super::backward_euler::BackwardEuler;
 use super::bdf::Bdf;
 use super::bdf::BdfSettings;
+use super::dirk::{Dirk, DirkTableau};
 use super::implicit_midpoint::ImplicitMidpoint;
 use super::linearly_implicit_euler::LinearlyImplicitEuler;
 use super::newmark::{
@@ -21,6 +22,7 @@ use super::newton::NewtonSettings;
 use super::newton::StepConstraints;
 use super::projective_dynamics::ProjectiveDynamics;
 use super::projective_dynamics::ProjectiveDynamicsSettings;
+use super::rosenbrock::{Rosenbrock, RosenbrockTableau};
 use super::scheme::{NewtonIntegrator, Scheme};
 use super::static_equilibrium::{Static, StaticSettings};
 use super::symplectic_euler::SymplecticEuler;
@@ -28,7 +30,10 @@ use super::vbd::Vbd;
 use super::vbd::VbdSettings;
 use super::verlet::VelocityVerlet;
 use super::xpbd::{Xpbd, XpbdSettings};
-use super::{AdaptiveSettings, Integrator, dopri5, explicit_euler, midpoint, rk4};
+use super::{
+    AdaptiveSettings, Integrator, dopri5, esdirk32, esdirk43, explicit_euler, midpoint, rk4,
+    rodas3, ros2, tr_bdf2,
+};
 use crate::registry::{Entry, Fact, RegisterError, Registry};
 use crate::solve::{LinearSolverKind, SolverSettings};
 
@@ -55,6 +60,9 @@ pub struct MethodEntry {
     pub linear_solver: bool,
     /// Can run the constrained contact response (Newton on the end-of-step positions).
     pub constrained_contact: bool,
+    /// Chooses its own internal steps to meet `integrator.adaptive`'s tolerances (the step a
+    /// scene gives is an output interval, not a step size).
+    pub adaptive: bool,
     /// Builds it.
     pub build: BuildMethod,
 }
@@ -83,6 +91,7 @@ impl Entry for MethodEntry {
             ("newton", yes_no(self.newton)),
             ("linear-solver", yes_no(self.linear_solver)),
             ("constrained-contact", yes_no(self.constrained_contact)),
+            ("adaptive", yes_no(self.adaptive)),
         ]
     }
 }
@@ -102,6 +111,7 @@ pub const fn explicit(
         newton: false,
         linear_solver: false,
         constrained_contact: false,
+        adaptive: false,
         build,
     }
 }
@@ -123,7 +133,16 @@ pub const fn implicit(
         newton: true,
         linear_solver: true,
         constrained_contact: end_position,
+        adaptive: false,
         build,
+    }
+}
+
+impl MethodEntry {
+    /// The same entry, marked as choosing its own steps (see [`MethodEntry::adaptive`]).
+    pub const fn with_error_control(mut self) -> Self {
+        self.adaptive = true;
+        self
     }
 }
 
@@ -145,6 +164,70 @@ fn adaptive(
     Box::new(Adaptive::step_doubling(name, inner, s.adaptive))
 }
 
+/// A DIRK tableau at fixed steps.
+fn dirk(tableau: DirkTableau, s: &IntegratorSettings) -> Box<dyn Integrator> {
+    Box::new(Dirk::new(
+        tableau,
+        s.linear_solver.build(&s.solver),
+        s.newton,
+    ))
+}
+
+/// A DIRK tableau under error control, named `name`.
+fn adaptive_dirk(
+    name: &'static str,
+    tableau: DirkTableau,
+    s: &IntegratorSettings,
+) -> Box<dyn Integrator> {
+    let pair = Dirk::new(tableau, s.linear_solver.build(&s.solver), s.newton);
+    Box::new(Adaptive::embedded_named(name, Box::new(pair), s.adaptive))
+}
+
+/// A Rosenbrock method at fixed steps.
+fn rosenbrock(tableau: RosenbrockTableau, s: &IntegratorSettings) -> Box<dyn Integrator> {
+    Box::new(rosenbrock_pair(tableau, s))
+}
+
+fn rosenbrock_pair(tableau: RosenbrockTableau, s: &IntegratorSettings) -> Rosenbrock {
+    let solver = s.linear_solver.build(&s.solver);
+    Rosenbrock::new(
+        tableau,
+        solver,
+        s.newton.filter_settings(),
+        s.newton.retry_halvings,
+    )
+}
+
+/// A Rosenbrock method under error control, named `name`.
+fn adaptive_rosenbrock(
+    name: &'static str,
+    tableau: RosenbrockTableau,
+    s: &IntegratorSettings,
+) -> Box<dyn Integrator> {
+    let pair = Box::new(rosenbrock_pair(tableau, s));
+    Box::new(Adaptive::embedded_named(name, pair, s.adaptive))
+}
+
+/// A linearly implicit method: a linear solver, no Newton.
+const fn linearly_implicit(
+    name: &'static str,
+    order: u32,
+    description: &'static str,
+    build: BuildMethod,
+) -> MethodEntry {
+    MethodEntry {
+        name,
+        description,
+        order,
+        explicit: false,
+        newton: false,
+        linear_solver: true,
+        constrained_contact: false,
+        adaptive: false,
+        build,
+    }
+}
+
 fn bdf(
     name: &'static str,
     k: u32,
@@ -157,18 +240,22 @@ fn bdf(
 
 /// The built-in methods, in the order `softbench list` shows them: one line each.
 #[rustfmt::skip]
-static BUILTIN: [MethodEntry; 26] = [
+static BUILTIN: [MethodEntry; 36] = [
     explicit("explicit-euler", 1, "forward Euler; unstable for undamped oscillation", |_, _| Box::new(explicit_euler::explicit_euler())),
     explicit("symplectic-euler", 1, "semi-implicit Euler, symplectic (bounded energy error)", |_, _| Box::new(SymplecticEuler::new())),
     explicit("velocity-verlet", 2, "central differences / Störmer-Verlet, symplectic, momentum-conserving", |_, _| Box::new(VelocityVerlet::new())),
     explicit("midpoint", 2, "explicit midpoint (RK2)", |_, _| Box::new(midpoint::midpoint())),
     explicit("rk4", 4, "classic Runge-Kutta", |_, _| Box::new(rk4::rk4())),
-    explicit("adaptive-explicit-euler", 1, "explicit Euler with step-doubling error control", |s, _| adaptive("adaptive-explicit-euler", s, Box::new(explicit_euler::explicit_euler()))),
-    explicit("adaptive-symplectic-euler", 1, "symplectic Euler with step-doubling error control", |s, _| adaptive("adaptive-symplectic-euler", s, Box::new(SymplecticEuler::new()))),
-    explicit("adaptive-midpoint", 2, "explicit midpoint with step-doubling error control", |s, _| adaptive("adaptive-midpoint", s, Box::new(midpoint::midpoint()))),
-    explicit("adaptive-rk4", 4, "RK4 with step-doubling error control", |s, _| adaptive("adaptive-rk4", s, Box::new(rk4::rk4()))),
-    explicit("dopri5", 5, "Dormand-Prince 5(4) with embedded error control", |s, _| Box::new(Adaptive::embedded(dopri5::dopri5(), s.adaptive))),
-    MethodEntry { name: "linearly-implicit-euler", description: "one Newton step of backward Euler per step", order: 1, explicit: false, newton: false, linear_solver: true, constrained_contact: false, build: |s, _| Box::new(LinearlyImplicitEuler::new(s.linear_solver.build(&s.solver), s.newton.filter_settings())) },
+    explicit("adaptive-explicit-euler", 1, "explicit Euler with step-doubling error control", |s, _| adaptive("adaptive-explicit-euler", s, Box::new(explicit_euler::explicit_euler()))).with_error_control(),
+    explicit("adaptive-symplectic-euler", 1, "symplectic Euler with step-doubling error control", |s, _| adaptive("adaptive-symplectic-euler", s, Box::new(SymplecticEuler::new()))).with_error_control(),
+    explicit("adaptive-midpoint", 2, "explicit midpoint with step-doubling error control", |s, _| adaptive("adaptive-midpoint", s, Box::new(midpoint::midpoint()))).with_error_control(),
+    explicit("adaptive-rk4", 4, "RK4 with step-doubling error control", |s, _| adaptive("adaptive-rk4", s, Box::new(rk4::rk4()))).with_error_control(),
+    explicit("dopri5", 5, "Dormand-Prince 5(4) with embedded error control", |s, _| Box::new(Adaptive::embedded(Box::new(dopri5::dopri5()), s.adaptive))).with_error_control(),
+    MethodEntry { name: "linearly-implicit-euler", description: "one Newton step of backward Euler per step", order: 1, explicit: false, newton: false, linear_solver: true, constrained_contact: false, adaptive: false, build: |s, _| Box::new(LinearlyImplicitEuler::new(s.linear_solver.build(&s.solver), s.newton.filter_settings())) },
+    linearly_implicit("ros2", 2, "Rosenbrock-W ROS2: 2 solves with one factorization per step, L-stable", |s, _| rosenbrock(ros2::TABLEAU, s)),
+    linearly_implicit("rodas3", 3, "Rosenbrock RODAS3: 4 solves with one factorization per step, stiffly accurate, L-stable", |s, _| rosenbrock(rodas3::TABLEAU, s)),
+    linearly_implicit("adaptive-ros2", 2, "ROS2 with its embedded first-order error estimate (adaptive = {..})", |s, _| adaptive_rosenbrock("adaptive-ros2", ros2::TABLEAU, s)).with_error_control(),
+    linearly_implicit("adaptive-rodas3", 3, "RODAS3 with its embedded second-order error estimate", |s, _| adaptive_rosenbrock("adaptive-rodas3", rodas3::TABLEAU, s)).with_error_control(),
     implicit("backward-euler", 1, true, "Newton with line search; unconditionally stable, dissipative", |s, c| newton_scheme(s, c, BackwardEuler)),
     implicit("implicit-midpoint", 2, false, "Newton on the midpoint; symplectic, no numerical damping", |s, c| newton_scheme(s, c, ImplicitMidpoint)),
     implicit("bdf1", 1, true, "BDF order 1 (= backward Euler)", |s, c| bdf("bdf1", 1, s, c)),
@@ -180,9 +267,15 @@ static BUILTIN: [MethodEntry; 26] = [
     implicit("newmark", 2, true, "Newmark(β, γ); default trapezoidal (1/4, 1/2), order 1 if γ ≠ 1/2", |s, c| newton_scheme(s, c, Newmark::new("newmark", NewmarkParameters::newmark(s.newmark)))),
     implicit("generalized-alpha", 2, true, "generalized-α (Chung-Hulbert), high frequencies damped to ρ∞", |s, c| newton_scheme(s, c, Newmark::new("generalized-alpha", NewmarkParameters::generalized_alpha(s.generalized_alpha)))),
     implicit("hht-alpha", 2, true, "Hilber-Hughes-Taylor α, high-frequency dissipation", |s, c| newton_scheme(s, c, Newmark::new("hht-alpha", NewmarkParameters::hht(s.hht)))),
-    MethodEntry { name: "vbd", description: "vertex block descent: colored Gauss-Seidel 3x3 Newton steps; converges to the backward Euler step (any material)", order: 1, explicit: false, newton: false, linear_solver: false, constrained_contact: false, build: |s, _| Box::new(Vbd::new(s.vbd)) },
-    MethodEntry { name: "projective-dynamics", description: "local/global iterations, prefactored global matrix; converges to backward Euler on its projective energy (corotated)", order: 1, explicit: false, newton: false, linear_solver: true, constrained_contact: false, build: |s, _| Box::new(ProjectiveDynamics::new(s.projective_dynamics, s.linear_solver.build(&s.solver))) },
-    MethodEntry { name: "xpbd", description: "XPBD with Neo-Hookean constraints, substepped; converges to the dynamics of its constraint energy (xpbd-neo-hookean)", order: 1, explicit: false, newton: false, linear_solver: false, constrained_contact: false, build: |s, _| Box::new(Xpbd::new(s.xpbd)) },
+    MethodEntry { name: "vbd", description: "vertex block descent: colored Gauss-Seidel 3x3 Newton steps; converges to the backward Euler step (any material)", order: 1, explicit: false, newton: false, linear_solver: false, constrained_contact: false, adaptive: false, build: |s, _| Box::new(Vbd::new(s.vbd)) },
+    MethodEntry { name: "projective-dynamics", description: "local/global iterations, prefactored global matrix; converges to backward Euler on its projective energy (corotated)", order: 1, explicit: false, newton: false, linear_solver: true, constrained_contact: false, adaptive: false, build: |s, _| Box::new(ProjectiveDynamics::new(s.projective_dynamics, s.linear_solver.build(&s.solver))) },
+    MethodEntry { name: "xpbd", description: "XPBD with Neo-Hookean constraints, substepped; converges to the dynamics of its constraint energy (xpbd-neo-hookean)", order: 1, explicit: false, newton: false, linear_solver: false, constrained_contact: false, adaptive: false, build: |s, _| Box::new(Xpbd::new(s.xpbd)) },
+    implicit("tr-bdf2", 2, false, "TR-BDF2: trapezoidal then BDF2 stage, L-stable, stiffly accurate (ESDIRK, 2 Newton solves per step)", |s, _| dirk(tr_bdf2::TABLEAU, s)),
+    implicit("esdirk32", 3, false, "ESDIRK3(2)4L[2]SA (Kennedy-Carpenter), L-stable, stiffly accurate, 3 Newton solves per step", |s, _| dirk(esdirk32::TABLEAU, s)),
+    implicit("esdirk43", 4, false, "ESDIRK4(3)6L[2]SA (Kennedy-Carpenter), L-stable, stiffly accurate, 5 Newton solves per step", |s, _| dirk(esdirk43::TABLEAU, s)),
+    implicit("adaptive-tr-bdf2", 2, false, "TR-BDF2 with its embedded third-order error estimate (adaptive = {..})", |s, _| adaptive_dirk("adaptive-tr-bdf2", tr_bdf2::TABLEAU, s)).with_error_control(),
+    implicit("adaptive-esdirk32", 3, false, "ESDIRK3(2) with its embedded second-order error estimate", |s, _| adaptive_dirk("adaptive-esdirk32", esdirk32::TABLEAU, s)).with_error_control(),
+    implicit("adaptive-esdirk43", 4, false, "ESDIRK4(3) with its embedded third-order error estimate", |s, _| adaptive_dirk("adaptive-esdirk43", esdirk43::TABLEAU, s)).with_error_control(),
     implicit("static", 0, true, "equilibrium under each time's loads (no inertia); gravity ramped if Newton fails", |s, c| Box::new(Static::new(s.static_solve, s.linear_solver.build(&s.solver), s.newton, c))),
 ];
 
@@ -209,6 +302,12 @@ impl Method {
     /// tolerance can decide its result).
     pub fn uses_newton(self) -> bool {
         self.entry().newton
+    }
+
+    /// Whether the method chooses its own internal steps under `integrator.adaptive`'s
+    /// tolerances (so `dt` is an output interval and the tolerance sets its accuracy).
+    pub fn is_adaptive(self) -> bool {
+        self.entry().adaptive
     }
 
     /// Whether the method solves sparse linear systems with the scene's linear solver.
@@ -288,6 +387,7 @@ impl IntegratorSettings {
         self.projective_dynamics.validate()?;
         self.xpbd.validate()?;
         self.solver.cg.amg.validate()?;
+        self.adaptive.validate()?;
         if self.static_solve.max_load_steps == 0 {
             return Err("static.max_load_steps must be >= 1".into());
         }

@@ -6,10 +6,14 @@
 //!   [`midpoint`] (the seeds' RK2), [`rk4`], the Runge-Kutta ones as Butcher tableaus run by
 //!   [`runge_kutta`];
 //! - adaptive: [`adaptive`] step control (step doubling around any explicit method, or the
-//!   embedded error of [`dopri5`]);
-//! - implicit: [`linearly_implicit_euler`] (one linear solve), and the [`scheme`]s run by the
+//!   embedded error of an [`embedded`] pair: [`dopri5`] and the DIRK pairs below), with a
+//!   step-size [`controller`] (I, PI, PID);
+//! - implicit: [`linearly_implicit_euler`] (one linear solve), the [`rosenbrock`] methods (one
+//!   factorization per step, a solve per stage: [`ros2`], [`rodas3`]), and the [`scheme`]s run by the
 //!   one Newton loop ([`newton`]): [`backward_euler`], [`implicit_midpoint`], [`bdf`] (BDF-k,
-//!   k = 1…6), [`newmark`] (Newmark, generalized-α, HHT-α) and [`static_equilibrium`];
+//!   k = 1…6), [`newmark`] (Newmark, generalized-α, HHT-α) and [`static_equilibrium`]; the
+//!   multi-stage [`dirk`] methods, a tableau each ([`tr_bdf2`], [`esdirk32`], [`esdirk43`]),
+//!   every implicit stage one solve of the same loop;
 //! - local solvers on the backward Euler step: [`vbd`] (vertex block descent, parallel over a
 //!   vertex [`colouring`]) and [`projective_dynamics`] (local/global, on its projective
 //!   energy, corotated elasticity); [`xpbd`] (substepped constraints, on its constraint
@@ -20,7 +24,12 @@ pub mod adaptive;
 pub mod backward_euler;
 pub mod bdf;
 pub mod colouring;
+pub mod controller;
+pub mod dirk;
 pub mod dopri5;
+pub mod embedded;
+pub mod esdirk32;
+pub mod esdirk43;
 pub mod explicit_euler;
 pub mod filter;
 pub mod implicit_midpoint;
@@ -33,16 +42,23 @@ pub mod newton;
 pub mod projective_dynamics;
 mod report;
 pub mod rk4;
+pub mod rodas3;
+pub mod ros2;
+pub mod rosenbrock;
 pub mod runge_kutta;
 pub mod scheme;
 pub mod static_equilibrium;
 pub mod symplectic_euler;
 pub mod system;
+pub mod tr_bdf2;
 pub mod vbd;
 pub mod verlet;
 pub mod xpbd;
 
 pub use adaptive::{Adaptive, AdaptiveSettings};
+pub use controller::{Controller, StepController, UnknownController};
+pub use dirk::{Dirk, DirkTableau};
+pub use embedded::{EmbeddedPair, StageOutput};
 pub use filter::{FilterSettings, HessianFilter, UnknownHessianFilter};
 pub use mass_inverse::Dynamics;
 pub use methods::{IntegratorSettings, Method, MethodEntry, register_method};

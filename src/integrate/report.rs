@@ -31,8 +31,11 @@ pub struct StepReport {
     pub dt: f64,
     /// Accepted internal steps (adaptive methods and halving retries; 1 otherwise).
     pub substeps: u32,
-    /// Rejected internal steps of adaptive methods.
+    /// Rejected internal steps of adaptive methods (error too large, or the attempt failed).
     pub rejected_substeps: u32,
+    /// Of those, the attempts that failed (a Newton or linear solve failed or stopped
+    /// unconverged, an element inverted, the state overflowed) and were retried smaller.
+    pub failed_substeps: u32,
     /// Newton iterations, summed over Newton solves.
     pub newton_iterations: u32,
     /// Newton solves that stopped at the iteration cap without meeting the tolerance.
@@ -118,6 +121,7 @@ impl StepReport {
     pub fn absorb(&mut self, other: &StepReport) {
         self.substeps += other.substeps;
         self.rejected_substeps += other.rejected_substeps;
+        self.failed_substeps += other.failed_substeps;
         self.newton_iterations += other.newton_iterations;
         self.local_iterations += other.local_iterations;
         self.chebyshev_rho = self.chebyshev_rho.max(other.chebyshev_rho);

@@ -1,6 +1,7 @@
 //! Explicit Runge–Kutta methods on the first-order system `q' = v, v' = a(q)`, given by their
 //! Butcher tableau. Explicit Euler, midpoint, RK4 and Dormand–Prince are tableaus run here.
 
+use super::embedded::{EmbeddedPair, StageOutput};
 use super::mass_inverse::Dynamics;
 use super::{Integrator, State, StepError, StepReport};
 use crate::model::Model;
@@ -16,16 +17,8 @@ pub struct Tableau {
     pub a: &'static [&'static [f64]],
     /// Weights of the solution.
     pub b: &'static [f64],
-    /// Weights of the embedded lower-order solution, if any.
+    /// Weights of the embedded solution of order `order - 1`, if any.
     pub b_embedded: Option<&'static [f64]>,
-}
-
-/// Where [`ExplicitRungeKutta::stages`] writes the new state and, optionally, the difference
-/// between the main and embedded solutions (stacked `[dq, dv]`, length `2n`).
-pub(crate) struct StageOutput<'a> {
-    pub q: &'a mut [f64],
-    pub v: &'a mut [f64],
-    pub error: Option<&'a mut [f64]>,
 }
 
 /// An explicit Runge–Kutta integrator with preallocated stage storage.
@@ -138,6 +131,35 @@ impl ExplicitRungeKutta {
 #[inline]
 pub(crate) fn axpy(a: f64, x: &[f64], y: &mut [f64]) {
     y.iter_mut().zip(x).for_each(|(yi, xi)| *yi += a * xi);
+}
+
+impl EmbeddedPair for ExplicitRungeKutta {
+    fn name(&self) -> &'static str {
+        self.tableau.name
+    }
+
+    fn order(&self) -> u32 {
+        self.tableau.order
+    }
+
+    fn embedded_order(&self) -> u32 {
+        self.tableau.order - 1
+    }
+
+    fn is_explicit(&self) -> bool {
+        true
+    }
+
+    fn attempt(
+        &mut self,
+        model: &mut Model,
+        start: &State,
+        h: f64,
+        out: StageOutput<'_>,
+        report: &mut StepReport,
+    ) -> Result<(), StepError> {
+        self.stages(model, start, h, out, report)
+    }
 }
 
 impl Integrator for ExplicitRungeKutta {

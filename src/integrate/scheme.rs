@@ -223,7 +223,7 @@ pub fn solve_frozen(
 
 /// The minimization of a prepared step: damping set up, the clock at the force time, `x`
 /// from the guess to the minimizer.
-fn minimize_problem(
+pub(super) fn minimize_problem(
     newton: &mut Newton,
     model: &mut Model,
     p: &StepProblem,

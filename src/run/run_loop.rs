@@ -51,6 +51,9 @@ pub struct Sample {
     pub steps: u64,
     pub substeps: u64,
     pub rejected_substeps: u64,
+    /// Rejected internal steps whose attempt failed (Newton, linear solve, inversion) rather
+    /// than missed the error tolerance.
+    pub failed_substeps: u64,
     pub newton_unconverged: u64,
     pub line_search_backtracks: u64,
     pub linear_solves: u64,
@@ -284,6 +287,7 @@ fn sample(
         steps: w.steps,
         substeps: work.substeps.into(),
         rejected_substeps: work.rejected_substeps.into(),
+        failed_substeps: work.failed_substeps.into(),
         newton_unconverged: work.newton_unconverged.into(),
         line_search_backtracks: work.line_search_backtracks.into(),
         linear_solves: work.linear_solves.into(),
