@@ -355,6 +355,50 @@ fn work_precision_quick_writes_every_output() {
     assert_complete(&tmp.path().join("work_precision"), &columns);
 }
 
+#[test]
+fn implicit_families_quick_puts_tolerance_and_step_ladders_on_one_study() {
+    let tmp = TempDir::new("study-families");
+    run_quick("implicit_families.toml", tmp.path());
+    let mut columns = IDENTITY.to_vec();
+    columns.extend([
+        "dt",
+        "outcome",
+        "error",
+        "error_final",
+        "wall_seconds",
+        "force_evaluations",
+        "factorizations",
+        "substeps",
+        "rejected_substeps",
+        "failed_substeps",
+        "adaptive_rtol",
+        "adaptive_atol",
+        "adaptive_controller",
+    ]);
+    let runs = assert_complete(&tmp.path().join("implicit_families"), &columns);
+    let mut adaptive = 0;
+    for r in &runs.rows {
+        let method = runs.get(r, "method").unwrap();
+        let rtol = runs.get(r, "adaptive_rtol").unwrap();
+        if method.starts_with("adaptive-") {
+            adaptive += 1;
+            // The tolerance that set the steps is next to the error it gave.
+            assert!(rtol.parse::<f64>().is_ok(), "{method}: rtol {rtol:?}");
+            assert_eq!(runs.get(r, "adaptive_controller"), Some("pi"));
+        } else {
+            assert_eq!(rtol, "", "{method} is not adaptive");
+        }
+        if runs.get(r, "outcome") == Some("completed") && runs.get(r, "scored") == Some("yes") {
+            let (e, f) = (
+                runs.number(r, "error").unwrap(),
+                runs.number(r, "error_final").unwrap(),
+            );
+            assert!(f <= e, "{method}: final error {f} above the largest {e}");
+        }
+    }
+    assert!(adaptive >= 6, "{adaptive} adaptive runs");
+}
+
 /// Modification times of the series files, by name.
 fn series_times(dir: &Path) -> Vec<(String, std::time::SystemTime)> {
     let mut v: Vec<_> = std::fs::read_dir(dir.join("series"))

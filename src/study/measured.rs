@@ -100,6 +100,8 @@ pub fn summary_cells(s: &RunSummary) -> Vec<(&'static str, String)> {
             f(f64::from(t.newton_iterations) / steps),
         ),
         ("substeps", t.substeps.to_string()),
+        ("rejected_substeps", t.rejected_substeps.to_string()),
+        ("failed_substeps", t.failed_substeps.to_string()),
         ("local_iterations", t.local_iterations.to_string()),
         (
             "local_iterations_per_step",
@@ -176,6 +178,27 @@ pub fn peak_rss_mib() -> Option<f64> {
 /// to it: Newton's iteration cap, whether convergence was required, and how many iterations
 /// share a factorization (modified Newton).
 pub fn cap_cells(spec: &RunSpec) -> Vec<(&'static str, String)> {
+    let mut cells = newton_cap_cells(spec);
+    cells.extend(adaptive_cells(spec));
+    cells
+}
+
+/// The tolerances and controller that set an adaptive method's steps (empty for fixed-step
+/// methods): its error is what they ask for, so they are reported next to it.
+fn adaptive_cells(spec: &RunSpec) -> Vec<(&'static str, String)> {
+    let integrator = &spec.loaded.config.integrator;
+    let a = &integrator.adaptive;
+    let on = integrator.method.is_adaptive();
+    let shown = |s: String| if on { s } else { String::new() };
+    vec![
+        ("adaptive_rtol", shown(a.tolerance.to_string())),
+        ("adaptive_atol", shown(a.absolute_tolerance.to_string())),
+        ("adaptive_controller", shown(a.controller.name().to_owned())),
+        ("adaptive_max_substeps", shown(a.max_substeps.to_string())),
+    ]
+}
+
+fn newton_cap_cells(spec: &RunSpec) -> Vec<(&'static str, String)> {
     let integrator = &spec.loaded.config.integrator;
     if !integrator.method.uses_newton() {
         return vec![

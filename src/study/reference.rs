@@ -312,6 +312,29 @@ pub(super) fn sampled_run(
 
 /// Largest relative position error and energy error of `run` against `reference` over the
 /// sample times both reached; `None` if `run` reached none.
+/// The position error at the last sample time alone (the final-time error of ODE
+/// benchmarks), relative to the reference's largest displacement as in [`errors`].
+pub(super) fn final_error(run: &Snapshots, reference: &Snapshots, rest: &[f64]) -> Option<f64> {
+    let n = reference.q.len();
+    if n == 0 || run.q.len() < n {
+        return None;
+    }
+    let distance = |a: &[f64], b: &[f64]| {
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| (x - y) * (x - y))
+            .sum::<f64>()
+            .sqrt()
+    };
+    let displacement = reference
+        .q
+        .iter()
+        .map(|r| distance(r, rest))
+        .fold(0.0f64, f64::max)
+        .max(f64::MIN_POSITIVE);
+    Some(distance(&run.q[n - 1], &reference.q[n - 1]) / displacement)
+}
+
 pub(super) fn errors(run: &Snapshots, reference: &Snapshots, rest: &[f64]) -> Option<(f64, f64)> {
     let n = run.q.len().min(reference.q.len());
     if n == 0 || run.q.len() < reference.q.len() {

@@ -36,6 +36,7 @@ pub const COLUMNS: &[&str] = &[
     "dt",
     "outcome",
     "error",
+    "error_final",
     "error_l2",
     "energy_error",
     "wall_seconds",
@@ -88,6 +89,12 @@ pub const COLUMNS: &[&str] = &[
     "internal_dt_min",
     "internal_dt_median",
     "internal_dt_max",
+    "rejected_substeps",
+    "failed_substeps",
+    "adaptive_rtol",
+    "adaptive_atol",
+    "adaptive_controller",
+    "adaptive_max_substeps",
 ];
 
 /// What the rest of the study code asks of a work-precision study.
@@ -558,6 +565,17 @@ pub fn measure(
             m.set("scored", if scored { "yes" } else { "no" }.into());
             m.set("error", cell(scored.then_some(error)));
             m.set(
+                "error_final",
+                cell(
+                    super::reference::final_error(
+                        &snapshots,
+                        &reference.snapshots,
+                        &reference.rest,
+                    )
+                    .filter(|_| scored),
+                ),
+            );
+            m.set(
                 "error_l2",
                 cell(reference.relative_l2_error(&snapshots.q).filter(|_| scored)),
             );
@@ -670,7 +688,7 @@ pub(super) fn observed_orders(runs: &Table) -> Vec<(String, String, f64)> {
     let mut lines: BTreeMap<(String, String), Vec<(f64, f64)>> = BTreeMap::new();
     for r in &runs.rows {
         let method = runs.get(r, "method").unwrap_or_default();
-        if method.starts_with("adaptive-") || method == "dopri5" {
+        if Method::from_name(method).is_ok_and(|m| m.is_adaptive()) {
             continue;
         }
         if let (Some(dt), Some(e)) = (runs.number(r, "dt"), runs.number(r, "error")) {
