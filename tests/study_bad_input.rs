@@ -239,6 +239,17 @@ fn work_precision_dt_must_divide_the_sample_interval() {
 }
 
 #[test]
+fn work_precision_repeats_must_be_between_1_and_100() {
+    for repeats in ["0", "101"] {
+        let s = format!(
+            "{}\"run.dt\" = [0.01]\n\n[work-precision]\nhorizon = 0.04\nsamples = 2\nrepeats = {repeats}\n",
+            GOOD.replace("\"trajectory\"", "\"work-precision\"")
+        );
+        assert_rejected(&s, &["work-precision.repeats", "1 to 100", repeats]);
+    }
+}
+
+#[test]
 fn only_pattern_matching_nothing() {
     let tmp = TempDir::new("study-only");
     tmp.write("beam.toml", SCENE);

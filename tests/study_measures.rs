@@ -216,6 +216,40 @@ reference = { method = "rk4", dt_factor = 8 }
     }
 }
 
+#[test]
+fn work_precision_repeats_give_the_median_time_and_the_same_results() {
+    let tmp = TempDir::new("wp-repeats");
+    tmp.write("beam.toml", DRAGGED_BEAM);
+    let study = tmp.write(
+        "study.toml",
+        r#"name = "repeats"
+study = "work-precision"
+scenes = ["beam.toml"]
+[grid]
+"integrator.method" = ["backward-euler", "adaptive-esdirk43"]
+"run.dt" = [0.01]
+[work-precision]
+horizon = 0.04
+samples = 2
+repeats = 3
+"#,
+    );
+    let out = tmp.path().join("results");
+    run_study_ok(&study, &out, &[]);
+    let runs = Table::read(&out.join("repeats/runs.csv")).unwrap().unwrap();
+    assert_eq!(runs.rows.len(), 2);
+    for r in &runs.rows {
+        assert_eq!(runs.get(r, "repeats"), Some("3"));
+        assert_eq!(runs.get(r, "repeatable"), Some("yes"));
+        let (lo, mid, hi) = (
+            runs.number(r, "wall_seconds_min").unwrap(),
+            runs.number(r, "wall_seconds").unwrap(),
+            runs.number(r, "wall_seconds_max").unwrap(),
+        );
+        assert!(lo <= mid && mid <= hi, "{lo} {mid} {hi}");
+    }
+}
+
 /// A clamped beam sagging under a drag: the scene of the same-dt test.
 const DRAGGED_BEAM: &str = r#"
 [mesh]

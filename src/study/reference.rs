@@ -41,10 +41,19 @@ pub struct ScoringSettings {
     pub phases: Vec<[f64; 2]>,
     #[serde(default)]
     pub reference: ReferenceSettings,
+    /// Times each work-precision run is run: its error is the first run's (they are the
+    /// same: runs are deterministic, and `repeatable` says so), its `wall_seconds` the median
+    /// over the repeats, with the lowest and highest. Default 1.
+    #[serde(default = "one")]
+    pub repeats: usize,
 }
 
 fn default_samples() -> usize {
     4
+}
+
+fn one() -> usize {
+    1
 }
 
 /// Phases a study may score apart.

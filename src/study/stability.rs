@@ -644,6 +644,7 @@ fn reference_settings(file: &StudyFile) -> Option<ScoringSettings> {
         samples: s.error_samples,
         require_newton_convergence: true,
         reference: s.reference.clone(),
+        repeats: 1,
     })
 }
 

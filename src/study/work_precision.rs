@@ -40,6 +40,10 @@ pub const COLUMNS: &[&str] = &[
     "error_l2",
     "energy_error",
     "wall_seconds",
+    "wall_seconds_min",
+    "wall_seconds_max",
+    "repeats",
+    "repeatable",
     "force_evaluations",
     "hessian_evaluations",
     "factorizations",
@@ -100,6 +104,9 @@ pub const COLUMNS: &[&str] = &[
 /// What the rest of the study code asks of a work-precision study.
 /// A work-precision study: each run's error against a reference solution.
 pub(super) struct WorkPrecision;
+
+/// The most repeats of a run a work-precision study may ask for.
+const MAX_REPEATS: usize = 100;
 
 /// The kind's name in study files, and the key of its resolved table.
 const NAME: &str = "work-precision";
@@ -407,6 +414,12 @@ fn check(
     if w.samples == 0 {
         return Err(bad("work-precision.samples", "must be at least 1".into()));
     }
+    if !(1..=MAX_REPEATS).contains(&w.repeats) {
+        return Err(bad(
+            "work-precision.repeats",
+            format!("must be from 1 to {MAX_REPEATS} (got {})", w.repeats),
+        ));
+    }
     super::settings::check_samples(w.samples, "work-precision.samples", &bad)?;
     super::settings::check_reference(&w.reference, NAME, true, &bad)?;
     super::settings::check_phases(&w.phases, w.horizon, w.samples, NAME, &bad)?;
@@ -554,6 +567,7 @@ pub fn measure(
         ..Measured::default()
     };
     m.cells.extend(cap_cells(spec));
+    repeat(spec, settings, parallelism, &summary, &snapshots, &mut m)?;
     m.set("dt", cell(Some(run.dt)));
     m.set("reference_method", reference.method.name().to_owned());
     m.set("reference_dt", cell(Some(reference.dt)));
@@ -595,15 +609,52 @@ pub fn measure(
     Ok(m)
 }
 
+/// Run `spec` `settings.repeats - 1` more times: `wall_seconds` becomes the median over all
+/// runs, with `wall_seconds_min` and `_max`, and `repeatable` says whether every repeat
+/// ended in the same state at every sample time, bit for bit.
+fn repeat(
+    spec: &RunSpec,
+    settings: &ScoringSettings,
+    parallelism: Parallelism,
+    first: &crate::run::RunSummary,
+    snapshots: &super::reference::Snapshots,
+    m: &mut Measured,
+) -> Result<(), String> {
+    let mut seconds = vec![first.totals.times.total];
+    let mut repeatable = true;
+    for _ in 1..settings.repeats {
+        let mut scene = build(spec, parallelism).map_err(|e| e.to_string())?;
+        let run = scene.config.run;
+        let (summary, _, again, _) = sampled_run(&mut scene, &run, stride(settings, run.dt), None);
+        seconds.push(summary.totals.times.total);
+        repeatable &= again.q == snapshots.q && summary.outcome == first.outcome;
+    }
+    seconds.sort_by(f64::total_cmp);
+    let n = seconds.len();
+    let median = if n % 2 == 1 {
+        seconds[n / 2]
+    } else {
+        0.5 * (seconds[n / 2 - 1] + seconds[n / 2])
+    };
+    m.set("repeats", n.to_string());
+    m.set("wall_seconds", cell(Some(median)));
+    m.set("wall_seconds_min", cell(Some(seconds[0])));
+    m.set("wall_seconds_max", cell(Some(seconds[n - 1])));
+    m.set("repeatable", if repeatable { "yes" } else { "no" }.into());
+    Ok(())
+}
+
 /// The report's paragraph on the work-precision settings.
 fn report_settings(out: &mut String, file: &StudyFile) {
     if let Some(w) = &settings(file) {
         let _ = writeln!(
             out,
-            "Work-precision: horizon {} s, errors at {} sample times (the largest is reported). \
+            "Work-precision: horizon {} s, errors at {} sample times (the largest is reported, \
+             and the final one as `error_final`); wall time the median of {} run(s). \
              Newton convergence {}.\n",
             short(w.horizon),
             w.samples,
+            w.repeats,
             if w.require_newton_convergence {
                 "is required"
             } else {
