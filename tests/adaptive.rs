@@ -193,3 +193,35 @@ fn adaptive_control_stops_at_its_substep_budget() {
     assert_eq!(err.cause(), "too many substeps");
     assert_eq!(state, before);
 }
+
+#[test]
+fn controllers_propose_steps_from_their_gains_and_never_grow_after_a_rejection() {
+    use softbench::integrate::{Controller, StepController};
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b.abs();
+    // The elementary controller: h e^(-1/k).
+    let mut i = StepController::new(Controller::I.facts().0);
+    assert!(close(i.accepted(0.5, 2.0), 0.5f64.powf(-0.5)));
+    // PI: the previous accepted error enters with exponent +k2/k (1 before the first).
+    let [k1, k2, _] = Controller::Pi.facts().0;
+    let mut pi = StepController::new(Controller::Pi.facts().0);
+    assert!(close(pi.accepted(0.5, 3.0), 0.5f64.powf(-k1 / 3.0)));
+    let second = 0.25f64.powf(-k1 / 3.0) * 0.5f64.powf(k2 / 3.0);
+    assert!(close(pi.accepted(0.25, 3.0), second));
+    // PID: the one before that with exponent -k3/k.
+    let [p1, p2, p3] = Controller::Pid.facts().0;
+    let mut pid = StepController::new(Controller::Pid.facts().0);
+    pid.accepted(0.5, 2.0);
+    pid.accepted(0.25, 2.0);
+    let third = 0.1f64.powf(-p1 / 2.0) * 0.25f64.powf(p2 / 2.0) * 0.5f64.powf(-p3 / 2.0);
+    assert!(close(pid.accepted(0.1, 2.0), third));
+    // A rejection retries with the elementary rule, below 1, and the next step cannot grow.
+    assert!(close(pid.rejected(4.0, 2.0), 0.5));
+    assert_eq!(pid.accepted(1e-6, 2.0), 1.0);
+    assert!(pid.accepted(1e-6, 2.0) > 1.0);
+    // So does a failed attempt.
+    pid.failed();
+    assert_eq!(pid.accepted(1e-6, 2.0), 1.0);
+    // A reset forgets the history: PID's first step is the elementary rule with k1.
+    pid.reset();
+    assert!(close(pid.accepted(0.5, 2.0), 0.5f64.powf(-p1 / 2.0)));
+}

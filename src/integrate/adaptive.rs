@@ -358,15 +358,16 @@ impl Integrator for Adaptive {
             };
             match err {
                 Some(e) if e <= 1.0 => {
-                    let factor = (s.safety * self.controller.accepted(e, k))
-                        .clamp(s.min_shrink, s.max_growth);
                     std::mem::swap(&mut current, &mut self.half);
                     current.t += h;
                     remaining = if last { 0.0 } else { remaining - h };
                     report.substeps += 1;
                     self.accepted.push(h);
-                    // Keep the proposal of a full step: a truncated last step says nothing new.
+                    // Keep the proposal (and the controller's history) of a full step: a
+                    // truncated last step says nothing new.
                     if !last || h >= proposed {
+                        let factor = (s.safety * self.controller.accepted(e, k))
+                            .clamp(s.min_shrink, s.max_growth);
                         proposed = (h * factor).min(max_dt);
                     }
                 }
