@@ -254,6 +254,41 @@ fn every_method_not_listed_keeps_its_order_with_damping() {
     }
 }
 
+/// What the two listed for a limit of their method still do with the same damping: ESDIRK4(3)
+/// converges at least at its stage order plus one, RODAS3 at least at order one (the figures
+/// docs/integrators.md quotes come from here).
+#[test]
+fn the_methods_listed_for_a_limit_still_converge_at_the_order_the_limit_leaves() {
+    let damping = Damping {
+        rayleigh: Some((0.5, 2e-3)),
+        strain_rate: Some((2.0, 3.0)),
+    };
+    let t_end = 0.05;
+    let mut model = damped_block(damping, 2.0, true);
+    let start = kicked(&model);
+    let rk4 = Method::from_name("rk4").unwrap();
+    let reference = integrate(&mut model, rk4, &start, t_end, 6400);
+    for (name, coarsest, at_least) in [("esdirk43", 25, 3.0), ("rodas3", 50, 0.9)] {
+        let method = Method::from_name(name).unwrap();
+        let errors: Vec<f64> = (0..4)
+            .map(|k| {
+                let end = integrate(&mut model, method, &start, t_end, coarsest << k);
+                distance(&end.q, &reference.q) + t_end * distance(&end.v, &reference.v)
+            })
+            .collect();
+        let pairwise: Vec<String> = errors
+            .windows(2)
+            .map(|w| format!("{:.2}", (w[0] / w[1]).log2()))
+            .collect();
+        let order = (errors[0] / errors[3]).log2() / 3.0;
+        eprintln!("{name} with damping: order {order:.3}, pairwise {pairwise:?}");
+        assert!(
+            order >= at_least,
+            "{name}: order {order:.3} with damping; errors {errors:?}"
+        );
+    }
+}
+
 #[test]
 fn damping_removes_energy_and_its_absence_keeps_it() {
     let mut metrics = Metrics::default();

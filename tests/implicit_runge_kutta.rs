@@ -239,12 +239,7 @@ fn every_embedded_estimate_falls_at_its_order_and_tracks_the_true_local_error() 
         .map(|&t| Box::new(Dirk::new(t, solver(), tight_newton())) as Box<dyn EmbeddedPair>)
         .collect();
     for t in [ros2::TABLEAU, rodas3::TABLEAU] {
-        pairs.push(Box::new(Rosenbrock::new(
-            t,
-            solver(),
-            Default::default(),
-            0,
-        )));
+        pairs.push(Box::new(Rosenbrock::new(t, solver(), Default::default())));
     }
     for mut pair in pairs {
         // ROS2 (γ = 1.71) is asymptotic only below about 1e-3 here.

@@ -84,18 +84,15 @@ const SDIRK2: softbench::integrate::DirkTableau = {
 #[test]
 fn a_program_registers_a_dirk_tableau_at_fixed_steps_and_under_error_control() {
     use softbench::integrate::methods::implicit;
-    use softbench::integrate::{Adaptive, Dirk};
+    use softbench::integrate::{Adaptive, Dirk, FixedStep};
     let fixed = register_method(implicit(
         "outside-sdirk2",
         2,
         false,
         "Alexander's SDIRK2 written outside the crate",
         |s, _| {
-            Box::new(Dirk::new(
-                SDIRK2,
-                s.linear_solver.build(&s.solver),
-                s.newton,
-            ))
+            let pair = Dirk::new(SDIRK2, s.linear_solver.build(&s.solver), s.newton);
+            Box::new(FixedStep::new(pair, s.newton.retry_halvings))
         },
     ))
     .unwrap();

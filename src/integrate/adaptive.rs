@@ -218,6 +218,82 @@ impl Adaptive {
         }
     }
 
+    /// Cover `dt` from `current` (which becomes the end state) with accepted internal steps.
+    fn cover(
+        &mut self,
+        model: &mut Model,
+        current: &mut State,
+        dt: f64,
+        report: &mut StepReport,
+    ) -> Result<(), StepError> {
+        let s = self.settings;
+        let k = self.error_order() as f64 + 1.0;
+        let max_dt = s.max_dt.unwrap_or(f64::INFINITY).min(dt);
+        let mut proposed = self.h.unwrap_or(dt).min(max_dt);
+        let mut remaining = dt;
+        let mut attempts = 0u64;
+        self.accepted.clear();
+        while remaining > 0.0 {
+            StepError::stop_if_requested()?;
+            attempts += 1;
+            if attempts > s.max_substeps {
+                return Err(StepError::TooManySubsteps {
+                    substeps: s.max_substeps,
+                    dt: proposed,
+                });
+            }
+            // Finish the interval exactly; a last step within 1e-12 of the rest takes the rest.
+            let last = proposed >= remaining * (1.0 - 1e-12);
+            let h = if last { remaining } else { proposed };
+            let unconverged = report.newton_unconverged;
+            let outcome = self.attempt(model, current, h, report);
+            // An unconverged stage makes the estimate meaningless: a failed attempt.
+            let err = match outcome {
+                Ok(e) if e.is_finite() && report.newton_unconverged == unconverged => Some(e),
+                Ok(_) => None,
+                Err(e) if self.retriable(&e) => None,
+                Err(e) => {
+                    return Err(e);
+                }
+            };
+            match err {
+                Some(e) if e <= 1.0 => {
+                    std::mem::swap(current, &mut self.half);
+                    current.t += h;
+                    remaining = if last { 0.0 } else { remaining - h };
+                    report.substeps += 1;
+                    self.accepted.push(h);
+                    // Keep the proposal (and the controller's history) of a full step: a
+                    // truncated last step says nothing new.
+                    if !last || h >= proposed {
+                        let factor = (s.safety * self.controller.accepted(e, k))
+                            .clamp(s.min_shrink, s.max_growth);
+                        proposed = (h * factor).min(max_dt);
+                    }
+                }
+                Some(e) => {
+                    report.rejected_substeps += 1;
+                    let factor = (s.safety * self.controller.rejected(e, k)).max(s.min_shrink);
+                    proposed = h * factor;
+                }
+                None => {
+                    report.rejected_substeps += 1;
+                    report.failed_substeps += 1;
+                    self.controller.failed();
+                    proposed = h * s.min_shrink;
+                }
+            }
+            if proposed < s.min_dt {
+                return Err(StepError::StepTooSmall {
+                    dt: proposed,
+                    min_dt: s.min_dt,
+                });
+            }
+        }
+        self.h = Some(proposed);
+        Ok(())
+    }
+
     /// Try one internal step of `h` from `state`; on success the candidate is in `self.half`
     /// and the scaled error norm is returned.
     fn attempt(
@@ -322,79 +398,14 @@ impl Integrator for Adaptive {
         dt: f64,
         report: &mut StepReport,
     ) -> Result<(), StepError> {
-        let s = self.settings;
-        let k = self.error_order() as f64 + 1.0;
-        let max_dt = s.max_dt.unwrap_or(f64::INFINITY).min(dt);
-        let mut proposed = self.h.unwrap_or(dt).min(max_dt);
         let mut current = std::mem::take(&mut self.current);
         current.clone_from(state);
-        let mut remaining = dt;
-        let mut attempts = 0u64;
-        self.accepted.clear();
-        while remaining > 0.0 {
-            StepError::stop_if_requested()?;
-            attempts += 1;
-            if attempts > s.max_substeps {
-                self.current = current;
-                return Err(StepError::TooManySubsteps {
-                    substeps: s.max_substeps,
-                    dt: proposed,
-                });
-            }
-            // Finish the interval exactly; a last step within 1e-12 of the rest takes the rest.
-            let last = proposed >= remaining * (1.0 - 1e-12);
-            let h = if last { remaining } else { proposed };
-            let unconverged = report.newton_unconverged;
-            let outcome = self.attempt(model, &current, h, report);
-            // An unconverged stage makes the estimate meaningless: a failed attempt.
-            let err = match outcome {
-                Ok(e) if e.is_finite() && report.newton_unconverged == unconverged => Some(e),
-                Ok(_) => None,
-                Err(e) if self.retriable(&e) => None,
-                Err(e) => {
-                    self.current = current;
-                    return Err(e);
-                }
-            };
-            match err {
-                Some(e) if e <= 1.0 => {
-                    std::mem::swap(&mut current, &mut self.half);
-                    current.t += h;
-                    remaining = if last { 0.0 } else { remaining - h };
-                    report.substeps += 1;
-                    self.accepted.push(h);
-                    // Keep the proposal (and the controller's history) of a full step: a
-                    // truncated last step says nothing new.
-                    if !last || h >= proposed {
-                        let factor = (s.safety * self.controller.accepted(e, k))
-                            .clamp(s.min_shrink, s.max_growth);
-                        proposed = (h * factor).min(max_dt);
-                    }
-                }
-                Some(e) => {
-                    report.rejected_substeps += 1;
-                    let factor = (s.safety * self.controller.rejected(e, k)).max(s.min_shrink);
-                    proposed = h * factor;
-                }
-                None => {
-                    report.rejected_substeps += 1;
-                    report.failed_substeps += 1;
-                    self.controller.failed();
-                    proposed = h * s.min_shrink;
-                }
-            }
-            if proposed < s.min_dt {
-                self.current = current;
-                return Err(StepError::StepTooSmall {
-                    dt: proposed,
-                    min_dt: s.min_dt,
-                });
-            }
+        let result = self.cover(model, &mut current, dt, report);
+        if result.is_ok() {
+            state.q.copy_from_slice(&current.q);
+            state.v.copy_from_slice(&current.v);
         }
-        self.h = Some(proposed);
-        state.q.copy_from_slice(&current.q);
-        state.v.copy_from_slice(&current.v);
         self.current = current;
-        Ok(())
+        result
     }
 }

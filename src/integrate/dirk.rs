@@ -19,15 +19,16 @@
 //! stage; for methods above order 2 on a damped model each stage is solved once more with `D`
 //! at the first solution, so the damping term's error stays below the method's order.
 //!
-//! Fixed-step (`tr-bdf2`, `esdirk32`, `esdirk43`): a failed step is retried as two halves
-//! (`newton.retry_halvings`), as every scheme on the Newton loop. With error control
+//! A `Dirk` is an [`EmbeddedPair`]: at fixed steps (`tr-bdf2`, `esdirk32`, `esdirk43`) it runs
+//! in a [`super::embedded::FixedStep`], a failed step retried as two halves
+//! (`newton.retry_halvings`) as every scheme on the Newton loop; with error control
 //! ([`super::Adaptive`], `adaptive-*`) each attempt is one step of the pair.
 
 use super::embedded::{EmbeddedPair, StageOutput};
 use super::mass_inverse::Dynamics;
-use super::newton::{IterationRecord, Newton, NewtonSettings, axpy, with_halving};
+use super::newton::{IterationRecord, Newton, NewtonSettings, axpy};
 use super::scheme::{StepProblem, minimize_problem};
-use super::{Integrator, State, StepError, StepReport};
+use super::{State, StepError, StepReport};
 use crate::model::Model;
 use crate::solve::LinearSolver;
 
@@ -81,8 +82,6 @@ pub struct Dirk {
     acc: Vec<Vec<f64>>,
     q_tilde: Vec<f64>,
     v_tilde: Vec<f64>,
-    q_next: Vec<f64>,
-    v_next: Vec<f64>,
 }
 
 impl Dirk {
@@ -102,8 +101,6 @@ impl Dirk {
             acc: Vec::new(),
             q_tilde: Vec::new(),
             v_tilde: Vec::new(),
-            q_next: Vec::new(),
-            v_next: Vec::new(),
         }
     }
 
@@ -247,35 +244,6 @@ impl Dirk {
         }
         Ok(())
     }
-
-    /// One fixed step of `h` without retries; `state` is unchanged on error.
-    fn step_once(
-        &mut self,
-        model: &mut Model,
-        state: &mut State,
-        h: f64,
-        report: &mut StepReport,
-    ) -> Result<(), StepError> {
-        let n = state.q.len();
-        let mut q_next = std::mem::take(&mut self.q_next);
-        let mut v_next = std::mem::take(&mut self.v_next);
-        q_next.resize(n, 0.0);
-        v_next.resize(n, 0.0);
-        let out = StageOutput {
-            q: &mut q_next,
-            v: &mut v_next,
-            error: None,
-        };
-        let result = self.stages(model, state, h, out, report);
-        if result.is_ok() {
-            std::mem::swap(&mut state.q, &mut q_next);
-            std::mem::swap(&mut state.v, &mut v_next);
-            report.substeps += 1;
-        }
-        self.q_next = q_next;
-        self.v_next = v_next;
-        result
-    }
 }
 
 impl EmbeddedPair for Dirk {
@@ -308,36 +276,5 @@ impl EmbeddedPair for Dirk {
 
     fn drain_iteration_log(&mut self, out: &mut Vec<IterationRecord>) {
         self.newton.drain_log(out);
-    }
-}
-
-impl Integrator for Dirk {
-    fn name(&self) -> &'static str {
-        self.tableau.name
-    }
-
-    fn order(&self) -> u32 {
-        self.tableau.order
-    }
-
-    fn is_explicit(&self) -> bool {
-        false
-    }
-
-    fn drain_iteration_log(&mut self, out: &mut Vec<IterationRecord>) {
-        self.newton.drain_log(out);
-    }
-
-    fn advance(
-        &mut self,
-        model: &mut Model,
-        state: &mut State,
-        dt: f64,
-        report: &mut StepReport,
-    ) -> Result<(), StepError> {
-        let halvings = self.newton.settings().retry_halvings;
-        with_halving(halvings, state, dt, report, &mut |s, h, r| {
-            self.step_once(model, s, h, r)
-        })
     }
 }

@@ -13,6 +13,7 @@ use super::backward_euler::BackwardEuler;
 use super::bdf::Bdf;
 use super::bdf::BdfSettings;
 use super::dirk::{Dirk, DirkTableau};
+use super::embedded::FixedStep;
 use super::implicit_midpoint::ImplicitMidpoint;
 use super::linearly_implicit_euler::LinearlyImplicitEuler;
 use super::newmark::{
@@ -166,11 +167,14 @@ fn adaptive(
 
 /// A DIRK tableau at fixed steps.
 fn dirk(tableau: DirkTableau, s: &IntegratorSettings) -> Box<dyn Integrator> {
-    Box::new(Dirk::new(
-        tableau,
-        s.linear_solver.build(&s.solver),
-        s.newton,
+    Box::new(FixedStep::new(
+        dirk_pair(tableau, s),
+        s.newton.retry_halvings,
     ))
+}
+
+fn dirk_pair(tableau: DirkTableau, s: &IntegratorSettings) -> Dirk {
+    Dirk::new(tableau, s.linear_solver.build(&s.solver), s.newton)
 }
 
 /// A DIRK tableau under error control, named `name`.
@@ -179,23 +183,21 @@ fn adaptive_dirk(
     tableau: DirkTableau,
     s: &IntegratorSettings,
 ) -> Box<dyn Integrator> {
-    let pair = Dirk::new(tableau, s.linear_solver.build(&s.solver), s.newton);
-    Box::new(Adaptive::embedded_named(name, Box::new(pair), s.adaptive))
+    let pair = Box::new(dirk_pair(tableau, s));
+    Box::new(Adaptive::embedded_named(name, pair, s.adaptive))
 }
 
 /// A Rosenbrock method at fixed steps.
 fn rosenbrock(tableau: RosenbrockTableau, s: &IntegratorSettings) -> Box<dyn Integrator> {
-    Box::new(rosenbrock_pair(tableau, s))
+    Box::new(FixedStep::new(
+        rosenbrock_pair(tableau, s),
+        s.newton.retry_halvings,
+    ))
 }
 
 fn rosenbrock_pair(tableau: RosenbrockTableau, s: &IntegratorSettings) -> Rosenbrock {
     let solver = s.linear_solver.build(&s.solver);
-    Rosenbrock::new(
-        tableau,
-        solver,
-        s.newton.filter_settings(),
-        s.newton.retry_halvings,
-    )
+    Rosenbrock::new(tableau, solver, s.newton.filter_settings())
 }
 
 /// A Rosenbrock method under error control, named `name`.

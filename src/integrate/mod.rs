@@ -58,7 +58,7 @@ pub mod xpbd;
 pub use adaptive::{Adaptive, AdaptiveSettings};
 pub use controller::{Controller, StepController, UnknownController};
 pub use dirk::{Dirk, DirkTableau};
-pub use embedded::{EmbeddedPair, StageOutput};
+pub use embedded::{EmbeddedPair, FixedStep, NextState, StageOutput};
 pub use filter::{FilterSettings, HessianFilter, UnknownHessianFilter};
 pub use mass_inverse::Dynamics;
 pub use methods::{IntegratorSettings, Method, MethodEntry, register_method};

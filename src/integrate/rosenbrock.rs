@@ -21,9 +21,9 @@
 
 use super::embedded::{EmbeddedPair, StageOutput};
 use super::filter::FilterSettings;
-use super::newton::{axpy, with_halving};
+use super::newton::axpy;
 use super::system::ImplicitSystem;
-use super::{Integrator, State, StepError, StepReport};
+use super::{State, StepError, StepReport};
 use crate::model::Model;
 use crate::solve::LinearSolver;
 
@@ -77,19 +77,14 @@ pub struct Rosenbrock {
     rq: Vec<f64>,
     rhs: Vec<f64>,
     mass_times: Vec<f64>,
-    q_next: Vec<f64>,
-    v_next: Vec<f64>,
-    retry_halvings: u32,
 }
 
 impl Rosenbrock {
-    /// `tableau` solving its systems with `solver`, element Hessians through `filter`; a
-    /// failed fixed step is retried as two halves up to `retry_halvings` times.
+    /// `tableau` solving its systems with `solver`, element Hessians through `filter`.
     pub fn new(
         tableau: RosenbrockTableau,
         solver: Box<dyn LinearSolver>,
         filter: FilterSettings,
-        retry_halvings: u32,
     ) -> Self {
         Self {
             tableau,
@@ -105,9 +100,6 @@ impl Rosenbrock {
             rq: Vec::new(),
             rhs: Vec::new(),
             mass_times: Vec::new(),
-            q_next: Vec::new(),
-            v_next: Vec::new(),
-            retry_halvings,
         }
     }
 
@@ -260,35 +252,6 @@ impl Rosenbrock {
         }
         Ok(())
     }
-
-    /// One fixed step of `h`; `state` is unchanged on error.
-    fn step_once(
-        &mut self,
-        model: &mut Model,
-        state: &mut State,
-        h: f64,
-        report: &mut StepReport,
-    ) -> Result<(), StepError> {
-        let n = state.q.len();
-        let mut q_next = std::mem::take(&mut self.q_next);
-        let mut v_next = std::mem::take(&mut self.v_next);
-        q_next.resize(n, 0.0);
-        v_next.resize(n, 0.0);
-        let out = StageOutput {
-            q: &mut q_next,
-            v: &mut v_next,
-            error: None,
-        };
-        let result = self.stages(model, state, h, out, report);
-        if result.is_ok() {
-            std::mem::swap(&mut state.q, &mut q_next);
-            std::mem::swap(&mut state.v, &mut v_next);
-            report.substeps += 1;
-        }
-        self.q_next = q_next;
-        self.v_next = v_next;
-        result
-    }
 }
 
 impl EmbeddedPair for Rosenbrock {
@@ -317,32 +280,5 @@ impl EmbeddedPair for Rosenbrock {
         report: &mut StepReport,
     ) -> Result<(), StepError> {
         self.stages(model, start, h, out, report)
-    }
-}
-
-impl Integrator for Rosenbrock {
-    fn name(&self) -> &'static str {
-        self.tableau.name
-    }
-
-    fn order(&self) -> u32 {
-        self.tableau.order
-    }
-
-    fn is_explicit(&self) -> bool {
-        false
-    }
-
-    fn advance(
-        &mut self,
-        model: &mut Model,
-        state: &mut State,
-        dt: f64,
-        report: &mut StepReport,
-    ) -> Result<(), StepError> {
-        let halvings = self.retry_halvings;
-        with_halving(halvings, state, dt, report, &mut |s, h, r| {
-            self.step_once(model, s, h, r)
-        })
     }
 }

@@ -1,7 +1,7 @@
 //! Explicit Runge–Kutta methods on the first-order system `q' = v, v' = a(q)`, given by their
 //! Butcher tableau. Explicit Euler, midpoint, RK4 and Dormand–Prince are tableaus run here.
 
-use super::embedded::{EmbeddedPair, StageOutput};
+use super::embedded::{EmbeddedPair, NextState, StageOutput};
 use super::mass_inverse::Dynamics;
 use super::{Integrator, State, StepError, StepReport};
 use crate::model::Model;
@@ -31,8 +31,7 @@ pub struct ExplicitRungeKutta {
     q_stage: Vec<f64>,
     v_stage: Vec<f64>,
     /// The next state, swapped with the current one after a successful step.
-    q_next: Vec<f64>,
-    v_next: Vec<f64>,
+    next: NextState,
 }
 
 impl ExplicitRungeKutta {
@@ -45,8 +44,7 @@ impl ExplicitRungeKutta {
             kv: Vec::new(),
             q_stage: Vec::new(),
             v_stage: Vec::new(),
-            q_next: Vec::new(),
-            v_next: Vec::new(),
+            next: NextState::default(),
         }
     }
 
@@ -182,24 +180,9 @@ impl Integrator for ExplicitRungeKutta {
         dt: f64,
         report: &mut StepReport,
     ) -> Result<(), StepError> {
-        let n = state.q.len();
-        let mut q_next = std::mem::take(&mut self.q_next);
-        let mut v_next = std::mem::take(&mut self.v_next);
-        q_next.resize(n, 0.0);
-        v_next.resize(n, 0.0);
-        let out = StageOutput {
-            q: &mut q_next,
-            v: &mut v_next,
-            error: None,
-        };
-        let result = self.stages(model, state, dt, out, report);
-        if result.is_ok() {
-            std::mem::swap(&mut state.q, &mut q_next);
-            std::mem::swap(&mut state.v, &mut v_next);
-            report.substeps = 1;
-        }
-        self.q_next = q_next;
-        self.v_next = v_next;
+        let mut next = std::mem::take(&mut self.next);
+        let result = next.step(self, model, state, dt, report);
+        self.next = next;
         result
     }
 }
