@@ -199,6 +199,18 @@ const ORDER_NOT_MEASURED: &[(&str, &str)] = &[
         "esdirk43",
         "order reduction under stiff stiffness-proportional damping",
     ),
+    // Radau IIA is order 5 on this block without the stiffness-proportional Rayleigh term
+    // (error ratios 29-31 per halving from 5 to 160 steps, and on the linear damped system of
+    // tests/implicit_runge_kutta.rs), but with it the order drops in a band of steps: pairwise
+    // 2.0, 1.8, 1.5, 2.3, 2.9 from 40 to 1280 steps (errors 1.8e-9 to 1.3e-12; the reference
+    // and Newton are far below), order 4.7 from 5 to 40 steps. The beta term is stiff there
+    // (h beta omega^2 from about 1.6 down to 0.05) and Rayleigh's K is PSD-projected per
+    // element, so D(q) is not differentiable where an element eigenvalue crosses zero; which
+    // of the two reduces the order is not yet separated.
+    (
+        "radau-iia",
+        "order reduction under stiffness-proportional damping (a band of steps)",
+    ),
     (
         "projective-dynamics",
         "refuses the block's stable Neo-Hookean material",
@@ -254,9 +266,10 @@ fn every_method_not_listed_keeps_its_order_with_damping() {
     }
 }
 
-/// What the two listed for a limit of their method still do with the same damping: ESDIRK4(3)
-/// converges at least at its stage order plus one, RODAS3 at least at order one (the figures
-/// docs/integrators.md quotes come from here).
+/// What the three listed for a limit of their method still do with the same damping:
+/// ESDIRK4(3) converges at least at its stage order plus one, RODAS3 at least at order one,
+/// Radau IIA at least at order 1.5 in its worst band (the figures docs/integrators.md quotes
+/// come from here).
 #[test]
 fn the_methods_listed_for_a_limit_still_converge_at_the_order_the_limit_leaves() {
     let damping = Damping {
@@ -268,7 +281,11 @@ fn the_methods_listed_for_a_limit_still_converge_at_the_order_the_limit_leaves()
     let start = kicked(&model);
     let rk4 = Method::from_name("rk4").unwrap();
     let reference = integrate(&mut model, rk4, &start, t_end, 6400);
-    for (name, coarsest, at_least) in [("esdirk43", 25, 3.0), ("rodas3", 50, 0.9)] {
+    for (name, coarsest, at_least) in [
+        ("esdirk43", 25, 3.0),
+        ("rodas3", 50, 0.9),
+        ("radau-iia", 40, 1.5),
+    ] {
         let method = Method::from_name(name).unwrap();
         let errors: Vec<f64> = (0..4)
             .map(|k| {

@@ -23,6 +23,7 @@ use super::newton::NewtonSettings;
 use super::newton::StepConstraints;
 use super::projective_dynamics::ProjectiveDynamics;
 use super::projective_dynamics::ProjectiveDynamicsSettings;
+use super::radau_iia::RadauIIA;
 use super::rosenbrock::{Rosenbrock, RosenbrockTableau};
 use super::scheme::{NewtonIntegrator, Scheme};
 use super::static_equilibrium::{Static, StaticSettings};
@@ -210,6 +211,10 @@ fn adaptive_rosenbrock(
     Box::new(Adaptive::embedded_named(name, pair, s.adaptive))
 }
 
+fn radau_pair(s: &IntegratorSettings) -> RadauIIA {
+    RadauIIA::new(s.linear_solver.build(&s.solver), s.newton)
+}
+
 /// A linearly implicit method: a linear solver, no Newton.
 const fn linearly_implicit(
     name: &'static str,
@@ -242,7 +247,7 @@ fn bdf(
 
 /// The built-in methods, in the order `softbench list` shows them: one line each.
 #[rustfmt::skip]
-static BUILTIN: [MethodEntry; 36] = [
+static BUILTIN: [MethodEntry; 38] = [
     explicit("explicit-euler", 1, "forward Euler; unstable for undamped oscillation", |_, _| Box::new(explicit_euler::explicit_euler())),
     explicit("symplectic-euler", 1, "semi-implicit Euler, symplectic (bounded energy error)", |_, _| Box::new(SymplecticEuler::new())),
     explicit("velocity-verlet", 2, "central differences / Störmer-Verlet, symplectic, momentum-conserving", |_, _| Box::new(VelocityVerlet::new())),
@@ -278,6 +283,8 @@ static BUILTIN: [MethodEntry; 36] = [
     implicit("adaptive-tr-bdf2", 2, false, "TR-BDF2 with its embedded third-order error estimate (adaptive = {..})", |s, _| adaptive_dirk("adaptive-tr-bdf2", tr_bdf2::TABLEAU, s)).with_error_control(),
     implicit("adaptive-esdirk32", 3, false, "ESDIRK3(2) with its embedded second-order error estimate", |s, _| adaptive_dirk("adaptive-esdirk32", esdirk32::TABLEAU, s)).with_error_control(),
     implicit("adaptive-esdirk43", 4, false, "ESDIRK4(3) with its embedded third-order error estimate", |s, _| adaptive_dirk("adaptive-esdirk43", esdirk43::TABLEAU, s)).with_error_control(),
+    implicit("radau-iia", 5, false, "Radau IIA (3 stages, collocation): L-stable, stiffly accurate; simplified Newton on the coupled stages, a real and a complex factorization per step", |s, _| Box::new(FixedStep::new(radau_pair(s), s.newton.retry_halvings))),
+    implicit("adaptive-radau-iia", 5, false, "Radau IIA with its embedded third-order error estimate (RADAU5's)", |s, _| Box::new(Adaptive::embedded_named("adaptive-radau-iia", Box::new(radau_pair(s)), s.adaptive))).with_error_control(),
     implicit("static", 0, true, "equilibrium under each time's loads (no inertia); gravity ramped if Newton fails", |s, c| Box::new(Static::new(s.static_solve, s.linear_solver.build(&s.solver), s.newton, c))),
 ];
 

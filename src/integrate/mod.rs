@@ -13,7 +13,8 @@
 //!   one Newton loop ([`newton`]): [`backward_euler`], [`implicit_midpoint`], [`bdf`] (BDF-k,
 //!   k = 1…6), [`newmark`] (Newmark, generalized-α, HHT-α) and [`static_equilibrium`]; the
 //!   multi-stage [`dirk`] methods, a tableau each ([`tr_bdf2`], [`esdirk32`], [`esdirk43`]),
-//!   every implicit stage one solve of the same loop;
+//!   every implicit stage one solve of the same loop; [`radau_iia`] (coupled stages by
+//!   simplified Newton, a real and a [`complex_shifted`] factor per step);
 //! - local solvers on the backward Euler step: [`vbd`] (vertex block descent, parallel over a
 //!   vertex [`colouring`]) and [`projective_dynamics`] (local/global, on its projective
 //!   energy, corotated elasticity); [`xpbd`] (substepped constraints, on its constraint
@@ -24,6 +25,7 @@ pub mod adaptive;
 pub mod backward_euler;
 pub mod bdf;
 pub mod colouring;
+mod complex_shifted;
 pub mod controller;
 pub mod dirk;
 pub mod dopri5;
@@ -40,6 +42,7 @@ pub mod midpoint;
 pub mod newmark;
 pub mod newton;
 pub mod projective_dynamics;
+pub mod radau_iia;
 mod report;
 pub mod rk4;
 pub mod rodas3;
