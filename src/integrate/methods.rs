@@ -14,6 +14,7 @@ use super::bdf::Bdf;
 use super::bdf::BdfSettings;
 use super::dirk::{Dirk, DirkTableau};
 use super::embedded::FixedStep;
+use super::energy_momentum::EnergyMomentum;
 use super::implicit_midpoint::ImplicitMidpoint;
 use super::linearly_implicit_euler::LinearlyImplicitEuler;
 use super::newmark::{
@@ -247,7 +248,7 @@ fn bdf(
 
 /// The built-in methods, in the order `softbench list` shows them: one line each.
 #[rustfmt::skip]
-static BUILTIN: [MethodEntry; 38] = [
+static BUILTIN: [MethodEntry; 39] = [
     explicit("explicit-euler", 1, "forward Euler; unstable for undamped oscillation", |_, _| Box::new(explicit_euler::explicit_euler())),
     explicit("symplectic-euler", 1, "semi-implicit Euler, symplectic (bounded energy error)", |_, _| Box::new(SymplecticEuler::new())),
     explicit("velocity-verlet", 2, "central differences / Störmer-Verlet, symplectic, momentum-conserving", |_, _| Box::new(VelocityVerlet::new())),
@@ -285,6 +286,7 @@ static BUILTIN: [MethodEntry; 38] = [
     implicit("adaptive-esdirk43", 4, false, "ESDIRK4(3) with its embedded third-order error estimate", |s, _| adaptive_dirk("adaptive-esdirk43", esdirk43::TABLEAU, s)).with_error_control(),
     implicit("radau-iia", 5, false, "Radau IIA (3 stages, collocation): L-stable, stiffly accurate; simplified Newton on the coupled stages, a real and a complex factorization per step", |s, _| Box::new(FixedStep::new(radau_pair(s), s.newton.retry_halvings))),
     implicit("adaptive-radau-iia", 5, false, "Radau IIA with its embedded third-order error estimate (RADAU5's)", |s, _| Box::new(Adaptive::embedded_named("adaptive-radau-iia", Box::new(radau_pair(s)), s.adaptive))).with_error_control(),
+    implicit("energy-momentum", 2, false, "implicit midpoint on Gonzalez's discrete gradient: energy to the Newton tolerance, momenta to round-off on free bodies", |s, _| Box::new(EnergyMomentum::new(s.linear_solver.build(&s.solver), s.newton))),
     implicit("static", 0, true, "equilibrium under each time's loads (no inertia); gravity ramped if Newton fails", |s, c| Box::new(Static::new(s.static_solve, s.linear_solver.build(&s.solver), s.newton, c))),
 ];
 

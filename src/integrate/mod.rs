@@ -15,6 +15,7 @@
 //!   multi-stage [`dirk`] methods, a tableau each ([`tr_bdf2`], [`esdirk32`], [`esdirk43`]),
 //!   every implicit stage one solve of the same loop; [`radau_iia`] (coupled stages by
 //!   simplified Newton, a real and a [`complex_shifted`] factor per step);
+//!   [`energy_momentum`] (the midpoint rule on the discrete gradient, Newton on its residual);
 //! - local solvers on the backward Euler step: [`vbd`] (vertex block descent, parallel over a
 //!   vertex [`colouring`]) and [`projective_dynamics`] (local/global, on its projective
 //!   energy, corotated elasticity); [`xpbd`] (substepped constraints, on its constraint
@@ -30,6 +31,7 @@ pub mod controller;
 pub mod dirk;
 pub mod dopri5;
 pub mod embedded;
+pub mod energy_momentum;
 pub mod esdirk32;
 pub mod esdirk43;
 pub mod explicit_euler;

@@ -11,6 +11,7 @@
 
 mod build;
 mod damping;
+mod discrete_gradient;
 mod dofs;
 mod drag;
 mod elastic;
@@ -157,6 +158,9 @@ impl HessianOptions {
 #[derive(Debug, Default)]
 struct Buffers {
     partial: Vec<f64>,
+    /// All vertex positions at the start of a step, for two-state evaluations
+    /// ([`Model::discrete_gradient`]).
+    start_positions: Vec<Vector3<f64>>,
     tet_vectors: Vec<f64>,
     tet_matrices: Vec<f64>,
     spring_vectors: Vec<f64>,

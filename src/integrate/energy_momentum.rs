@@ -1,0 +1,230 @@
+//! An energy–momentum scheme (Gonzalez 2000; Simo & Tarnow 1992): the implicit midpoint rule
+//! with the potential's gradient replaced by its discrete gradient
+//! ([`crate::model::Model::discrete_gradient`], Gonzalez's algorithmic stress per tet):
+//!
+//! `q' = q + h (v + v')/2`, `M (v' − v)/h = −ḡ(q, q') − D(q_m) (q' − q)/h`.
+//!
+//! Without damping and time-dependent loads the total energy `½ v'ᵀ M v' + V(q')` equals
+//! `½ vᵀ M v + V(q)` to the tolerance of the solve, whatever the step; on a free body linear
+//! and angular momentum are conserved to round-off (the algorithmic stress is symmetric and
+//! acts through the midpoint's deformation gradient). Damping only removes energy
+//! (`(q' − q)ᵀ D (q' − q) >= 0`). Second order.
+//!
+//! **How it is solved.** The discrete gradient is not the gradient of a potential in `q'`, so
+//! there is no incremental potential to minimize: Newton solves the residual
+//! `r(q') = M (q' − q − h v) + h²/2 ḡ(q, q') + h/2 D(q_m) (q' − q)` (scaled by `h²/2`) with the
+//! symmetric approximation `M + h²/4 K(q_m) + h/2 D(q_m)` of its Jacobian (`∂ḡ/∂q' = K(q_m)/2 +
+//! O(|q' − q|²)`), assembled and factored at every iteration by the settings' linear solver
+//! and Hessian filter, no line search. It has converged when
+//! `‖r‖ <= tol (‖M h v‖ + h²/2 ‖grad V(q)‖)` (`tol` = `integrator.newton.tolerance`, the
+//! scaled-gradient criterion's reference terms); at `integrator.newton.max_iterations` it is
+//! counted unconverged (and fails under `require_convergence`), as for every Newton solve. A
+//! failed step is retried as two halves up to `newton.retry_halvings` times.
+
+use super::newton::{NewtonSettings, axpy, with_halving};
+use super::system::ImplicitSystem;
+use super::{Integrator, State, StepError, StepReport};
+use crate::model::Model;
+use crate::solve::LinearSolver;
+
+/// The energy–momentum scheme (see the module docs).
+pub struct EnergyMomentum {
+    newton: NewtonSettings,
+    system: ImplicitSystem,
+    q1: Vec<f64>,
+    mid: Vec<f64>,
+    dq: Vec<f64>,
+    gradient: Vec<f64>,
+    residual: Vec<f64>,
+    scratch: Vec<f64>,
+    step_dir: Vec<f64>,
+}
+
+fn norm(x: &[f64]) -> f64 {
+    x.iter().map(|v| v * v).sum::<f64>().sqrt()
+}
+
+impl EnergyMomentum {
+    /// The scheme solving with `solver` under `newton`'s tolerance, cap and filter.
+    pub fn new(solver: Box<dyn LinearSolver>, newton: NewtonSettings) -> Self {
+        Self {
+            newton,
+            system: ImplicitSystem::new(solver, newton.filter_settings()),
+            q1: Vec::new(),
+            mid: Vec::new(),
+            dq: Vec::new(),
+            gradient: Vec::new(),
+            residual: Vec::new(),
+            scratch: Vec::new(),
+            step_dir: Vec::new(),
+        }
+    }
+
+    /// The residual at `self.q1` into `self.residual` (see the module docs).
+    fn residual(&mut self, model: &mut Model, state: &State, h: f64) -> Result<(), StepError> {
+        model.discrete_gradient(&state.q, &self.q1, &mut self.gradient)?;
+        let n = state.q.len();
+        for k in 0..n {
+            self.dq[k] = self.q1[k] - state.q[k];
+            self.scratch[k] = self.dq[k] - h * state.v[k];
+            self.mid[k] = 0.5 * (self.q1[k] + state.q[k]);
+        }
+        model.mass().mul_vec(&self.scratch, &mut self.residual);
+        axpy(0.5 * h * h, &self.gradient, &mut self.residual);
+        if model.has_damping() {
+            model.damping_force(&self.mid, &self.dq, &mut self.scratch)?;
+            axpy(0.5 * h, &self.scratch, &mut self.residual);
+        }
+        if let Some(index) = self.residual.iter().position(|r| !r.is_finite()) {
+            return Err(StepError::NonFinite {
+                what: "residual",
+                index,
+            });
+        }
+        Ok(())
+    }
+
+    fn step(
+        &mut self,
+        model: &mut Model,
+        state: &mut State,
+        h: f64,
+        report: &mut StepReport,
+    ) -> Result<(), StepError> {
+        let n = state.q.len();
+        for v in [
+            &mut self.q1,
+            &mut self.mid,
+            &mut self.dq,
+            &mut self.gradient,
+            &mut self.residual,
+            &mut self.scratch,
+            &mut self.step_dir,
+        ] {
+            v.resize(n, 0.0);
+        }
+        // Loads at the midpoint time; the reference size of the step's terms.
+        model.set_time(state.t + 0.5 * h);
+        model.gradient(&state.q, &mut self.gradient)?;
+        model.mass().mul_vec(&state.v, &mut self.scratch);
+        let scale = h * norm(&self.scratch) + 0.5 * h * h * norm(&self.gradient);
+        // Predictor q + a h v, a = 1, 1/2, 1/4, 0: shortened while it inverts an element.
+        let mut along = 1.0;
+        loop {
+            for k in 0..n {
+                self.q1[k] = state.q[k] + along * h * state.v[k];
+            }
+            match self.residual(model, state, h) {
+                Ok(()) => break,
+                Err(StepError::InvertedElement { .. } | StepError::NonFinite { .. })
+                    if along > 0.0 =>
+                {
+                    along = if along > 0.25 { 0.5 * along } else { 0.0 };
+                }
+                Err(e) => return Err(e),
+            }
+        }
+        self.system.begin_solve();
+        let mut iterations = 0;
+        let mut size = norm(&self.residual);
+        let converged = loop {
+            StepError::stop_if_requested()?;
+            if size <= self.newton.tolerance * scale {
+                break true;
+            }
+            if iterations >= self.newton.max_iterations {
+                break false;
+            }
+            iterations += 1;
+            // M + h²/4 K(q_m) + h/2 D(q_m) at the current midpoint.
+            self.system.set_damping(model, &self.mid, 0.5 * h, report)?;
+            self.system.factor(model, &self.mid, 0.25 * h * h, report)?;
+            self.step_dir.clone_from(&self.residual);
+            self.step_dir.iter_mut().for_each(|r| *r = -*r);
+            let mid = std::mem::take(&mut self.mid);
+            let solved = self.system.solve(model, &mid, &mut self.step_dir, report);
+            self.mid = mid;
+            solved?;
+            // An update below the round-off of the positions: nothing more to gain.
+            let q_size = self.q1.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+            let dx_size = self.step_dir.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+            if dx_size <= 16.0 * f64::EPSILON * q_size {
+                break true;
+            }
+            // Backtrack while the update inverts an element or does not reduce |r|.
+            let mut length = 1.0;
+            let mut backtracks = 0;
+            loop {
+                axpy(length, &self.step_dir, &mut self.q1);
+                let reduced = match self.residual(model, state, h) {
+                    Ok(()) => {
+                        let new_size = norm(&self.residual);
+                        (new_size < size).then_some(new_size)
+                    }
+                    Err(StepError::InvertedElement { .. } | StepError::NonFinite { .. }) => None,
+                    Err(e) => return Err(e),
+                };
+                if let Some(new_size) = reduced {
+                    size = new_size;
+                    break;
+                }
+                axpy(-length, &self.step_dir, &mut self.q1);
+                backtracks += 1;
+                if backtracks > self.newton.max_backtracks {
+                    return Err(StepError::NewtonFailed {
+                        iterations,
+                        reason: format!(
+                            "no step along the energy-momentum Newton direction reduced the residual in {} backtracks",
+                            self.newton.max_backtracks
+                        ),
+                    });
+                }
+                length *= 0.5;
+            }
+        };
+        report.newton_iterations += iterations;
+        if !converged {
+            report.newton_unconverged += 1;
+            if self.newton.require_convergence {
+                return Err(StepError::NewtonFailed {
+                    iterations,
+                    reason: "the energy-momentum residual did not meet the tolerance".into(),
+                });
+            }
+        }
+        for k in 0..n {
+            let dq = self.q1[k] - state.q[k];
+            state.v[k] = 2.0 * dq / h - state.v[k];
+        }
+        std::mem::swap(&mut state.q, &mut self.q1);
+        report.substeps += 1;
+        Ok(())
+    }
+}
+
+impl Integrator for EnergyMomentum {
+    fn name(&self) -> &'static str {
+        "energy-momentum"
+    }
+
+    fn order(&self) -> u32 {
+        2
+    }
+
+    fn is_explicit(&self) -> bool {
+        false
+    }
+
+    fn advance(
+        &mut self,
+        model: &mut Model,
+        state: &mut State,
+        dt: f64,
+        report: &mut StepReport,
+    ) -> Result<(), StepError> {
+        let halvings = self.newton.retry_halvings;
+        with_halving(halvings, state, dt, report, &mut |s, h, r| {
+            self.step(model, s, h, r)
+        })
+    }
+}
