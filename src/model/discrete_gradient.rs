@@ -11,11 +11,15 @@
 //!   about the midpoint positions, so the implicit midpoint rule built on them conserves
 //!   linear and angular momentum. `2 W'(C_m) = F̂⁻¹ P(F̂)` with `F̂ = C_m^(1/2)` (any material
 //!   that depends on `F` only through `C` for `det F > 0`, which every one here does; an
-//!   inverted element is refused). When `|ΔC|` is below `1e-6 |C_m|` the correction (whose
-//!   round-off grows like `1/|ΔC|`) is left out: its effect on the energy there is below
-//!   `1e-18` of it.
+//!   inverted element is refused). The correction's numerator
+//!   `N = W(C₁) − W(C₀) − W'(C_m) : ΔC` is `O(|ΔC|³)`: as a difference of energies its
+//!   round-off, divided by `|ΔC|`, would make the forces noisy for small changes (Newton then
+//!   stalls above its tolerance), so below `|ΔC| = 1e-3 |C_m|` it comes from Simpson's rule on
+//!   the segment `C₀ → C₁`, `N ≈ (S₀ − 2 S_m + S₁) : ΔC / 12` (error `O(|ΔC|⁵)`, below `1e-15`
+//!   of the energy density's scale there).
 //! - Springs: the same construction on `s = |x_i − x_j|²`: the force along the midpoint's
-//!   spring `2 (E(s₁) − E(s₀))/(s₁ − s₀) d_m`.
+//!   spring `2 (E(s₁) − E(s₀))/(s₁ − s₀) d_m` (for `|Δs| < 1e-3 s_m`, Simpson's rule on
+//!   `dE/ds` in place of the quotient).
 //! - Gravity is linear: its gradient is exact.
 //! - Vertex potentials (anchors, drags) depend on time: their gradient at the midpoint
 //!   positions (second order, not exactly conservative — they do work on the body anyway).
@@ -26,8 +30,34 @@ use crate::material::{InvalidDeformation, Material, with_material};
 use crate::parallel::{Parallelism, for_each_chunk};
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 
-/// Below this relative size of `ΔC` (or of `Δs` for springs) the midpoint derivative is used.
-const SMALL_CHANGE: f64 = 1e-6;
+/// Below this relative size of `ΔC` the correction's numerator comes from Simpson's rule on
+/// stresses instead of a difference of energies (whose round-off grows like `1/|ΔC|`).
+const SIMPSON_BELOW: f64 = 1e-3;
+
+/// `dE/ds` of a spring at squared length `s`: `k (√s − L) / (2 √s)` (`k/2` for `L = 0`; 0 at
+/// `s = 0`, where the direction is undefined).
+fn spring_slope(spring: &super::Spring, s: f64) -> f64 {
+    if spring.rest_length == 0.0 {
+        0.5 * spring.stiffness
+    } else if s > 0.0 {
+        0.5 * spring.stiffness * (s.sqrt() - spring.rest_length) / s.sqrt()
+    } else {
+        0.0
+    }
+}
+
+/// `S = F⁻¹ P(F)`, symmetrized.
+fn second_piola<M: Material>(
+    material: &M,
+    f: &Matrix3<f64>,
+) -> Result<Matrix3<f64>, InvalidDeformation> {
+    let p = material.first_piola(f)?;
+    let inverse = f.try_inverse().ok_or(InvalidDeformation {
+        det_f: f.determinant(),
+    })?;
+    let s = inverse * p;
+    Ok((s + s.transpose()) * 0.5)
+}
 
 /// Gonzalez's algorithmic first Piola–Kirchhoff stress between `f0` and `f1` (see the
 /// module docs): `P̄` with `P̄ : (F₁ − F₀) = ψ(F₁) − ψ(F₀)`, `P̄ = F_m S̄`, `S̄` symmetric.
@@ -56,9 +86,19 @@ pub fn algorithmic_stress<M: Material>(
     let s = f_hat_inv * p_hat;
     let mut s = (s + s.transpose()) * 0.5;
     let dc2 = dc.norm_squared();
-    if dc2 > (SMALL_CHANGE * cm.norm()).powi(2) {
-        let (w0, w1) = (material.energy_density(f0)?, material.energy_density(f1)?);
-        s += dc * (2.0 * (w1 - w0 - 0.5 * s.dot(&dc)) / dc2);
+    if dc2 > 0.0 {
+        // N = W(C₁) − W(C₀) − W'(C_m) : ΔC, which is O(|ΔC|³).
+        let n = if dc2.sqrt() < SIMPSON_BELOW * cm.norm() {
+            // Simpson's rule on the segment C₀ → C₁ (error O(|ΔC|⁵)), from stresses: no
+            // cancellation of energies.
+            let s0 = second_piola(material, f0)?;
+            let s1 = second_piola(material, f1)?;
+            (s0 - s * 2.0 + s1).dot(&dc) / 12.0
+        } else {
+            let (w0, w1) = (material.energy_density(f0)?, material.energy_density(f1)?);
+            w1 - w0 - 0.5 * s.dot(&dc)
+        };
+        s += dc * (2.0 * n / dc2);
     }
     Ok(fm * s)
 }
@@ -155,15 +195,12 @@ impl Model {
             let (s0, s1) = (d0.norm_squared(), d1.norm_squared());
             let dm = (d0 + d1) * 0.5;
             let sm = 0.5 * (s0 + s1);
-            // dE/ds: the difference quotient, or at the midpoint for a tiny change.
-            let slope = if (s1 - s0).abs() > SMALL_CHANGE * sm {
+            // dE/ds: the difference quotient, or Simpson's rule on dE/ds for a small change
+            // (the quotient's round-off grows like 1/|Δs|).
+            let slope = if (s1 - s0).abs() >= SIMPSON_BELOW * sm {
                 (s.energy(&x1[s.i], &x1[s.j]) - s.energy(&x0[s.i], &x0[s.j])) / (s1 - s0)
-            } else if s.rest_length == 0.0 {
-                0.5 * s.stiffness
-            } else if sm > 0.0 {
-                0.5 * s.stiffness * (sm.sqrt() - s.rest_length) / sm.sqrt()
             } else {
-                0.0
+                (spring_slope(s, s0) + 4.0 * spring_slope(s, sm) + spring_slope(s, s1)) / 6.0
             };
             let f = dm * (2.0 * slope);
             out[0..3].copy_from_slice(f.as_slice());
