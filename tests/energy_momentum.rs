@@ -290,8 +290,8 @@ fn from_rest_under_gravity_newton_reaches_a_tight_tolerance() {
     // divided by |ΔC|, made the forces noisy for the small changes of a body starting from
     // rest, and Newton stalled near 1e-11 of the step's terms (the soft beam at dt 0.0125
     // with tolerance 1e-10 failed). Simpson's rule on the stresses replaced it there.
-    // The soft beam scene: the course Neo-Hookean, whose energy density cancels to its
-    // small value from terms of the size of its moduli.
+    // The soft beam scene (Stable Neo-Hookean, whose energy density, like every material's
+    // here, cancels to its small value near rest from terms of the size of its moduli).
     let loaded = scene::load(&common::scene("soft_beam.toml"), &[]).unwrap();
     let built = scene::build(&loaded, &DataPaths::from_env(), Parallelism::Sequential).unwrap();
     let (mut model, start) = (built.model, built.initial);
