@@ -73,6 +73,11 @@ enum Command {
     /// Redraw the plots of a study's results folder from runs.csv, series/ and meta.json, and
     /// refresh the findings in its report.md.
     Plot(PlotArgs),
+    /// Performance and data profiles of a work-precision study's results folder: for each
+    /// scene and accuracy target, each method's cheapest run that completed within the target,
+    /// in wall time and in force + Hessian evaluations; writes profiles.csv, costs.csv,
+    /// profiles.md and four charts into <DIR>/profiles/ (or --out).
+    Profiles(ProfilesArgs),
     /// Draw pictures of the bodies from stored snapshots: for a `simulate --render` folder its
     /// filmstrip.png and animation.gif; for a study folder one panel PNG and one GIF per scene.
     Render(RenderArgs),
@@ -163,6 +168,19 @@ struct PlotArgs {
 }
 
 #[derive(Args)]
+struct ProfilesArgs {
+    /// A work-precision study's results folder (with runs.csv).
+    dir: PathBuf,
+    /// Accuracy targets: the errors a run must reach to solve a problem, comma-separated.
+    /// Default every decade from 1e-1 to 1e-8.
+    #[arg(long, value_delimiter = ',')]
+    targets: Vec<f64>,
+    /// Where to write (default <DIR>/profiles).
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+#[derive(Args)]
 struct RenderArgs {
     /// A `simulate --render` output folder (with run.snapshots) or a study's results folder.
     dir: PathBuf,
@@ -235,6 +253,7 @@ fn main() -> ExitCode {
         Command::Merge(args) => merge(&args),
         Command::Slurm(args) => slurm(&args),
         Command::Plot(args) => plot(&args),
+        Command::Profiles(args) => profiles(&args),
         Command::Render(args) => render_folder(&args),
         Command::List => list(),
     };
@@ -286,6 +305,7 @@ fn is_bad_input(err: &anyhow::Error) -> bool {
             || e.is::<DisplayError>()
             || e.is::<BadInput>()
             || e.is::<StudyError>()
+            || e.is::<study::profiles::ProfilesError>()
             || e.is::<softbench::slurm::SlurmError>()
                 && !e
                     .downcast_ref::<softbench::slurm::SlurmError>()
@@ -909,5 +929,30 @@ fn plot(args: &PlotArgs) -> anyhow::Result<ExitCode> {
                 .to_string(),
         );
     }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn profiles(args: &ProfilesArgs) -> anyhow::Result<ExitCode> {
+    use study::profiles;
+    let targets = if args.targets.is_empty() {
+        profiles::DEFAULT_TARGETS.to_vec()
+    } else {
+        args.targets.clone()
+    };
+    profiles::check_targets(&targets)?;
+    let table = profiles::read_runs(&args.dir)?;
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| args.dir.join("profiles"));
+    let written = profiles::write(&table, &targets, &out)
+        .with_context(|| format!("cannot write the profiles into {}", out.display()))?;
+    console::out(&format!(
+        "{} problems ({} targets), {} methods; wrote {}",
+        written.problems,
+        targets.len(),
+        written.solvers,
+        out.join("profiles.md").display()
+    ));
     Ok(ExitCode::SUCCESS)
 }

@@ -25,6 +25,7 @@ mod merge;
 mod meta;
 pub mod pictures;
 pub mod plots;
+pub mod profiles;
 mod progress;
 mod reference;
 mod report;
