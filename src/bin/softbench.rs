@@ -945,7 +945,7 @@ fn profiles(args: &ProfilesArgs) -> anyhow::Result<ExitCode> {
         .out
         .clone()
         .unwrap_or_else(|| args.dir.join("profiles"));
-    let written = profiles::write(&table, &targets, &out)
+    let written = profiles::write(&table, &targets, profiles::floor_factor(&args.dir), &out)
         .with_context(|| format!("cannot write the profiles into {}", out.display()))?;
     console::out(&format!(
         "{} problems ({} targets), {} methods; wrote {}",

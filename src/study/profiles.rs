@@ -98,6 +98,9 @@ pub struct CostTable {
     pub solvers: Vec<String>,
     /// `costs[p][s]`.
     pub costs: Vec<Vec<Option<Solved>>>,
+    /// `(scene, target, floor)`: targets below the scene's reference accuracy
+    /// (`floor_factor × reference_difference`), where no run can be judged; left out.
+    pub left_out: Vec<(String, f64, f64)>,
 }
 
 /// A profile's points: `(x, fraction)` steps of one solver.
@@ -114,8 +117,11 @@ fn label(table: &Table, row: &[String], split: &BTreeMap<String, bool>) -> Strin
 }
 
 impl CostTable {
-    /// The costs in `cost` of the runs of `table` for the accuracy `targets`.
-    pub fn new(table: &Table, targets: &[f64], cost: Cost) -> Self {
+    /// The costs in `cost` of the runs of `table` for the accuracy `targets`. A target below
+    /// a scene's reference accuracy (`floor_factor` times its `reference_difference`) cannot
+    /// be judged there and is left out; a run whose error was within that accuracy
+    /// (`error_unscored`) solves every target that is judged.
+    pub fn new(table: &Table, targets: &[f64], cost: Cost, floor_factor: f64) -> Self {
         // A method run with several linear solvers is one solver per linear solver.
         let mut solvers_of: BTreeMap<String, std::collections::BTreeSet<String>> = BTreeMap::new();
         for row in &table.rows {
@@ -140,16 +146,36 @@ impl CostTable {
             .collect();
         scenes.sort();
         scenes.dedup();
-        let problems: Vec<(String, f64)> = scenes
-            .iter()
-            .flat_map(|s| targets.iter().map(move |t| (s.clone(), *t)))
-            .collect();
+        let floor = |scene: &str| -> f64 {
+            table
+                .rows
+                .iter()
+                .filter(|r| table.get(r, "scene") == Some(scene))
+                .filter_map(|r| table.number(r, "reference_difference"))
+                .fold(0.0f64, f64::max)
+                * floor_factor
+        };
+        let mut problems = Vec::new();
+        let mut left_out = Vec::new();
+        for scene in &scenes {
+            let f = floor(scene);
+            for &t in targets {
+                if t >= f {
+                    problems.push((scene.clone(), t));
+                } else {
+                    left_out.push((scene.clone(), t, f));
+                }
+            }
+        }
         let mut costs = vec![vec![None; solvers.len()]; problems.len()];
         for row in &table.rows {
             if table.get(row, "outcome") != Some("completed") {
                 continue;
             }
-            let Some(error) = table.number(row, "error") else {
+            let Some(error) = table
+                .number(row, "error")
+                .or_else(|| table.number(row, "error_unscored"))
+            else {
                 continue;
             };
             let (value, spread) = match cost {
@@ -193,6 +219,7 @@ impl CostTable {
             problems,
             solvers,
             costs,
+            left_out,
         }
     }
 
@@ -316,6 +343,16 @@ fn steps(sorted: &[f64], start: f64, end: f64, n: usize) -> Steps {
 /// The default accuracy targets: every decade from 1e-1 to 1e-8.
 pub const DEFAULT_TARGETS: [f64; 8] = [1e-1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8];
 
+/// The reference's `floor_factor` a results folder's meta.json records (2, the default, when
+/// it records none).
+pub fn floor_factor(dir: &Path) -> f64 {
+    std::fs::read(dir.join("meta.json"))
+        .ok()
+        .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
+        .and_then(|m| m["config"]["work_precision"]["reference"]["floor_factor"].as_f64())
+        .unwrap_or(2.0)
+}
+
 /// Read a results folder's runs.csv and check it has what the profiles need.
 pub fn read_runs(dir: &Path) -> Result<Table, ProfilesError> {
     let path = dir.join("runs.csv");
@@ -385,7 +422,12 @@ fn fraction(x: f64) -> String {
 /// `profiles.csv` (every step of every profile), `costs.csv` (each solver's cost on each
 /// problem, empty where it did not solve it), `profiles.md` (the summary per solver and cost)
 /// and the four charts `performance-{wall,work}` and `data-{wall,work}` (PNG and SVG).
-pub fn write(table: &Table, targets: &[f64], out: &Path) -> Result<Written, WriteError> {
+pub fn write(
+    table: &Table,
+    targets: &[f64],
+    floor_factor: f64,
+    out: &Path,
+) -> Result<Written, WriteError> {
     let io = |path: &Path| {
         let path = path.to_owned();
         move |error| WriteError::Io { path, error }
@@ -413,7 +455,7 @@ pub fn write(table: &Table, targets: &[f64], out: &Path) -> Result<Written, Writ
     );
     let tables: Vec<(Cost, CostTable)> = Cost::ALL
         .iter()
-        .map(|&c| (c, CostTable::new(table, targets, c)))
+        .map(|&c| (c, CostTable::new(table, targets, c, floor_factor)))
         .collect();
     let (_, wall) = &tables[0];
     let (_, work) = &tables[1];
@@ -434,11 +476,16 @@ pub fn write(table: &Table, targets: &[f64], out: &Path) -> Result<Written, Writ
     written.solvers = wall.solvers.len();
     let targets_text: Vec<String> = targets.iter().map(|t| format!("{t:e}")).collect();
     md.push_str(&format!(
-        "\n{} problems: {} scene(s) × targets {}.\n",
+        "\n{} problems: the scenes × targets {}.\n",
         wall.problems.len(),
-        wall.problems.len() / targets.len().max(1),
         targets_text.join(", ")
     ));
+    for (scene, target, floor) in &wall.left_out {
+        md.push_str(&format!(
+            "\nLeft out: {scene} at {target:e}, below its reference's accuracy ({floor_factor} × \
+             its reference difference = {floor:.3e}): no run can be judged there.\n"
+        ));
+    }
     for (cost, c) in &tables {
         md.push_str(&format!(
             "\n## Cost in {}\n\n| method | solved | best | ρ(2) | ρ(10) |\n|---|---|---|---|---|\n",
@@ -540,7 +587,7 @@ mod tests {
             ("a", "y", "blew-up", 1e-9, 0.1, 1.0),
             ("b", "y", "completed", 1e-5, 3.0, 30.0),
         ]);
-        let c = CostTable::new(&t, &[1e-2, 1e-4], Cost::Wall);
+        let c = CostTable::new(&t, &[1e-2, 1e-4], Cost::Wall, 2.0);
         assert_eq!(c.solvers, ["x", "y"]);
         let cost = |p: usize, s: usize| c.costs[p][s].map(|x| x.cost);
         // a@1e-2: x 1.0, y 2.0; a@1e-4: x 4.0, y none (its 1e-9 run blew up); b: y only.
@@ -573,12 +620,34 @@ mod tests {
         t.header.push("wall_seconds_max".into());
         t.rows[0].extend(["0.9".into(), "1.2".into()]);
         t.rows[1].extend(["1.05".into(), "1.3".into()]);
-        let c = CostTable::new(&t, &[1e-2], Cost::Wall);
+        let c = CostTable::new(&t, &[1e-2], Cost::Wall, 2.0);
         let s = c.summary();
         assert_eq!((s[0].best, s[1].best), (1, 1), "the spreads overlap: a tie");
         // In evaluations they are equal: both cheapest.
-        let w = CostTable::new(&t, &[1e-2], Cost::Work).summary();
+        let w = CostTable::new(&t, &[1e-2], Cost::Work, 2.0).summary();
         assert_eq!((w[0].best, w[1].best), (1, 1));
+    }
+
+    #[test]
+    fn targets_below_the_reference_accuracy_are_left_out_and_unscored_runs_solve_the_rest() {
+        let mut t = table(&[
+            ("a", "x", "completed", 1e-3, 1.0, 10.0),
+            ("a", "y", "completed", 0.0, 2.0, 20.0),
+        ]);
+        t.header
+            .extend(["error_unscored".into(), "reference_difference".into()]);
+        t.rows[0].extend(["".into(), "1e-7".into()]);
+        // y's error is within the reference's accuracy: not scored, its value kept apart.
+        t.rows[1][3] = String::new();
+        t.rows[1].extend(["5e-8".into(), "1e-7".into()]);
+        let c = CostTable::new(&t, &[1e-2, 1e-6, 1e-7], Cost::Wall, 2.0);
+        assert_eq!(
+            c.problems,
+            [("a".to_string(), 1e-2), ("a".to_string(), 1e-6)]
+        );
+        assert_eq!(c.left_out, [("a".to_string(), 1e-7, 2e-7)]);
+        assert_eq!(c.costs[1][1].map(|x| x.cost), Some(2.0), "y solves 1e-6");
+        assert_eq!(c.costs[1][0], None, "x does not");
     }
 
     #[test]
