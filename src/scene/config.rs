@@ -58,7 +58,10 @@ pub struct SceneConfig {
 
 /// `[initial]`: a deformed and moving start instead of rest, for studies of free bodies.
 /// Applied to the free vertices about the centroid `c` of the rest positions:
-/// `x = c + stretch (X - c)`, `v = velocity + angular_velocity x (X - c)`.
+/// `x = c + R_twist (stretch (X - c))`, `v = velocity + angular_velocity x (X - c)`, where
+/// `R_twist` turns a vertex about the line through `c` along `twist.axis` by
+/// `twist.rate (X - c)_axis` radians. A negative stretch factor mirrors the body along that
+/// axis, which inverts every element (an inverted start).
 /// Or `from = "frame.vtu"`: the positions, `velocity` and time of an exported VTU frame of the
 /// same mesh (looked up like the mesh file).
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -67,9 +70,12 @@ pub struct InitialConfig {
     /// A VTU frame (written by `--export vtu`) to start from, instead of the fields below.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub from: Option<String>,
-    /// Scale factor per axis (default 1: undeformed).
+    /// Scale factor per axis (default 1: undeformed); nonzero, negative mirrors.
     #[serde(default)]
     pub stretch: Option<[f64; 3]>,
+    /// A twist about an axis through the centroid (default none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub twist: Option<TwistConfig>,
     /// Rigid velocity (m/s).
     #[serde(default)]
     pub velocity: [f64; 3],
@@ -180,6 +186,16 @@ pub struct RuleConfig {
 
 fn default_side() -> Side {
     Side::Min
+}
+
+/// `initial.twist`: `{ axis = "x", rate = 3.0 }`, a turn of `rate` radians per metre along
+/// `axis` about the line through the rest centroid along it.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TwistConfig {
+    pub axis: Axis,
+    /// Radians per metre along the axis.
+    pub rate: f64,
 }
 
 /// A coordinate axis.

@@ -13,7 +13,7 @@ pub use budget::{MAX_DENSITY, MAX_GRAVITY, MAX_LENGTH};
 pub use config::{
     Axis, BoxConfig, DampingConfig, DisplayConfig, FixedConfig, ForcesConfig, GenerateConfig,
     InitialConfig, MaterialConfig, MeshConfig, RayleighConfig, RuleConfig, RunConfig, SceneConfig,
-    StrainRateConfig,
+    StrainRateConfig, TwistConfig,
 };
 pub use overrides::{OverrideError, apply as apply_override, set_value};
 pub use springs::{DragConfig, JelloConfig, JelloShape, KindTable, SpringsConfig, WaypointConfig};
@@ -281,22 +281,31 @@ fn validate(c: &SceneConfig, path: &Path) -> Result<(), SceneError> {
     let init = &c.initial;
     if init
         .stretch
-        .is_some_and(|s| !s.iter().all(|x| x.is_finite() && *x > 0.0))
+        .is_some_and(|s| !s.iter().all(|x| x.is_finite() && *x != 0.0))
     {
         return Err(invalid(
             "initial.stretch",
-            "must be three positive scale factors".into(),
+            "must be three finite nonzero scale factors (a negative one mirrors the body, \
+             inverting every element)"
+                .into(),
+        ));
+    }
+    if init.twist.is_some_and(|t| !t.rate.is_finite()) {
+        return Err(invalid(
+            "initial.twist.rate",
+            "must be a finite number of radians per metre".into(),
         ));
     }
     if init.from.is_some()
         && (init.stretch.is_some()
+            || init.twist.is_some()
             || init.velocity != [0.0; 3]
             || init.angular_velocity != [0.0; 3])
     {
         return Err(invalid(
             "initial.from",
-            "a frame gives positions and velocities; give either `from` or stretch/velocity/\
-             angular_velocity, not both"
+            "a frame gives positions and velocities; give either `from` or stretch/twist/\
+             velocity/angular_velocity, not both"
                 .into(),
         ));
     }
@@ -552,7 +561,14 @@ fn initial_state(
     let masses = model.vertex_masses();
     for (k, &vertex) in model.dofs().free_vertices().iter().enumerate() {
         let r = rest[vertex] - centroid;
-        let x = centroid + r.component_mul(&stretch);
+        let mut x = r.component_mul(&stretch);
+        if let Some(twist) = init.twist {
+            let axis = Vector3::ith_axis(twist.axis.index());
+            let turn =
+                nalgebra::Rotation3::from_axis_angle(&axis, twist.rate * r[twist.axis.index()]);
+            x = turn * x;
+        }
+        let x = centroid + x;
         let v = v0 + w.cross(&r);
         kinetic += 0.5 * masses[vertex] * v.norm_squared();
         state.q[3 * k..3 * k + 3].copy_from_slice(x.as_slice());
