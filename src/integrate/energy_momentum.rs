@@ -26,6 +26,7 @@ use super::system::ImplicitSystem;
 use super::{Integrator, State, StepError, StepReport};
 use crate::model::Model;
 use crate::solve::LinearSolver;
+use nalgebra::Vector3;
 
 /// The energy–momentum scheme (see the module docs).
 pub struct EnergyMomentum {
@@ -192,6 +193,9 @@ impl EnergyMomentum {
                 });
             }
         }
+        if is_free(model) {
+            self.conserve_angular_momentum(model, state, h);
+        }
         for k in 0..n {
             let dq = self.q1[k] - state.q[k];
             state.v[k] = 2.0 * dq / h - state.v[k];
@@ -199,6 +203,92 @@ impl EnergyMomentum {
         std::mem::swap(&mut state.q, &mut self.q1);
         report.substeps += 1;
         Ok(())
+    }
+}
+
+/// A free body: nothing fixed, no gravity, loads or damping, so its momenta are conserved.
+fn is_free(model: &Model) -> bool {
+    model.dofs().num_free() == model.dofs().num_vertices()
+        && model.gravity().is_none()
+        && model.vertex_potentials().is_empty()
+        && !model.has_damping()
+}
+
+fn cross_at(x: &[f64], y: &[f64], k: usize) -> Vector3<f64> {
+    let a = Vector3::new(x[3 * k], x[3 * k + 1], x[3 * k + 2]);
+    let b = Vector3::new(y[3 * k], y[3 * k + 1], y[3 * k + 2]);
+    a.cross(&b)
+}
+
+impl EnergyMomentum {
+    /// The change of angular momentum over the step, `(h/2)(L' − L)`, for the end positions in
+    /// `self.q1`: `Σ q_m × M (q' − q − h v)` (exact algebra of the midpoint rule with a
+    /// symmetric mass; the discrete gradient adds no moment about `q_m`).
+    fn angular_defect(&mut self, model: &Model, state: &State, h: f64) -> Vector3<f64> {
+        let n = state.q.len();
+        for k in 0..n {
+            self.scratch[k] = self.q1[k] - state.q[k] - h * state.v[k];
+            self.mid[k] = 0.5 * (self.q1[k] + state.q[k]);
+        }
+        model.mass().mul_vec(&self.scratch, &mut self.residual);
+        (0..n / 3)
+            .map(|k| cross_at(&self.mid, &self.residual, k))
+            .sum()
+    }
+
+    /// On a free body, move the end positions by a rotation `δ_k = θ × (q_m,k − x̄)` about the
+    /// midpoint's centre of mass that makes the step's angular-momentum defect zero. The defect
+    /// is linear in `δ` (the quadratic part `Σ m_ij δ_i × δ_j` vanishes), so one 3×3 solve
+    /// removes it to round-off whatever the Newton tolerance; `δ` is of the size of the
+    /// residual's moment, and it leaves linear momentum unchanged (`Σ M δ = 0`).
+    fn conserve_angular_momentum(&mut self, model: &Model, state: &State, h: f64) {
+        let n = state.q.len();
+        let defect = self.angular_defect(model, state, h);
+        // Lumped vertex masses (the consistent mass's row sums for linear tets).
+        let (masses, free) = (model.vertex_masses(), model.dofs().free_vertices());
+        let total: f64 = free.iter().map(|&v| masses[v]).sum();
+        if total <= 0.0 || defect.norm() == 0.0 {
+            return;
+        }
+        let centre: Vector3<f64> = free
+            .iter()
+            .enumerate()
+            .map(|(k, &v)| {
+                Vector3::new(self.mid[3 * k], self.mid[3 * k + 1], self.mid[3 * k + 2]) * masses[v]
+            })
+            .sum::<Vector3<f64>>()
+            / total;
+        // The defect's change for θ = e_x, e_y, e_z (it is linear): one column each.
+        let mut columns = [Vector3::zeros(); 3];
+        for (axis, column) in columns.iter_mut().enumerate() {
+            let theta = Vector3::ith_axis(axis).into_inner();
+            for k in 0..n / 3 {
+                let c = Vector3::new(self.mid[3 * k], self.mid[3 * k + 1], self.mid[3 * k + 2])
+                    - centre;
+                let d = theta.cross(&c);
+                self.step_dir[3 * k..3 * k + 3].copy_from_slice(d.as_slice());
+            }
+            // Σ q_m × M δ + Σ δ/2 × M a, with M a in self.residual from angular_defect.
+            model.mass().mul_vec(&self.step_dir, &mut self.gradient);
+            *column = (0..n / 3)
+                .map(|k| {
+                    cross_at(&self.mid, &self.gradient, k)
+                        + cross_at(&self.step_dir, &self.residual, k) * 0.5
+                })
+                .sum();
+        }
+        let a = nalgebra::Matrix3::from_columns(&columns);
+        let Some(theta) = a.lu().solve(&(-defect)) else {
+            return;
+        };
+        for k in 0..n / 3 {
+            let c =
+                Vector3::new(self.mid[3 * k], self.mid[3 * k + 1], self.mid[3 * k + 2]) - centre;
+            let d = theta.cross(&c);
+            for i in 0..3 {
+                self.q1[3 * k + i] += d[i];
+            }
+        }
     }
 }
 
