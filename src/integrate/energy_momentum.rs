@@ -5,21 +5,27 @@
 //! `q' = q + h (v + v')/2`, `M (v' − v)/h = −ḡ(q, q') − D(q_m) (q' − q)/h`.
 //!
 //! Without damping and time-dependent loads the total energy `½ v'ᵀ M v' + V(q')` equals
-//! `½ vᵀ M v + V(q)` to the tolerance of the solve, whatever the step; on a free body linear
-//! and angular momentum are conserved to round-off (the algorithmic stress is symmetric and
-//! acts through the midpoint's deformation gradient). Damping only removes energy
+//! `½ vᵀ M v + V(q)` to the tolerance of the solve, whatever the step. On a free body linear
+//! and angular momentum are conserved to round-off at any tolerance: the algorithmic stress is
+//! symmetric and acts through the midpoint's deformation gradient, every Newton update keeps
+//! linear momentum, and a final turn removes what the residual leaves of angular momentum (see
+//! [`EnergyMomentum::conserve_angular_momentum`]). Damping only removes energy
 //! (`(q' − q)ᵀ D (q' − q) >= 0`). Second order.
 //!
 //! **How it is solved.** The discrete gradient is not the gradient of a potential in `q'`, so
 //! there is no incremental potential to minimize: Newton solves the residual
-//! `r(q') = M (q' − q − h v) + h²/2 ḡ(q, q') + h/2 D(q_m) (q' − q)` (scaled by `h²/2`) with the
-//! symmetric approximation `M + h²/4 K(q_m) + h/2 D(q_m)` of its Jacobian (`∂ḡ/∂q' = K(q_m)/2 +
-//! O(|q' − q|²)`), assembled and factored at every iteration by the settings' linear solver
-//! and Hessian filter, no line search. It has converged when
-//! `‖r‖ <= tol (‖M h v‖ + h²/2 ‖grad V(q)‖)` (`tol` = `integrator.newton.tolerance`, the
-//! scaled-gradient criterion's reference terms); at `integrator.newton.max_iterations` it is
-//! counted unconverged (and fails under `require_convergence`), as for every Newton solve. A
-//! failed step is retried as two halves up to `newton.retry_halvings` times.
+//! `r(q') = M (q' − q − h v) + h²/2 ḡ(q, q') + h/2 D(q_m) (q' − q)` (scaled by `h²/2`), from
+//! `q + h v` (shortened to `q + h v/2`, `q + h v/4`, `q` while that inverts an element), with
+//! the symmetric approximation `M + h²/4 K(q_m) + h/2 D(q_m)` of its Jacobian
+//! (`∂ḡ/∂q' = K(q_m)/2 + O(|q' − q|²)`), assembled and factored at every iteration by the
+//! settings' linear solver and Hessian filter. The update is halved while it inverts an element
+//! or does not reduce `‖r‖` (at most `newton.max_backtracks` times, then the step fails). It
+//! has converged when `‖r‖ <= tol (‖M h v‖ + h²/2 ‖grad V(q)‖)` (`tol` =
+//! `integrator.newton.tolerance`, the scaled-gradient criterion's reference terms) or when its
+//! update is below the round-off of the positions (`16 ε ‖q'‖_∞`); at
+//! `integrator.newton.max_iterations` it is counted unconverged (and fails under
+//! `require_convergence`), as for every Newton solve. A failed step is retried as two halves
+//! up to `newton.retry_halvings` times.
 
 use super::newton::{NewtonSettings, axpy, with_halving};
 use super::system::ImplicitSystem;

@@ -13,7 +13,7 @@ use super::backward_euler::BackwardEuler;
 use super::bdf::Bdf;
 use super::bdf::BdfSettings;
 use super::dirk::{Dirk, DirkTableau};
-use super::embedded::FixedStep;
+use super::embedded::{EmbeddedPair, FixedStep};
 use super::energy_momentum::EnergyMomentum;
 use super::implicit_midpoint::ImplicitMidpoint;
 use super::linearly_implicit_euler::LinearlyImplicitEuler;
@@ -167,52 +167,30 @@ fn adaptive(
     Box::new(Adaptive::step_doubling(name, inner, s.adaptive))
 }
 
-/// A DIRK tableau at fixed steps.
-fn dirk(tableau: DirkTableau, s: &IntegratorSettings) -> Box<dyn Integrator> {
-    Box::new(FixedStep::new(
-        dirk_pair(tableau, s),
-        s.newton.retry_halvings,
-    ))
+/// An embedded pair at fixed steps (its estimate unused), failed steps retried as halves.
+fn fixed<P: EmbeddedPair + 'static>(pair: P, s: &IntegratorSettings) -> Box<dyn Integrator> {
+    Box::new(FixedStep::new(pair, s.newton.retry_halvings))
 }
 
-fn dirk_pair(tableau: DirkTableau, s: &IntegratorSettings) -> Dirk {
+/// An embedded pair under error control, named `name`.
+fn controlled<P: EmbeddedPair + 'static>(
+    name: &'static str,
+    pair: P,
+    s: &IntegratorSettings,
+) -> Box<dyn Integrator> {
+    Box::new(Adaptive::embedded_named(name, Box::new(pair), s.adaptive))
+}
+
+fn dirk(tableau: DirkTableau, s: &IntegratorSettings) -> Dirk {
     Dirk::new(tableau, s.linear_solver.build(&s.solver), s.newton)
 }
 
-/// A DIRK tableau under error control, named `name`.
-fn adaptive_dirk(
-    name: &'static str,
-    tableau: DirkTableau,
-    s: &IntegratorSettings,
-) -> Box<dyn Integrator> {
-    let pair = Box::new(dirk_pair(tableau, s));
-    Box::new(Adaptive::embedded_named(name, pair, s.adaptive))
-}
-
-/// A Rosenbrock method at fixed steps.
-fn rosenbrock(tableau: RosenbrockTableau, s: &IntegratorSettings) -> Box<dyn Integrator> {
-    Box::new(FixedStep::new(
-        rosenbrock_pair(tableau, s),
-        s.newton.retry_halvings,
-    ))
-}
-
-fn rosenbrock_pair(tableau: RosenbrockTableau, s: &IntegratorSettings) -> Rosenbrock {
+fn rosenbrock(tableau: RosenbrockTableau, s: &IntegratorSettings) -> Rosenbrock {
     let solver = s.linear_solver.build(&s.solver);
     Rosenbrock::new(tableau, solver, s.newton.filter_settings())
 }
 
-/// A Rosenbrock method under error control, named `name`.
-fn adaptive_rosenbrock(
-    name: &'static str,
-    tableau: RosenbrockTableau,
-    s: &IntegratorSettings,
-) -> Box<dyn Integrator> {
-    let pair = Box::new(rosenbrock_pair(tableau, s));
-    Box::new(Adaptive::embedded_named(name, pair, s.adaptive))
-}
-
-fn radau_pair(s: &IntegratorSettings) -> RadauIIA {
+fn radau(s: &IntegratorSettings) -> RadauIIA {
     RadauIIA::new(s.linear_solver.build(&s.solver), s.newton)
 }
 
@@ -260,10 +238,10 @@ static BUILTIN: [MethodEntry; 39] = [
     explicit("adaptive-rk4", 4, "RK4 with step-doubling error control", |s, _| adaptive("adaptive-rk4", s, Box::new(rk4::rk4()))).with_error_control(),
     explicit("dopri5", 5, "Dormand-Prince 5(4) with embedded error control", |s, _| Box::new(Adaptive::embedded(Box::new(dopri5::dopri5()), s.adaptive))).with_error_control(),
     MethodEntry { name: "linearly-implicit-euler", description: "one Newton step of backward Euler per step", order: 1, explicit: false, newton: false, linear_solver: true, constrained_contact: false, adaptive: false, build: |s, _| Box::new(LinearlyImplicitEuler::new(s.linear_solver.build(&s.solver), s.newton.filter_settings())) },
-    linearly_implicit("ros2", 2, "Rosenbrock-W ROS2: 2 solves with one factorization per step, L-stable", |s, _| rosenbrock(ros2::TABLEAU, s)),
-    linearly_implicit("rodas3", 3, "Rosenbrock RODAS3: 4 solves with one factorization per step, stiffly accurate, L-stable", |s, _| rosenbrock(rodas3::TABLEAU, s)),
-    linearly_implicit("adaptive-ros2", 2, "ROS2 with its embedded first-order error estimate (adaptive = {..})", |s, _| adaptive_rosenbrock("adaptive-ros2", ros2::TABLEAU, s)).with_error_control(),
-    linearly_implicit("adaptive-rodas3", 3, "RODAS3 with its embedded second-order error estimate", |s, _| adaptive_rosenbrock("adaptive-rodas3", rodas3::TABLEAU, s)).with_error_control(),
+    linearly_implicit("ros2", 2, "Rosenbrock-W ROS2: 2 solves with one factorization per step, L-stable", |s, _| fixed(rosenbrock(ros2::TABLEAU, s), s)),
+    linearly_implicit("rodas3", 3, "Rosenbrock RODAS3: 4 solves with one factorization per step, stiffly accurate, L-stable", |s, _| fixed(rosenbrock(rodas3::TABLEAU, s), s)),
+    linearly_implicit("adaptive-ros2", 2, "ROS2 with its embedded first-order error estimate (adaptive = {..})", |s, _| controlled("adaptive-ros2", rosenbrock(ros2::TABLEAU, s), s)).with_error_control(),
+    linearly_implicit("adaptive-rodas3", 3, "RODAS3 with its embedded second-order error estimate", |s, _| controlled("adaptive-rodas3", rosenbrock(rodas3::TABLEAU, s), s)).with_error_control(),
     implicit("backward-euler", 1, true, "Newton with line search; unconditionally stable, dissipative", |s, c| newton_scheme(s, c, BackwardEuler)),
     implicit("implicit-midpoint", 2, false, "Newton on the midpoint; symplectic, no numerical damping", |s, c| newton_scheme(s, c, ImplicitMidpoint)),
     implicit("bdf1", 1, true, "BDF order 1 (= backward Euler)", |s, c| bdf("bdf1", 1, s, c)),
@@ -278,14 +256,14 @@ static BUILTIN: [MethodEntry; 39] = [
     MethodEntry { name: "vbd", description: "vertex block descent: colored Gauss-Seidel 3x3 Newton steps; converges to the backward Euler step (any material)", order: 1, explicit: false, newton: false, linear_solver: false, constrained_contact: false, adaptive: false, build: |s, _| Box::new(Vbd::new(s.vbd)) },
     MethodEntry { name: "projective-dynamics", description: "local/global iterations, prefactored global matrix; converges to backward Euler on its projective energy (corotated)", order: 1, explicit: false, newton: false, linear_solver: true, constrained_contact: false, adaptive: false, build: |s, _| Box::new(ProjectiveDynamics::new(s.projective_dynamics, s.linear_solver.build(&s.solver))) },
     MethodEntry { name: "xpbd", description: "XPBD with Neo-Hookean constraints, substepped; converges to the dynamics of its constraint energy (xpbd-neo-hookean)", order: 1, explicit: false, newton: false, linear_solver: false, constrained_contact: false, adaptive: false, build: |s, _| Box::new(Xpbd::new(s.xpbd)) },
-    implicit("tr-bdf2", 2, false, "TR-BDF2: trapezoidal then BDF2 stage, L-stable, stiffly accurate (ESDIRK, 2 Newton solves per step)", |s, _| dirk(tr_bdf2::TABLEAU, s)),
-    implicit("esdirk32", 3, false, "ESDIRK3(2)4L[2]SA (Kennedy-Carpenter), L-stable, stiffly accurate, 3 Newton solves per step", |s, _| dirk(esdirk32::TABLEAU, s)),
-    implicit("esdirk43", 4, false, "ESDIRK4(3)6L[2]SA (Kennedy-Carpenter), L-stable, stiffly accurate, 5 Newton solves per step", |s, _| dirk(esdirk43::TABLEAU, s)),
-    implicit("adaptive-tr-bdf2", 2, false, "TR-BDF2 with its embedded third-order error estimate (adaptive = {..})", |s, _| adaptive_dirk("adaptive-tr-bdf2", tr_bdf2::TABLEAU, s)).with_error_control(),
-    implicit("adaptive-esdirk32", 3, false, "ESDIRK3(2) with its embedded second-order error estimate", |s, _| adaptive_dirk("adaptive-esdirk32", esdirk32::TABLEAU, s)).with_error_control(),
-    implicit("adaptive-esdirk43", 4, false, "ESDIRK4(3) with its embedded third-order error estimate", |s, _| adaptive_dirk("adaptive-esdirk43", esdirk43::TABLEAU, s)).with_error_control(),
-    implicit("radau-iia", 5, false, "Radau IIA (3 stages, collocation): L-stable, stiffly accurate; simplified Newton on the coupled stages, a real and a complex factorization per step", |s, _| Box::new(FixedStep::new(radau_pair(s), s.newton.retry_halvings))),
-    implicit("adaptive-radau-iia", 5, false, "Radau IIA with its embedded third-order error estimate (RADAU5's)", |s, _| Box::new(Adaptive::embedded_named("adaptive-radau-iia", Box::new(radau_pair(s)), s.adaptive))).with_error_control(),
+    implicit("tr-bdf2", 2, false, "TR-BDF2: trapezoidal then BDF2 stage, L-stable, stiffly accurate (ESDIRK, 2 Newton solves per step)", |s, _| fixed(dirk(tr_bdf2::TABLEAU, s), s)),
+    implicit("esdirk32", 3, false, "ESDIRK3(2)4L[2]SA (Kennedy-Carpenter), L-stable, stiffly accurate, 3 Newton solves per step", |s, _| fixed(dirk(esdirk32::TABLEAU, s), s)),
+    implicit("esdirk43", 4, false, "ESDIRK4(3)6L[2]SA (Kennedy-Carpenter), L-stable, stiffly accurate, 5 Newton solves per step", |s, _| fixed(dirk(esdirk43::TABLEAU, s), s)),
+    implicit("adaptive-tr-bdf2", 2, false, "TR-BDF2 with its embedded third-order error estimate (adaptive = {..})", |s, _| controlled("adaptive-tr-bdf2", dirk(tr_bdf2::TABLEAU, s), s)).with_error_control(),
+    implicit("adaptive-esdirk32", 3, false, "ESDIRK3(2) with its embedded second-order error estimate", |s, _| controlled("adaptive-esdirk32", dirk(esdirk32::TABLEAU, s), s)).with_error_control(),
+    implicit("adaptive-esdirk43", 4, false, "ESDIRK4(3) with its embedded third-order error estimate", |s, _| controlled("adaptive-esdirk43", dirk(esdirk43::TABLEAU, s), s)).with_error_control(),
+    implicit("radau-iia", 5, false, "Radau IIA (3 stages, collocation): L-stable, stiffly accurate; simplified Newton on the coupled stages, a real and a complex factorization per step", |s, _| fixed(radau(s), s)),
+    implicit("adaptive-radau-iia", 5, false, "Radau IIA with its embedded third-order error estimate (RADAU5's)", |s, _| controlled("adaptive-radau-iia", radau(s), s)).with_error_control(),
     implicit("energy-momentum", 2, false, "implicit midpoint on Gonzalez's discrete gradient: energy to the Newton tolerance, momenta to round-off on free bodies", |s, _| Box::new(EnergyMomentum::new(s.linear_solver.build(&s.solver), s.newton))),
     implicit("static", 0, true, "equilibrium under each time's loads (no inertia); gravity ramped if Newton fails", |s, c| Box::new(Static::new(s.static_solve, s.linear_solver.build(&s.solver), s.newton, c))),
 ];

@@ -25,7 +25,7 @@
 //!   positions (second order, not exactly conservative — they do work on the body anyway).
 
 use super::elastic::{CHUNK, ElasticBody, ElementFailure};
-use super::{FIXED, Model, ModelError};
+use super::{Model, ModelError};
 use crate::material::{InvalidDeformation, Material, with_material};
 use crate::parallel::{Parallelism, for_each_chunk};
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
@@ -207,30 +207,13 @@ impl Model {
             out[3..6].copy_from_slice((-f).as_slice());
         }
         self.gather_element_vectors(g);
-        if let Some(gr) = self.gravity {
-            for (f, &v) in self.dofs.free_vertices().iter().enumerate() {
-                for i in 0..3 {
-                    g[3 * f + i] -= self.vertex_mass[v] * gr[i];
-                }
-            }
-        }
+        // Gravity's gradient is constant; the vertex potentials' is taken at the midpoint.
         if !self.vertex_potentials.is_empty() {
             for (x, y) in self.positions.iter_mut().zip(x0) {
                 *x = (*x + y) * 0.5;
             }
-            let dofs = &self.dofs;
-            for p in &self.vertex_potentials {
-                p.gradient(self.time, &self.positions, &mut |v, gv| {
-                    let f = dofs.free_index(v);
-                    if f != FIXED {
-                        let f = f as usize;
-                        for i in 0..3 {
-                            g[3 * f + i] += gv[i];
-                        }
-                    }
-                });
-            }
         }
+        self.add_load_gradients(g);
         Ok(())
     }
 }

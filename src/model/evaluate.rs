@@ -129,6 +129,13 @@ impl Model {
             s.gradient(&self.positions[s.i], &self.positions[s.j], out);
         }
         self.gather_element_vectors(g);
+        self.add_load_gradients(g);
+        Ok(())
+    }
+
+    /// Add the gradients of gravity and of the vertex potentials (at the loaded positions and
+    /// the model's time) to `g`.
+    pub(super) fn add_load_gradients(&self, g: &mut [f64]) {
         if let Some(gr) = self.gravity {
             for (f, &v) in self.dofs.free_vertices().iter().enumerate() {
                 for i in 0..3 {
@@ -148,7 +155,6 @@ impl Model {
                 }
             });
         }
-        Ok(())
     }
 
     /// The Hessian of the potential at `q`, written into `h` (which must be over
