@@ -14,6 +14,7 @@ fn config(dt: f64, steps: usize) -> RunConfig {
         steps,
         sample_every: 1,
         energy_limit: 10.0,
+        budget: None,
     }
 }
 
@@ -269,6 +270,7 @@ fn the_first_step_is_timed_apart_and_the_others_have_quartiles() {
         steps: 40,
         sample_every: 10,
         energy_limit: 1.0,
+        budget: None,
     };
     let s = run(
         &mut model,
@@ -286,4 +288,73 @@ fn the_first_step_is_timed_apart_and_the_others_have_quartiles() {
         "{s:?}"
     );
     assert!(s.step_seconds_q1 > 0.0);
+}
+
+/// A cost budget stops a run after the first step that passes it, before the horizon, with
+/// the limit named; a run that reaches its horizon is never stopped by it, and a larger
+/// budget lets the same run go on (the budget caps the run, it does not change its steps).
+#[test]
+fn a_cost_budget_stops_the_run_after_the_step_that_passes_it() {
+    let build = || {
+        IntegratorSettings {
+            method: Method::from_name("backward-euler").unwrap(),
+            ..Default::default()
+        }
+        .build()
+    };
+    let go = |budget: Option<softbench::scene::CostBudget>| {
+        let mut model = block(true, false);
+        let mut state = kicked(&model);
+        let mut integ = build();
+        let cfg = RunConfig {
+            budget,
+            ..config(1e-3, 20)
+        };
+        let mut rows = Vec::new();
+        let summary = run(
+            &mut model,
+            integ.as_mut(),
+            &mut state,
+            &cfg,
+            &mut |s: &Sample| {
+                rows.push(s.step);
+                Ok(())
+            },
+        )
+        .unwrap();
+        (summary, rows, state.q)
+    };
+    let (free, _, q_free) = go(None);
+    assert!(free.outcome.is_completed());
+    let per_run = (free.totals.evaluations.gradient + free.totals.evaluations.hessian) as f64;
+    // Half of what the whole run evaluates: it stops near the middle.
+    let half = softbench::scene::CostBudget {
+        evaluations: Some(per_run / 2.0),
+        ..Default::default()
+    };
+    let (stopped, rows, _) = go(Some(half));
+    assert_eq!(stopped.outcome.status, OutcomeKind::HorizonNotReached);
+    assert_eq!(stopped.outcome.cause, "budget");
+    assert!(stopped.outcome.message.contains("run.budget.evaluations"));
+    let spent = (stopped.totals.evaluations.gradient + stopped.totals.evaluations.hessian) as f64;
+    assert!(
+        spent > per_run / 2.0,
+        "it stops only once the budget is passed"
+    );
+    let last = *rows.last().unwrap();
+    assert!(last > 1 && last < 20, "stopped at step {last}");
+    assert_eq!(
+        last, stopped.steps_completed,
+        "the stopping step has its row"
+    );
+    // A budget the run stays within changes nothing, bit for bit.
+    let ample = softbench::scene::CostBudget {
+        evaluations: Some(per_run),
+        wall_seconds: Some(1e6),
+        factorizations: Some(1e9),
+        linear_iterations: Some(1e9),
+    };
+    let (within, _, q_within) = go(Some(ample));
+    assert!(within.outcome.is_completed());
+    assert_eq!(q_within, q_free);
 }

@@ -114,6 +114,7 @@ fn config(dt: f64, steps: usize, sample_every: usize) -> RunConfig {
         steps,
         sample_every,
         energy_limit: 1.0,
+        budget: None,
     }
 }
 

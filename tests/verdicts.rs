@@ -27,6 +27,7 @@ fn run_with(
         steps,
         sample_every: steps,
         energy_limit: 1.0,
+        budget: None,
     };
     run(
         model,

@@ -14,4 +14,4 @@ pub use growth::GrowthFit;
 pub use metrics::{Energies, Metrics};
 pub use outcome::{Outcome, OutcomeKind};
 pub use progress::RunProgress;
-pub use run_loop::{Observer, RunSummary, Sample, StepSizes, run};
+pub use run_loop::{Observer, RunSummary, Sample, StepSizes, run, spent_on};

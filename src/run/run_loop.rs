@@ -336,6 +336,34 @@ fn unstable(step: usize, t: f64, v: &Violation, limit: f64) -> Outcome {
     Outcome::ended(OutcomeKind::Unstable, step, t, v.cause(), v.message(limit))
 }
 
+/// The outcome of a run whose cost after `step` (of `config.steps`) passed a limit of its
+/// budget, if it did.
+fn over_budget(config: &RunConfig, spent: &StepReport, step: usize, t: f64) -> Option<Outcome> {
+    let (key, limit, used) = config.budget?.exceeded(|key| spent_on(spent, key))?;
+    Some(Outcome::ended(
+        OutcomeKind::HorizonNotReached,
+        step,
+        t,
+        "budget",
+        format!(
+            "run.budget.{key} = {limit} was passed after step {step} of {} ({used} spent); a \
+             larger budget lets the run go on",
+            config.steps
+        ),
+    ))
+}
+
+/// What a run has spent of the budget's `key` (see [`crate::scene::CostBudget::limits`]).
+pub fn spent_on(spent: &StepReport, key: &str) -> f64 {
+    match key {
+        "wall_seconds" => spent.times.total,
+        "evaluations" => (spent.evaluations.gradient + spent.evaluations.hessian) as f64,
+        "factorizations" => f64::from(spent.factorizations),
+        "linear_iterations" => spent.linear_iterations as f64,
+        _ => 0.0,
+    }
+}
+
 fn add_work(acc: &mut StepReport, r: &StepReport) {
     acc.absorb(r);
     acc.evaluations.potential += r.evaluations.potential;
@@ -439,6 +467,8 @@ pub fn run(
     observer.sample(&sample(0, state, &initial, momenta, no_work, &balance))?;
     observer.after_step(0, model, state)?;
 
+    // A budget passed before the horizon: the run stops after the step's row is written.
+    let mut stopped: Option<Outcome> = None;
     for step in 1..=config.steps {
         if let Some(signal) = crate::interrupt::requested() {
             summary.outcome = Outcome::ended(
@@ -475,6 +505,11 @@ pub fn run(
                     summary.inverted_elements_max = summary.inverted_elements_max.max(n);
                 }
                 observer.after_step(step, model, state)?;
+                if step < config.steps
+                    && let Some(over) = over_budget(config, &summary.totals, step, state.t)
+                {
+                    stopped = Some(over);
+                }
             }
             Err(crate::integrate::StepError::Interrupted(signal)) => {
                 summary.outcome = Outcome::ended(
@@ -504,7 +539,7 @@ pub fn run(
         };
         let verdict = balance.after_step(model, state, dt, &energies);
         let sampled = step % config.sample_every == 0 || step == config.steps;
-        if sampled || verdict.is_err() {
+        if sampled || verdict.is_err() || stopped.is_some() {
             let momenta = metrics.momenta(model, state);
             let work = RowWork {
                 report: &since_row,
@@ -523,6 +558,10 @@ pub fn run(
         }
         if let Err(v) = verdict {
             summary.outcome = unstable(step, state.t, &v, config.energy_limit);
+            break;
+        }
+        if let Some(over) = stopped.take() {
+            summary.outcome = over;
             break;
         }
     }

@@ -249,6 +249,54 @@ pub struct RunConfig {
     /// check off. Default 1.
     #[serde(default = "default_energy_limit")]
     pub energy_limit: f64,
+    /// A cost budget: the run stops before its horizon (`horizon-not-reached`, cause
+    /// `budget`) after the first step that leaves its cost above any of these. A run that
+    /// reaches its horizon is never stopped by it; whether it stayed within the budget is the
+    /// reader's test (a benchmark suite's success needs it). Default: none.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub budget: Option<CostBudget>,
+}
+
+/// `run.budget`: the most a run may spend, in wall time and in counts that do not depend on
+/// the machine. Every field is optional; an absent one does not limit.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CostBudget {
+    /// Wall time of the steps (s).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub wall_seconds: Option<f64>,
+    /// Force (gradient) plus Hessian evaluations: the hardware-independent cost that
+    /// work-precision studies and profiles report.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub evaluations: Option<f64>,
+    /// Sparse factorizations.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub factorizations: Option<f64>,
+    /// Iterations of iterative linear solvers (CG).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub linear_iterations: Option<f64>,
+}
+
+impl CostBudget {
+    /// The budget's fields as (key, limit), the absent ones left out.
+    pub fn limits(&self) -> impl Iterator<Item = (&'static str, f64)> {
+        [
+            ("wall_seconds", self.wall_seconds),
+            ("evaluations", self.evaluations),
+            ("factorizations", self.factorizations),
+            ("linear_iterations", self.linear_iterations),
+        ]
+        .into_iter()
+        .filter_map(|(k, v)| v.map(|v| (k, v)))
+    }
+
+    /// The first limit that `spent` (per key, as [`CostBudget::limits`] names them) passes,
+    /// with what was spent.
+    pub fn exceeded(&self, spent: impl Fn(&str) -> f64) -> Option<(&'static str, f64, f64)> {
+        self.limits()
+            .map(|(key, limit)| (key, limit, spent(key)))
+            .find(|(_, limit, used)| used > limit)
+    }
 }
 
 fn one() -> usize {

@@ -11,9 +11,9 @@ mod springs;
 
 pub use budget::{MAX_DENSITY, MAX_GRAVITY, MAX_LENGTH};
 pub use config::{
-    Axis, BoxConfig, DampingConfig, DisplayConfig, FixedConfig, ForcesConfig, GenerateConfig,
-    InitialConfig, MaterialConfig, MeshConfig, RayleighConfig, RuleConfig, RunConfig, SceneConfig,
-    StrainRateConfig, TwistConfig,
+    Axis, BoxConfig, CostBudget, DampingConfig, DisplayConfig, FixedConfig, ForcesConfig,
+    GenerateConfig, InitialConfig, MaterialConfig, MeshConfig, RayleighConfig, RuleConfig,
+    RunConfig, SceneConfig, StrainRateConfig, TwistConfig,
 };
 pub use overrides::{OverrideError, apply as apply_override, set_value};
 pub use springs::{DragConfig, JelloConfig, JelloShape, KindTable, SpringsConfig, WaypointConfig};
@@ -213,6 +213,16 @@ fn validate(c: &SceneConfig, path: &Path) -> Result<(), SceneError> {
                 r.energy_limit
             ),
         ));
+    }
+    if let Some(b) = &r.budget {
+        for (key, limit) in b.limits() {
+            if !(limit.is_finite() && limit > 0.0) {
+                return Err(invalid(
+                    &format!("run.budget.{key}"),
+                    format!("must be a positive number (got {limit})"),
+                ));
+            }
+        }
     }
     springs::validate(c).map_err(|e| invalid(&e.key, e.message))?;
     budget::check(c).map_err(|e| invalid(e.key, e.message))?;

@@ -71,6 +71,7 @@ pub(super) fn physics_hash(config: &SceneConfig) -> u64 {
         steps: 1,
         sample_every: 1,
         energy_limit: 0.0,
+        budget: None,
     };
     c.display = None;
     fnv1a(serde_json::to_string(&c).unwrap_or_default().as_bytes())

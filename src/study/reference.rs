@@ -414,6 +414,7 @@ pub fn reference(
             steps: stride * settings.samples,
             sample_every: stride,
             energy_limit: 0.0,
+            budget: None,
         };
         let (summary, _, snapshots, _) = sampled_run(&mut scene, &run, stride, None);
         if !summary.outcome.is_completed() {

@@ -1067,6 +1067,8 @@ pub(super) fn measure(
             steps,
             sample_every: steps.div_ceil(ROWS_PER_TRIAL).max(1),
             energy_limit: settings.energy_factor,
+            // A stability trial is judged whole: a cost budget would decide it.
+            budget: None,
         };
         let mut output = DenseOutput::new(sample_times.clone());
         // Every trial records its pictures (a copy of the surface per step), so the reported
