@@ -427,3 +427,51 @@ reference = { same_dt = true, dt = 0.001 }
         "{err}"
     );
 }
+
+/// A reference checked against an independent solution (another method at its own step):
+/// its error bar is their difference, which is exactly the error a run of that method at that
+/// step gets against it; the reference is the declared method at its own step.
+#[test]
+fn an_independent_solution_is_the_reference_error_bar() {
+    let tmp = TempDir::new("study-independent");
+    tmp.write("beam.toml", DRAGGED_BEAM);
+    let study = tmp.write(
+        "study.toml",
+        r#"name = "independent"
+study = "work-precision"
+scenes = ["beam.toml"]
+[grid]
+"run.dt" = [0.001]
+"integrator.method" = ["implicit-midpoint", "backward-euler"]
+[set]
+"integrator.newton.tolerance" = 1e-10
+[work-precision]
+horizon = 0.04
+samples = 2
+reference = { method = "rk4", dt = 1e-4, floor_factor = 0.5, independent = { method = "implicit-midpoint", dt = 0.001 } }
+"#,
+    );
+    let out = tmp.path().join("results");
+    run_study_ok(&study, &out, &[]);
+    let dir = out.join("independent");
+    let runs = Table::read(&dir.join("runs.csv")).unwrap().unwrap();
+    let row = |m: &str| {
+        runs.rows
+            .iter()
+            .find(|r| runs.get(r, "method") == Some(m))
+            .unwrap()
+    };
+    let midpoint = row("implicit-midpoint");
+    let difference = runs.number(midpoint, "reference_difference").unwrap();
+    assert_eq!(runs.number(midpoint, "reference_dt"), Some(1e-4));
+    assert_eq!(runs.get(midpoint, "reference_method"), Some("rk4"));
+    // The same solve as the check, scored against the same reference: the same number.
+    assert_eq!(runs.number(midpoint, "error"), Some(difference));
+    // Backward Euler is first order: far from both.
+    assert!(runs.number(row("backward-euler"), "error").unwrap() > 10.0 * difference);
+    let report = std::fs::read_to_string(dir.join("report.md")).unwrap();
+    assert!(
+        report.contains("an independent solution (implicit-midpoint at dt = 0.001 s)"),
+        "{report}"
+    );
+}

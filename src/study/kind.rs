@@ -150,8 +150,9 @@ pub(super) trait Kind: Sync {
         false
     }
 
-    /// The settings of the kind's reference solutions, if the study computes any.
-    fn reference_settings(&self, _: &StudyFile) -> Option<ScoringSettings> {
+    /// The settings of the reference solution `spec` is scored against, if the study computes
+    /// any (a kind whose scenes state their own protocol gives each its own).
+    fn reference_settings(&self, _: &StudyFile, _spec: &RunSpec) -> Option<ScoringSettings> {
         None
     }
 

@@ -209,12 +209,12 @@ fn stop_if_requested() -> Result<(), StudyError> {
 /// any work, rather than when a reference of 10^10 steps has started).
 fn check_reference_steps(study: &Study, ctx: &Context) -> Result<(), StudyError> {
     let kind = super::kinds::of(study.kind);
-    let Some(w) = kind.reference_settings(&study.file) else {
-        return Ok(());
-    };
     let table = kind.table_names().first().copied().unwrap_or("reference");
     for spec in &study.runs {
         stop_if_requested()?;
+        let Some(w) = kind.reference_settings(&study.file, spec) else {
+            continue;
+        };
         let dt = kind.reference_dt(study, &w, spec);
         let halved = !w.reference.same_dt;
         if let Err(e) = super::settings::check_steps(w.horizon, dt, halved) {
@@ -231,6 +231,19 @@ fn check_reference_steps(study: &Study, ctx: &Context) -> Result<(), StudyError>
                     spec.scene,
                     if halved { " and half that" } else { "" },
                     w.horizon
+                ),
+            ));
+        }
+        if let Some(i) = &w.reference.independent
+            && let Err(e) = super::settings::check_steps(w.horizon, i.dt, false)
+        {
+            return Err(ctx.invalid(
+                0,
+                &format!("{table}.reference.independent.dt"),
+                format!(
+                    "the independent solution of scene `{}` steps {:e} s over the {} s \
+                     horizon: {e}",
+                    spec.scene, i.dt, w.horizon
                 ),
             ));
         }

@@ -116,6 +116,21 @@ pub struct ReferenceSettings {
     /// Errors below this factor times the difference between the reference and a second one
     /// at half its step are not scored. Default 2.
     pub floor_factor: f64,
+    /// A second, independent solution (another method at its own step): the reference's
+    /// error bar is then its difference from this one, instead of the reference's difference
+    /// from itself at half its step. Default none.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub independent: Option<IndependentSolution>,
+}
+
+/// `reference.independent`: the method and step of the second solution a reference is checked
+/// against.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IndependentSolution {
+    pub method: Method,
+    /// Its step (s); must divide the sample interval.
+    pub dt: f64,
 }
 
 impl Default for ReferenceSettings {
@@ -127,6 +142,7 @@ impl Default for ReferenceSettings {
             dt_factor: 8.0,
             newton_tolerance: 1e-10,
             floor_factor: 2.0,
+            independent: None,
         }
     }
 }
@@ -149,9 +165,13 @@ pub struct Reference {
     /// Whether it runs at the runs' own dt (and `difference` is the one from a second
     /// reference at a tighter Newton tolerance, not at half the step).
     pub same_dt: bool,
+    /// The independent solution `difference` is measured against, when there is one (else it
+    /// is the reference at half its step, or with `same_dt` at a tighter tolerance).
+    pub independent: Option<IndependentSolution>,
     pub(super) snapshots: Snapshots,
     pub(super) rest: Vec<f64>,
-    /// Position error of the reference at `dt` against the one at `dt / 2`.
+    /// Position error of the reference at `dt` against the one at `dt / 2` (or against the
+    /// independent solution): its error bar.
     pub difference: f64,
     pub energy_difference: f64,
     /// Wall time of both reference runs (s).
@@ -169,6 +189,19 @@ impl Reference {
     /// The sample times (s): `horizon k / samples`, k = 1..samples.
     pub fn times(&self) -> &[f64] {
         &self.times
+    }
+
+    /// What `difference` was measured against, for reports.
+    pub fn checked_against(&self) -> String {
+        match (self.independent, self.same_dt) {
+            (Some(i), _) => format!(
+                "an independent solution ({} at dt = {} s)",
+                i.method.name(),
+                short(i.dt)
+            ),
+            (None, true) => "a second solve at a 100× tighter Newton tolerance".into(),
+            (None, false) => "the solution at twice its step".into(),
+        }
     }
 
     /// Errors below this factor times `difference` are not scored.
@@ -388,7 +421,8 @@ pub(super) fn stride(settings: &ScoringSettings, dt: f64) -> usize {
 
 /// Compute the reference for the physics of `template` (any run of it): `method` at `dt` and
 /// at `dt / 2`, or with `same_dt` twice at `dt`, the second at a 100× tighter Newton
-/// tolerance (and always with the Cholesky solver, so the linear solves are exact).
+/// tolerance (and always with the Cholesky solver, so the linear solves are exact), or
+/// `method` at `dt` and the settings' independent solution.
 pub fn reference(
     template: &RunSpec,
     settings: &ScoringSettings,
@@ -397,49 +431,56 @@ pub fn reference(
     parallelism: Parallelism,
 ) -> Result<Reference, String> {
     let same_dt = settings.reference.same_dt;
-    let solve = |dt: f64, tolerance: f64| -> Result<(Snapshots, f64, Vec<f64>), String> {
-        let mut spec = template.clone();
-        let integrator = &mut spec.loaded.config.integrator;
-        integrator.method = method;
-        integrator.newton.tolerance = tolerance;
-        integrator.newton.max_iterations = integrator.newton.max_iterations.max(50);
-        if same_dt {
-            integrator.newton.require_convergence = true;
-            integrator.linear_solver = crate::solve::LinearSolverKind::cholesky();
-        }
-        let mut scene = build(&spec, parallelism).map_err(|e| e.to_string())?;
-        let stride = stride(settings, dt);
-        let run = RunConfig {
-            dt,
-            steps: stride * settings.samples,
-            sample_every: stride,
-            energy_limit: 0.0,
-            budget: None,
-        };
-        let (summary, _, snapshots, _) = sampled_run(&mut scene, &run, stride, None);
-        if !summary.outcome.is_completed() {
-            let (status, message) = outcome_of(&summary.outcome);
-            return Err(format!(
-                "the reference ({} at dt = {dt:e} s) {status}: {message}; choose another \
+    let solve =
+        |method: Method, dt: f64, tolerance: f64| -> Result<(Snapshots, f64, Vec<f64>), String> {
+            let mut spec = template.clone();
+            let integrator = &mut spec.loaded.config.integrator;
+            integrator.method = method;
+            integrator.newton.tolerance = tolerance;
+            integrator.newton.max_iterations = integrator.newton.max_iterations.max(50);
+            if same_dt {
+                integrator.newton.require_convergence = true;
+                integrator.linear_solver = crate::solve::LinearSolverKind::cholesky();
+            }
+            let mut scene = build(&spec, parallelism).map_err(|e| e.to_string())?;
+            let stride = stride(settings, dt);
+            let run = RunConfig {
+                dt,
+                steps: stride * settings.samples,
+                sample_every: stride,
+                energy_limit: 0.0,
+                budget: None,
+            };
+            let (summary, _, snapshots, _) = sampled_run(&mut scene, &run, stride, None);
+            if !summary.outcome.is_completed() {
+                let (status, message) = outcome_of(&summary.outcome);
+                return Err(format!(
+                    "the reference ({} at dt = {dt:e} s) {status}: {message}; choose another \
                  reference method or dt (the study's `[<kind>.reference]` table)",
-                method.name()
-            ));
-        }
-        Ok((
-            snapshots,
-            summary.totals.times.total,
-            scene.initial.q.clone(),
-        ))
-    };
+                    method.name()
+                ));
+            }
+            Ok((
+                snapshots,
+                summary.totals.times.total,
+                scene.initial.q.clone(),
+            ))
+        };
     let tolerance = settings.reference.newton_tolerance;
-    let (coarse, t1, rest) = solve(dt, tolerance)?;
-    let (fine, t2, _) = if same_dt {
-        solve(dt, tolerance / 100.0)?
-    } else {
-        solve(dt / 2.0, tolerance)?
+    let independent = settings.reference.independent.filter(|_| !same_dt);
+    let (coarse, t1, rest) = solve(method, dt, tolerance)?;
+    let (fine, t2, _) = match independent {
+        Some(other) => solve(other.method, other.dt, tolerance)?,
+        None if same_dt => solve(method, dt, tolerance / 100.0)?,
+        None => solve(method, dt / 2.0, tolerance)?,
     };
-    let (difference, energy_difference) =
-        errors(&coarse, &fine, &rest).ok_or("the reference reached no sample time")?;
+    // Relative to the reference's own motion: the independent solution is scored against the
+    // reference as a run is; without one, the coarser solve against the finer.
+    let (difference, energy_difference) = match independent {
+        Some(_) => errors(&fine, &coarse, &rest),
+        None => errors(&coarse, &fine, &rest),
+    }
+    .ok_or("the reference reached no sample time")?;
     let times: Vec<f64> = (1..=settings.samples)
         .map(|k| settings.horizon * k as f64 / settings.samples as f64)
         .collect();
@@ -448,14 +489,26 @@ pub fn reference(
         .iter()
         .map(|&phase| {
             let keep = |k: usize| times.get(k).is_some_and(|&t| in_phase(t, phase));
-            relative_l2(&coarse.q, &fine.q, &rest, &keep).unwrap_or(f64::NAN)
+            match independent {
+                Some(_) => relative_l2(&fine.q, &coarse.q, &rest, &keep),
+                None => relative_l2(&coarse.q, &fine.q, &rest, &keep),
+            }
+            .unwrap_or(f64::NAN)
         })
         .collect();
+    // With an independent solution the reference is the declared one, and the other is only
+    // its check; else the finer (or tighter) of the two.
+    let (reference, reference_dt) = match independent {
+        Some(_) => (coarse, dt),
+        None if same_dt => (fine, dt),
+        None => (fine, dt / 2.0),
+    };
     Ok(Reference {
         method,
-        dt: if same_dt { dt } else { dt / 2.0 },
+        dt: reference_dt,
         same_dt,
-        snapshots: fine,
+        independent,
+        snapshots: reference,
         rest,
         difference,
         energy_difference,
@@ -500,6 +553,9 @@ pub(super) struct StoredReference {
     phases: Vec<[u64; 2]>,
     #[serde(default)]
     phase_differences: Vec<u64>,
+    /// The independent solution's method and step (bits), if any.
+    #[serde(default)]
+    independent: Option<(String, u64)>,
 }
 
 impl Reference {
@@ -525,6 +581,9 @@ impl Reference {
             same_dt: self.same_dt,
             phases: self.phases.iter().map(|p| p.map(bits)).collect(),
             phase_differences: all(&self.phase_differences),
+            independent: self
+                .independent
+                .map(|i| (i.method.name().to_owned(), bits(i.dt))),
         }
     }
 
@@ -560,6 +619,13 @@ impl Reference {
             same_dt: s.same_dt,
             phases: s.phases.iter().map(|p| p.map(from_bits)).collect(),
             phase_differences: all(&s.phase_differences),
+            independent: match &s.independent {
+                Some((method, dt)) => Some(IndependentSolution {
+                    method: Method::from_name(method).map_err(|e| e.to_string())?,
+                    dt: from_bits(*dt),
+                }),
+                None => None,
+            },
         })
     }
 }

@@ -123,10 +123,11 @@ fn render(
             }
             let _ = writeln!(
                 out,
-                "- {scene}: {} at dt = {} s; it differs from the solution at twice its step by \
-                 {:.3e} (position) and {:.3e} (energy); errors below {} x that are not scored.",
+                "- {scene}: {} at dt = {} s; it differs from {} by {:.3e} (position) and \
+                 {:.3e} (energy); errors below {} x that are not scored.",
                 r.method.name(),
                 short(r.dt),
+                r.checked_against(),
                 r.difference,
                 r.energy_difference,
                 r.floor_factor()

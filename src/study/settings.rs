@@ -66,6 +66,22 @@ pub(super) fn check_reference(
             "with same_dt = true the reference runs at each run's own dt; remove `dt`".into(),
         ));
     }
+    if let Some(i) = &r.independent {
+        if !(i.dt.is_finite() && i.dt > 0.0) {
+            return Err(bad(
+                &format!("{table}.reference.independent.dt"),
+                format!("must be > 0 s (got {})", i.dt),
+            ));
+        }
+        if r.same_dt {
+            return Err(bad(
+                &format!("{table}.reference.independent"),
+                "with same_dt = true the reference is checked against a tighter solve at the \
+                 runs' own dt; remove `independent`"
+                    .into(),
+            ));
+        }
+    }
     if !(r.newton_tolerance.is_finite() && r.newton_tolerance > 0.0) {
         return Err(bad(
             &format!("{table}.reference.newton_tolerance"),

@@ -11,7 +11,7 @@
 use super::error::RunError;
 use super::kind::RunInputs;
 use super::progress::Progress;
-use super::reference::{self, Reference, ScoringSettings, StoredReference, reference_key};
+use super::reference::{self, Reference, StoredReference, reference_key};
 use super::shared_store::{SharedStore, bits, from_bits};
 use super::spec::{RunSpec, Study};
 use crate::integrate::Method;
@@ -44,8 +44,8 @@ pub(super) struct SharedWork {
     /// References that failed (kinds whose reference is optional go on without them): scene
     /// and message.
     pub failed_references: BTreeMap<u64, (String, String)>,
-    /// The reference settings the keys were made with.
-    settings: Option<ScoringSettings>,
+    /// Each run's reference key, for the runs that have a reference.
+    keys: HashMap<String, u64>,
 }
 
 impl SharedWork {
@@ -113,20 +113,28 @@ impl SharedWork {
         }
         let mut references = BTreeMap::new();
         let mut failed_references = BTreeMap::new();
-        let settings = kind.reference_settings(&study.file);
-        if let Some(w) = settings.as_ref() {
+        // Each run's reference settings (a kind may give every scene its own) and key.
+        let settings_of = |s: &RunSpec| kind.reference_settings(&study.file, s);
+        let keys: HashMap<String, u64> = study
+            .runs
+            .iter()
+            .filter_map(|s| Some((s.id.clone(), reference_key(&settings_of(s)?, s))))
+            .collect();
+        let key = |s: &RunSpec| keys.get(&s.id).copied();
+        {
             // One reference per physics (and dt, with `same_dt`): the first run of the study
             // with each key the runs need, `jobs` of them at a time (each is independent).
-            let key = |s: &RunSpec| reference_key(w, s);
             let mut templates: Vec<&RunSpec> = Vec::new();
             for spec in &study.runs {
-                if runs.iter().any(|r| key(r) == key(spec))
+                if key(spec).is_some()
+                    && runs.iter().any(|r| key(r) == key(spec))
                     && !templates.iter().any(|t| key(t) == key(spec))
                 {
                     templates.push(spec);
                 }
             }
             let compute = |spec: &RunSpec| -> Result<Option<Solved>, RunError> {
+                let w = &settings_of(spec).expect("a run with a reference key has settings");
                 let dt = kind.reference_dt(study, w, spec);
                 let method = w.reference.method.unwrap_or_else(|| {
                     // Same dt: the converged backward Euler step. Otherwise RK4 where it is
@@ -144,6 +152,14 @@ impl SharedWork {
                         "reference for {}: {} at dt = {dt:e} s, converged twice",
                         spec.scene,
                         method.name()
+                    )
+                } else if let Some(i) = w.reference.independent {
+                    format!(
+                        "reference for {}: {} at dt = {dt:e} s and {} at dt = {:e} s",
+                        spec.scene,
+                        method.name(),
+                        i.method.name(),
+                        i.dt
                     )
                 } else {
                     format!(
@@ -214,7 +230,10 @@ impl SharedWork {
                             "reference for {} failed, so error_at_stable_dt is left empty: {m}",
                             spec.scene
                         ));
-                        failed_references.insert(key(spec), (reference_label(spec, None), m));
+                        failed_references.insert(
+                            key(spec).expect("a template has a key"),
+                            (reference_label(spec, None), m),
+                        );
                         continue;
                     }
                     Err(m) => return Err(RunError::Run(format!("scene {}: {m}", spec.scene))),
@@ -224,37 +243,30 @@ impl SharedWork {
                     Source::Stored(_) => ", computed here for every shard",
                     _ => "",
                 };
-                let against = if reference.same_dt {
-                    "one at a 100x tighter Newton tolerance"
-                } else {
-                    "the one at twice its step"
-                };
                 progress.line(&format!(
-                    "reference for {}: {} at dt = {:e} s, {:.3e} from {against} ({:.1} s{origin})",
+                    "reference for {}: {} at dt = {:e} s, {:.3e} from {} ({:.1} s{origin})",
                     spec.scene,
                     method.name(),
                     reference.dt,
                     reference.difference,
+                    reference.checked_against(),
                     reference.wall_seconds
                 ));
                 let label = reference_label(spec, reference.same_dt.then_some(reference.dt));
-                references.insert(key(spec), (label, reference));
+                references.insert(key(spec).expect("a template has a key"), (label, reference));
             }
         }
         Ok(Self {
             omega,
             references,
             failed_references,
-            settings,
+            keys,
         })
     }
 
     /// What one run gets.
     pub(super) fn of(&self, spec: &RunSpec) -> RunInputs<'_> {
-        let key = self
-            .settings
-            .as_ref()
-            .map_or(spec.physics, |w| reference_key(w, spec));
+        let key = self.keys.get(&spec.id).copied().unwrap_or(spec.physics);
         RunInputs {
             omega: self.omega.get(&spec.physics).copied().flatten(),
             reference: self.references.get(&key).map(|(_, r)| r),

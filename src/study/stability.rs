@@ -315,7 +315,7 @@ impl Kind for Stability {
         true
     }
 
-    fn reference_settings(&self, file: &StudyFile) -> Option<ScoringSettings> {
+    fn reference_settings(&self, file: &StudyFile, _: &RunSpec) -> Option<ScoringSettings> {
         reference_settings(file)
     }
 

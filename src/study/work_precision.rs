@@ -251,7 +251,7 @@ impl Kind for WorkPrecision {
         settings(file).is_some_and(|w| w.reference.method.is_none() && !w.reference.same_dt)
     }
 
-    fn reference_settings(&self, file: &StudyFile) -> Option<ScoringSettings> {
+    fn reference_settings(&self, file: &StudyFile, _: &RunSpec) -> Option<ScoringSettings> {
         settings(file)
     }
 
