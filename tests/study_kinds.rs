@@ -39,7 +39,8 @@ fn every_registered_study_kind_runs_from_its_example() {
     );
     for kind in registered {
         let tmp = TempDir::new("study-kind");
-        tmp.write("beam.toml", BEAM);
+        // A kind whose scenes need a table of their own (a suite's problems) gets it.
+        tmp.write("beam.toml", &format!("{BEAM}\n{}", kind.scene_example));
         let text = format!(
             "name = \"kind\"\nstudy = \"{}\"\nscenes = [\"beam.toml\"]\n\n{}",
             kind.name, kind.example

@@ -450,6 +450,8 @@ impl Integrator for ProjectiveDynamics {
         }
         report.substeps = 1;
         report.local_iterations = self.settings.iterations;
+        // Each local step projects every element onto its constraint set.
+        model.count_local_passes(u64::from(self.settings.iterations), 0);
         if let Some(acc) = &self.accelerator {
             acc.report(report);
         }

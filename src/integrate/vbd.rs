@@ -499,6 +499,9 @@ impl Integrator for Vbd {
         }
         report.substeps = 1;
         report.local_iterations = self.settings.iterations;
+        // Each sweep computes every vertex's force and 3x3 Hessian block from its elements.
+        let sweeps = u64::from(self.settings.iterations);
+        model.count_local_passes(sweeps, sweeps);
         if let Some(acc) = &self.accelerator {
             acc.report(report);
         }

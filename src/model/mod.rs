@@ -330,6 +330,15 @@ impl Model {
         self.counters
     }
 
+    /// Count a local solver's passes over every element as evaluations: a pass that computes
+    /// each element's forces (its constraint or projection, its part of each vertex's force)
+    /// is a gradient evaluation, one that also computes its Hessian blocks a Hessian
+    /// evaluation, so costs in evaluations compare local solvers with Newton-type methods.
+    pub fn count_local_passes(&mut self, gradient: u64, hessian: u64) {
+        self.counters.gradient += gradient;
+        self.counters.hessian += hessian;
+    }
+
     /// Reset the evaluation counters (and the force-evaluation time).
     pub fn reset_counters(&mut self) {
         self.counters = EvalCounters::default();

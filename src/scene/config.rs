@@ -54,6 +54,10 @@ pub struct SceneConfig {
     /// The initial state (default: at rest).
     #[serde(default)]
     pub initial: InitialConfig,
+    /// What the benchmark suite needs to judge runs of this scene (strata, accuracy,
+    /// reference); `simulate` ignores it. Default: none (the scene is no suite problem).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub problem: Option<super::problem::ProblemConfig>,
 }
 
 /// `[initial]`: a deformed and moving start instead of rest, for studies of free bodies.

@@ -7,6 +7,7 @@
 mod budget;
 mod config;
 mod overrides;
+mod problem;
 mod springs;
 
 pub use budget::{MAX_DENSITY, MAX_GRAVITY, MAX_LENGTH};
@@ -16,6 +17,7 @@ pub use config::{
     RunConfig, SceneConfig, StrainRateConfig, TwistConfig,
 };
 pub use overrides::{OverrideError, apply as apply_override, set_value};
+pub use problem::{DIFFICULTIES, IndependentSolution, ProblemConfig, ProblemReference};
 pub use springs::{DragConfig, JelloConfig, JelloShape, KindTable, SpringsConfig, WaypointConfig};
 
 use crate::contact::Contact;
@@ -223,6 +225,10 @@ fn validate(c: &SceneConfig, path: &Path) -> Result<(), SceneError> {
                 ));
             }
         }
+    }
+    if let Some(p) = &c.problem {
+        p.validate(r.dt, r.steps)
+            .map_err(|e| invalid(&e.key, e.message))?;
     }
     springs::validate(c).map_err(|e| invalid(&e.key, e.message))?;
     budget::check(c).map_err(|e| invalid(e.key, e.message))?;
@@ -451,6 +457,14 @@ impl Scene {
 
 /// The integrator `config` names for `model`, with the model's parallelism and the contact
 /// response of `contact`.
+/// Whether the integrator `config` names can run `scene`'s model (built from a config of the
+/// same physics): `Err` with why not (a local solver with no form for the material, ...).
+pub fn applicable(config: &SceneConfig, scene: &Scene) -> Result<(), String> {
+    new_integrator(config, &scene.model, scene.contact.as_ref())
+        .check_model(&scene.model)
+        .map_err(|e| format!("`{}` cannot run this scene: {e}", config.integrator.method))
+}
+
 fn new_integrator(
     config: &SceneConfig,
     model: &Model,

@@ -66,14 +66,16 @@ pub(super) fn axis(
     })
 }
 
-/// The axes of each method entry: the grid with the entry's own options on top. Without
-/// `[[methods]]`, the grid alone.
+/// The axes of each method entry: the grid with the entry's own options on top, then one
+/// entry per `extra` method (the kind's own) with the grid alone. Without either, the grid
+/// alone.
 pub(super) fn method_entries(
     file: &StudyFile,
     ctx: &Context,
     grid: &[Axis],
+    extra: &[crate::integrate::Method],
 ) -> Result<Vec<Vec<Axis>>, StudyError> {
-    if file.methods.is_empty() {
+    if file.methods.is_empty() && extra.is_empty() {
         return Ok(vec![grid.to_vec()]);
     }
     if let Some(axis) = grid.iter().find(|a| a.key == METHOD_KEY) {
@@ -108,6 +110,16 @@ pub(super) fn method_entries(
             axes.retain(|b| b.key != a.key);
             axes.push(a);
         }
+        entries.push(axes);
+    }
+    // The kind's own methods, each with the grid alone (its default settings).
+    for method in extra {
+        let mut axes: Vec<Axis> = grid.to_vec();
+        axes.push(Axis {
+            key: METHOD_KEY.into(),
+            values: vec![Value::String(method.name().to_owned())],
+            line: 1,
+        });
         entries.push(axes);
     }
     Ok(entries)

@@ -14,6 +14,7 @@ use super::error::StudyError;
 use super::findings::Ranking;
 use super::grid::Axis;
 use super::measured::Measured;
+use super::meta::StudyMeta;
 use super::pictures::PictureRows;
 use super::reference::{Reference, ScoringSettings};
 use super::spec::{RunSpec, Study};
@@ -37,6 +38,12 @@ pub(super) trait Kind: Sync {
     /// settings table and the grid it needs. `tests/study_kinds.rs` runs every registered kind
     /// from it, and the docs show it.
     fn example(&self) -> &'static str;
+
+    /// What the kind's scenes add to a plain scene file (the suite's `[problem]` table);
+    /// empty for kinds that run any scene.
+    fn scene_example(&self) -> &'static str {
+        ""
+    }
 
     /// The measured columns of `runs.csv` (after the identity and parameter columns).
     fn columns(&self) -> &'static [&'static str];
@@ -150,6 +157,41 @@ pub(super) trait Kind: Sync {
         false
     }
 
+    /// Scene files or folders the kind adds to the study's `scenes` (relative to the study
+    /// file), e.g. the suite's private problem folders.
+    fn extra_scenes(&self, _: &StudyFile) -> Vec<String> {
+        Vec::new()
+    }
+
+    /// Whether a scene the study names takes part (`quick`: in quick mode).
+    fn keeps_scene(&self, _: &StudyFile, _scene: &str, _quick: bool) -> bool {
+        true
+    }
+
+    /// Methods the kind runs besides the study's `[[methods]]` entries, each with its default
+    /// settings (the suite's `methods = "all"`: every registered method).
+    fn extra_methods(&self, _: &StudyFile) -> Vec<crate::integrate::Method> {
+        Vec::new()
+    }
+
+    /// What the kind's settings leave out of the study on purpose (the suite's `omit`), for
+    /// the omissions list.
+    fn declared_omissions(&self, _: &StudyFile) -> Vec<super::spec::Omission> {
+        Vec::new()
+    }
+
+    /// The cut-off levels of the kind's runs, loosest first (a suite's; empty for others).
+    fn levels(&self, _: &StudyFile) -> Vec<String> {
+        Vec::new()
+    }
+
+    /// Whether a run that cannot run its scene (the method refuses the model, or an optional
+    /// scene's data is missing) is left out of the study with the reason (see
+    /// [`Study::omitted`]) instead of failing the load.
+    fn leaves_out_what_cannot_run(&self) -> bool {
+        false
+    }
+
     /// The settings of the reference solution `spec` is scored against, if the study computes
     /// any (a kind whose scenes state their own protocol gives each its own).
     fn reference_settings(&self, _: &StudyFile, _spec: &RunSpec) -> Option<ScoringSettings> {
@@ -239,8 +281,26 @@ pub(super) trait Kind: Sync {
     fn report_settings(&self, _: &mut String, _: &StudyFile) {}
 
     /// What the report adds after the references, before the runs (a work-precision study's
-    /// observed orders).
-    fn report_findings(&self, _: &mut String, _: &Table) {}
+    /// observed orders; a suite's aggregates).
+    fn report_findings(&self, _: &mut String, _: &Table, _: &StudyMeta) {}
+
+    /// Whether the report lists every run in a table (a suite's thousands of runs are in
+    /// `runs.csv` and its aggregates instead).
+    fn report_runs_table(&self) -> bool {
+        true
+    }
+
+    /// The kind's charts and tables of the whole study (before any scene's), e.g. a suite's
+    /// profiles; `dir` is the results folder, where it may write tables of its own.
+    fn study_charts(
+        &self,
+        _dir: &Path,
+        _study: &StudyMeta,
+        _runs: &Table,
+        _emit: &mut Emit,
+    ) -> Result<(), PlotError> {
+        Ok(())
+    }
 
     /// The kind's own charts of one scene (before the time histories and phases); `dir` is
     /// the results folder, for the tables its runs wrote next to their series.

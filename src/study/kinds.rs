@@ -2,14 +2,15 @@
 //! [`Kind`](super::kind::Kind) plus one line here; `tests/study_kinds.rs` runs every kind listed.
 
 use super::kind::Kind;
-use super::{solver, stability, trajectory, work_precision};
+use super::{solver, stability, suite, trajectory, work_precision};
 
 /// Every kind a study can measure.
-pub(super) static KINDS: [&dyn Kind; 4] = [
+pub(super) static KINDS: [&dyn Kind; 5] = [
     &trajectory::Trajectory,
     &work_precision::WorkPrecision,
     &stability::Stability,
     &solver::Solver,
+    &suite::Suite,
 ];
 
 /// The registered kind named `name`, if there is one.

@@ -6,7 +6,7 @@ use super::context::Context;
 use super::error::StudyError;
 use super::grid::{Axis, grid_axes, method_entries, product};
 use super::identity::{physics_hash, run_hash, sanitize, value_text};
-use super::spec::{RunSpec, Study};
+use super::spec::{Omission, RunSpec, Study};
 use crate::data::DataPaths;
 use crate::integrate::Method;
 use crate::parallel::Parallelism;
@@ -65,9 +65,15 @@ pub fn load(path: &Path, quick: bool, data: &DataPaths) -> Result<Study, StudyEr
         }
     }
     let file = file;
-    let scenes = scene_sources(&file, &ctx)?;
+    let scenes: Vec<SceneSource> = scene_sources(&file, &ctx, &measured_by.extra_scenes(&file))?
+        .into_iter()
+        .filter(|s| measured_by.keeps_scene(&file, &s.name, quick))
+        .collect();
+    if scenes.is_empty() {
+        return Err(ctx.invalid(0, "scenes", "no scene is left to run"));
+    }
     let axes = grid_axes(&file, &ctx)?;
-    let mut method_axes = method_entries(&file, &ctx, &axes)?;
+    let mut method_axes = method_entries(&file, &ctx, &axes, &measured_by.extra_methods(&file))?;
     if quick {
         measured_by.quick_axes(&file, &mut method_axes);
     }
@@ -185,7 +191,14 @@ pub fn load(path: &Path, quick: bool, data: &DataPaths) -> Result<Study, StudyEr
             }
         }
     }
-    check_scenes_build(&mut runs, &scenes, &ctx, data)?;
+    let mut omitted = measured_by.declared_omissions(&file);
+    omitted.extend(check_scenes_build(
+        &mut runs,
+        &scenes,
+        &ctx,
+        data,
+        measured_by.leaves_out_what_cannot_run(),
+    )?);
     let study = Study {
         path: path.to_owned(),
         file,
@@ -195,6 +208,7 @@ pub fn load(path: &Path, quick: bool, data: &DataPaths) -> Result<Study, StudyEr
         text: text.clone(),
         parameters,
         runs,
+        omitted,
     };
     check_reference_steps(&study, &ctx)?;
     Ok(study)
@@ -251,58 +265,96 @@ fn check_reference_steps(study: &Study, ctx: &Context) -> Result<(), StudyError>
     Ok(())
 }
 
-/// The scenes the study names, read and parsed (not yet validated: the grid may complete them).
-fn scene_sources(file: &StudyFile, ctx: &Context) -> Result<Vec<SceneSource>, StudyError> {
-    if file.scenes.is_empty() {
+/// The scenes the study names, read and parsed (not yet validated: the grid may complete
+/// them). A path that names a folder stands for every `*.toml` file in it, by file name;
+/// `extra` (the kind's own, relative to the study file) come after the study's.
+fn scene_sources(
+    file: &StudyFile,
+    ctx: &Context,
+    extra: &[String],
+) -> Result<Vec<SceneSource>, StudyError> {
+    if file.scenes.is_empty() && extra.is_empty() {
         return Err(ctx.invalid(0, "scenes", "name at least one scene file"));
     }
     let base = ctx.path.parent().unwrap_or(Path::new("."));
     let mut sources: Vec<SceneSource> = Vec::new();
-    for (i, entry) in file.scenes.iter().enumerate() {
-        let at = entry.span().start;
-        let key = format!("scenes[{i}]");
+    let named = file
+        .scenes
+        .iter()
+        .enumerate()
+        .map(|(i, e)| (format!("scenes[{i}]"), e.span().start, e.get_ref().clone()));
+    let added = extra.iter().enumerate().map(|(i, p)| {
+        (
+            format!("{} scene folder {i}", ctx.path.display()),
+            0,
+            Value::String(p.clone()),
+        )
+    });
+    for (key, at, entry) in named.chain(added) {
+        let line = line_of(ctx.text, at);
         let scene_error = |error| StudyError::Scene {
             path: ctx.path.to_owned(),
-            line: line_of(ctx.text, at),
+            line,
             key: key.clone(),
             error: Box::new(error),
         };
-        let source = match entry.get_ref() {
+        let mut found = Vec::new();
+        match entry {
             Value::String(rel) => {
-                let path = base.join(rel);
-                let text = scene::read_config_text(&path).map_err(|error| {
-                    scene_error(SceneError::Io {
-                        path: path.clone(),
-                        error,
-                    })
-                })?;
-                let table = scene::parse_text(&text, &path).map_err(scene_error)?;
-                let name = table
-                    .get("name")
-                    .and_then(Value::as_str)
-                    .map(str::to_owned)
-                    .unwrap_or_else(|| {
-                        path.file_stem()
-                            .map_or("scene".into(), |s| s.to_string_lossy().into_owned())
+                let path = base.join(&rel);
+                let files = if path.is_dir() {
+                    let files = toml_files(&path).map_err(|error| {
+                        scene_error(SceneError::Io {
+                            path: path.clone(),
+                            error,
+                        })
+                    })?;
+                    if files.is_empty() {
+                        return Err(ctx.invalid(
+                            at,
+                            &key,
+                            format!("the folder {} holds no .toml scene file", path.display()),
+                        ));
+                    }
+                    files
+                } else {
+                    vec![path]
+                };
+                for path in files {
+                    let text = scene::read_config_text(&path).map_err(|error| {
+                        scene_error(SceneError::Io {
+                            path: path.clone(),
+                            error,
+                        })
+                    })?;
+                    let table = scene::parse_text(&text, &path).map_err(scene_error)?;
+                    let name = table
+                        .get("name")
+                        .and_then(Value::as_str)
+                        .map(str::to_owned)
+                        .unwrap_or_else(|| {
+                            path.file_stem()
+                                .map_or("scene".into(), |s| s.to_string_lossy().into_owned())
+                        });
+                    found.push(SceneSource {
+                        name,
+                        path,
+                        text: Some(text),
+                        table,
+                        line,
                     });
-                SceneSource {
-                    name,
-                    path,
-                    text: Some(text),
-                    table,
-                    line: line_of(ctx.text, at),
                 }
             }
-            Value::Table(table) => SceneSource {
+            Value::Table(table) => found.push(SceneSource {
                 name: table
                     .get("name")
                     .and_then(Value::as_str)
-                    .map_or_else(|| format!("scene{i}"), str::to_owned),
+                    .map_or_else(|| format!("scene{}", sources.len()), str::to_owned),
                 path: ctx.path.to_owned(),
                 text: None,
                 table: table.clone(),
-                line: line_of(ctx.text, at),
-            },
+                line,
+            }),
             other => {
                 return Err(ctx.invalid(
                     at,
@@ -313,20 +365,36 @@ fn scene_sources(file: &StudyFile, ctx: &Context) -> Result<Vec<SceneSource>, St
                     ),
                 ));
             }
-        };
-        if sources.iter().any(|s| s.name == source.name) {
-            return Err(ctx.invalid(
-                at,
-                &key,
-                format!(
-                    "two scenes are named `{}`; give one a different `name`",
-                    source.name
-                ),
-            ));
         }
-        sources.push(source);
+        for source in found {
+            if let Some(first) = sources.iter().find(|s| s.name == source.name) {
+                return Err(ctx.invalid(
+                    at,
+                    &key,
+                    format!(
+                        "two scenes are named `{}` ({} and {}); give one a different `name`",
+                        source.name,
+                        first.path.display(),
+                        source.path.display()
+                    ),
+                ));
+            }
+            sources.push(source);
+        }
     }
     Ok(sources)
+}
+
+/// The `*.toml` files of a folder, sorted by file name.
+fn toml_files(folder: &Path) -> std::io::Result<Vec<PathBuf>> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(folder)?
+        .map(|e| e.map(|e| e.path()))
+        .collect::<std::io::Result<Vec<_>>>()?
+        .into_iter()
+        .filter(|p| p.is_file() && p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    files.sort();
+    Ok(files)
 }
 
 type ResolvedRun = (Method, Option<LinearSolverKind>, LoadedScene);
@@ -425,31 +493,88 @@ fn configure(
 /// Build each distinct scene once, so a missing mesh file or a bad mesh is reported before
 /// anything runs; record each run's free degrees of freedom. A run's pictures show the
 /// scene's `[display]` mesh, which each run reads and skins itself: here it is only found.
+///
+/// With `leave_out` (see `Kind::leaves_out_what_cannot_run`), each scene is built with the
+/// default method and every run's method is asked whether it can run the model: a run whose
+/// method refuses it, and every run of an optional problem whose data files are missing, are
+/// removed from `runs` and returned with the reason, instead of failing the load.
 fn check_scenes_build(
-    runs: &mut [RunSpec],
+    runs: &mut Vec<RunSpec>,
     scenes: &[SceneSource],
     ctx: &Context,
     data: &DataPaths,
-) -> Result<(), StudyError> {
+    leave_out: bool,
+) -> Result<Vec<Omission>, StudyError> {
     let mut built: HashMap<u64, usize> = HashMap::new();
-    for run in runs.iter_mut() {
+    let mut omitted: Vec<Omission> = Vec::new();
+    // The scene last built with the default method, for the applicability checks.
+    let mut current: Option<(u64, scene::Scene)> = None;
+    let mut kept = Vec::with_capacity(runs.len());
+    for mut run in std::mem::take(runs) {
         stop_if_requested()?;
-        if let Some(&dofs) = built.get(&run.physics) {
-            run.dofs = dofs;
+        if omitted
+            .iter()
+            .any(|o| o.scene == run.scene && o.method.is_none())
+        {
             continue;
         }
-        match scene::build(&run.loaded, data, Parallelism::Sequential) {
-            Ok(scene) => {
-                run.dofs = scene.model.num_dofs();
-                built.insert(run.physics, run.dofs);
+        let fail = |run: &RunSpec, error: SceneError| StudyError::Scene {
+            path: ctx.path.to_owned(),
+            line: scene_line(scenes, run),
+            key: format!("scene `{}` (run {})", run.scene, run.id),
+            error: Box::new(error),
+        };
+        if leave_out {
+            if current.as_ref().is_none_or(|(p, _)| *p != run.physics) {
+                let mut loaded = run.loaded.clone();
+                loaded.config.integrator = Default::default();
+                match scene::build(&loaded, data, Parallelism::Sequential) {
+                    Ok(scene) => current = Some((run.physics, scene)),
+                    Err(error @ (SceneError::Data { .. } | SceneError::InitialData { .. }))
+                        if run
+                            .loaded
+                            .config
+                            .problem
+                            .as_ref()
+                            .is_some_and(|p| p.optional.is_some()) =>
+                    {
+                        let why = run
+                            .loaded
+                            .config
+                            .problem
+                            .as_ref()
+                            .and_then(|p| p.optional.clone());
+                        omitted.push(Omission {
+                            scene: run.scene.clone(),
+                            method: None,
+                            reason: format!("{}: {error}", why.unwrap_or_default()),
+                        });
+                        current = None;
+                        continue;
+                    }
+                    Err(error) => return Err(fail(&run, error)),
+                }
             }
-            Err(error) => {
-                return Err(StudyError::Scene {
-                    path: ctx.path.to_owned(),
-                    line: scene_line(scenes, run),
-                    key: format!("scene `{}` (run {})", run.scene, run.id),
-                    error: Box::new(error),
+            let (_, scene) = current.as_ref().expect("built above");
+            if let Err(reason) = scene::applicable(&run.loaded.config, scene) {
+                omitted.push(Omission {
+                    scene: run.scene.clone(),
+                    method: Some(run.method.name().to_owned()),
+                    reason,
                 });
+                continue;
+            }
+            run.dofs = scene.model.num_dofs();
+            built.insert(run.physics, run.dofs);
+        } else if let Some(&dofs) = built.get(&run.physics) {
+            run.dofs = dofs;
+        } else {
+            match scene::build(&run.loaded, data, Parallelism::Sequential) {
+                Ok(scene) => {
+                    run.dofs = scene.model.num_dofs();
+                    built.insert(run.physics, run.dofs);
+                }
+                Err(error) => return Err(fail(&run, error)),
             }
         }
         if let Some(display) = &run.loaded.config.display
@@ -457,13 +582,15 @@ fn check_scenes_build(
         {
             return Err(StudyError::Invalid {
                 path: ctx.path.to_owned(),
-                line: scene_line(scenes, run),
+                line: scene_line(scenes, &run),
                 key: format!("scene `{}` (run {}): display.file", run.scene, run.id),
                 message: error.to_string(),
             });
         }
+        kept.push(run);
     }
-    Ok(())
+    *runs = kept;
+    Ok(omitted)
 }
 
 /// Every top-level key of the study file is one of [`STUDY_KEYS`] or a registered kind's

@@ -42,6 +42,12 @@ pub struct StudyMeta {
     pub sweep_parameter: Option<String>,
     pub sweep_metrics: Vec<String>,
     pub parameters: Vec<String>,
+    /// A suite's cut-off levels, loosest first (empty for other kinds).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub levels: Vec<String>,
+    /// What the study left out, with why (see `Study::omitted`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub omitted: Vec<super::spec::Omission>,
 }
 
 impl Meta {
@@ -83,6 +89,8 @@ impl Meta {
                     .into_iter()
                     .map(|(_, c)| c)
                     .collect(),
+                levels: super::kinds::of(study.kind).levels(&study.file),
+                omitted: study.omitted.clone(),
             },
             machine: machine.clone(),
             started: started.to_owned(),

@@ -39,6 +39,8 @@ mod shared_store;
 pub mod solver;
 mod spec;
 pub mod stability;
+pub mod suite;
+mod suite_aggregates;
 pub mod table;
 pub mod trajectory;
 pub mod work_precision;
@@ -69,6 +71,8 @@ pub struct KindInfo {
     pub columns: &'static [&'static str],
     /// The tables a minimal study of this kind adds (its settings table and grid).
     pub example: &'static str,
+    /// What its scenes add to a plain scene file (empty for kinds that run any scene).
+    pub scene_example: &'static str,
 }
 
 /// Every registered study kind, in registry order. (A `sweep` study runs one of these over a
@@ -81,6 +85,7 @@ pub fn kinds() -> Vec<KindInfo> {
             description: k.description(),
             columns: k.columns(),
             example: k.example(),
+            scene_example: k.scene_example(),
         })
         .collect()
 }

@@ -52,6 +52,7 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
         remove_stale(dir, &plots);
         return Ok(plots);
     }
+    kind.study_charts(dir, study, runs, &mut emit)?;
     for scene in &scenes {
         let rows: Vec<&Vec<String>> = runs
             .rows

@@ -17,6 +17,7 @@ use crate::integrate::{Method, State};
 use crate::model::Model;
 use crate::parallel::Parallelism;
 use crate::run::{Energies, Observer, RunSummary, Sample};
+pub use crate::scene::IndependentSolution;
 use crate::scene::{RunConfig, Scene};
 
 /// Where runs are scored against a reference and how it is computed: a work-precision study's
@@ -121,16 +122,11 @@ pub struct ReferenceSettings {
     /// from itself at half its step. Default none.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub independent: Option<IndependentSolution>,
-}
-
-/// `reference.independent`: the method and step of the second solution a reference is checked
-/// against.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct IndependentSolution {
-    pub method: Method,
-    /// Its step (s); must divide the sample interval.
-    pub dt: f64,
+    /// The reference runs with softbench's default integrator settings (its method and
+    /// Newton tolerance as set here), not with those of the study's first run of the physics,
+    /// whose options (chosen for that run's method) would otherwise carry over. Default false.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub default_integrator: bool,
 }
 
 impl Default for ReferenceSettings {
@@ -143,6 +139,7 @@ impl Default for ReferenceSettings {
             newton_tolerance: 1e-10,
             floor_factor: 2.0,
             independent: None,
+            default_integrator: false,
         }
     }
 }
@@ -434,6 +431,9 @@ pub fn reference(
     let solve =
         |method: Method, dt: f64, tolerance: f64| -> Result<(Snapshots, f64, Vec<f64>), String> {
             let mut spec = template.clone();
+            if settings.reference.default_integrator {
+                spec.loaded.config.integrator = Default::default();
+            }
             let integrator = &mut spec.loaded.config.integrator;
             integrator.method = method;
             integrator.newton.tolerance = tolerance;

@@ -135,38 +135,46 @@ fn render(
         }
         let _ = writeln!(out);
     }
-    super::kinds::of(&s.kind).report_findings(&mut out, runs);
+    super::kinds::of(&s.kind).report_findings(&mut out, runs, s);
 
-    let _ = writeln!(out, "## Runs\n");
-    let mut columns: Vec<&str> = vec!["scene", "method", "linear_solver"];
-    columns.extend(s.parameters.iter().map(String::as_str));
-    columns.extend(
-        super::kinds::of(&s.kind)
-            .summary_columns()
-            .iter()
-            .copied()
-            .filter(|c| runs.column(c).is_some()),
-    );
-    let _ = writeln!(out, "| {} |", columns.join(" | "));
-    let _ = writeln!(out, "|{}", "---|".repeat(columns.len()));
-    for row in &runs.rows {
-        let cells: Vec<String> = columns
-            .iter()
-            .map(|c| {
-                let v = runs.get(row, c).unwrap_or_default();
-                match v.parse::<f64>() {
-                    Ok(x) if v.contains('e') || v.contains('.') => short(x),
-                    _ => v.replace('|', "\\|"),
-                }
-            })
-            .collect();
-        let _ = writeln!(out, "| {} |", cells.join(" | "));
+    if super::kinds::of(&s.kind).report_runs_table() {
+        let _ = writeln!(out, "## Runs\n");
+        let mut columns: Vec<&str> = vec!["scene", "method", "linear_solver"];
+        columns.extend(s.parameters.iter().map(String::as_str));
+        columns.extend(
+            super::kinds::of(&s.kind)
+                .summary_columns()
+                .iter()
+                .copied()
+                .filter(|c| runs.column(c).is_some()),
+        );
+        let _ = writeln!(out, "| {} |", columns.join(" | "));
+        let _ = writeln!(out, "|{}", "---|".repeat(columns.len()));
+        for row in &runs.rows {
+            let cells: Vec<String> = columns
+                .iter()
+                .map(|c| {
+                    let v = runs.get(row, c).unwrap_or_default();
+                    match v.parse::<f64>() {
+                        Ok(x) if v.contains('e') || v.contains('.') => short(x),
+                        _ => v.replace('|', "\\|"),
+                    }
+                })
+                .collect();
+            let _ = writeln!(out, "| {} |", cells.join(" | "));
+        }
+        let _ = writeln!(
+            out,
+            "\n{}\n",
+            units_note(super::kinds::of(&s.kind), runs, &columns)
+        );
+    } else {
+        let _ = writeln!(
+            out,
+            "## Runs\n\nThe {} runs are in `runs.csv`, one row each.\n",
+            runs.rows.len()
+        );
     }
-    let _ = writeln!(
-        out,
-        "\n{}\n",
-        units_note(super::kinds::of(&s.kind), runs, &columns)
-    );
 
     let _ = writeln!(out, "## Plots\n");
     for p in plots {

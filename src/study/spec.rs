@@ -27,6 +27,18 @@ pub struct Study {
     pub parameters: Vec<String>,
     /// The runs, in grid order.
     pub runs: Vec<RunSpec>,
+    /// What the grid named that is not run, with why (only kinds that leave such runs out
+    /// instead of refusing the study: see `Kind::leaves_out_what_cannot_run`).
+    pub omitted: Vec<Omission>,
+}
+
+/// A run, or a whole scene, that the study leaves out.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Omission {
+    pub scene: String,
+    /// `None`: every run of the scene.
+    pub method: Option<String>,
+    pub reason: String,
 }
 
 /// One run of the grid.

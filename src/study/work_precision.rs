@@ -280,7 +280,7 @@ impl Kind for WorkPrecision {
         report_settings(out, file);
     }
 
-    fn report_findings(&self, out: &mut String, runs: &Table) {
+    fn report_findings(&self, out: &mut String, runs: &Table, _: &super::meta::StudyMeta) {
         orders(out, runs);
     }
 
@@ -544,7 +544,6 @@ fn check_step_fits(
     Ok(())
 }
 
-/// The state at each sample time.
 /// Run one work-precision run and score it against `reference`.
 pub fn measure(
     spec: &RunSpec,
@@ -552,9 +551,26 @@ pub fn measure(
     reference: &Reference,
     parallelism: Parallelism,
 ) -> Result<Measured, String> {
+    measure_with(spec, settings, reference, parallelism, true)
+}
+
+/// [`measure`], recording the snapshots the pictures are drawn from only with `pictures`;
+/// the `tets` cell says how many elastic tets the body has.
+pub(super) fn measure_with(
+    spec: &RunSpec,
+    settings: &ScoringSettings,
+    reference: &Reference,
+    parallelism: Parallelism,
+    pictures: bool,
+) -> Result<Measured, String> {
     let mut scene = build(spec, parallelism).map_err(|e| e.to_string())?;
     let run = scene.config.run;
-    let surface = picture_surface(&scene, spec)?;
+    let tets = scene.model.elastic_elements().map_or(0, |e| e.tets.len());
+    let surface = if pictures {
+        picture_surface(&scene, spec)?
+    } else {
+        None
+    };
     let (summary, rows, snapshots, pictures) =
         sampled_run(&mut scene, &run, stride(settings, run.dt), surface);
     let (outcome, message) = outcome_of(&summary.outcome);
@@ -567,6 +583,7 @@ pub fn measure(
         ..Measured::default()
     };
     m.cells.extend(cap_cells(spec));
+    m.set("tets", tets.to_string());
     repeat(spec, settings, parallelism, &summary, &snapshots, &mut m)?;
     m.set("dt", cell(Some(run.dt)));
     m.set("reference_method", reference.method.name().to_owned());
