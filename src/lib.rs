@@ -22,6 +22,7 @@ pub mod fem;
 pub mod integrate;
 pub mod interrupt;
 pub mod io;
+pub mod ledger;
 pub mod limits;
 pub mod lock;
 pub mod material;

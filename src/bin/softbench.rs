@@ -78,6 +78,11 @@ enum Command {
     /// in wall time and in force + Hessian evaluations; writes profiles.csv, costs.csv,
     /// profiles.md and four charts into <DIR>/profiles/ (or --out).
     Profiles(ProfilesArgs),
+    /// Evaluate the claims ledger: every claim file in CLAIMS against the committed results
+    /// under --results, each verdict computed by its rule, and write the ledger page (default
+    /// <RESULTS>/suite/ledger.md). With --check, write nothing and exit 1 if the page on disk
+    /// differs from the computed one.
+    Ledger(LedgerArgs),
     /// Draw pictures of the bodies from stored snapshots: for a `simulate --render` folder its
     /// filmstrip.png and animation.gif; for a study folder one panel PNG and one GIF per scene.
     Render(RenderArgs),
@@ -181,6 +186,22 @@ struct ProfilesArgs {
 }
 
 #[derive(Args)]
+struct LedgerArgs {
+    /// The folder of claim files (one TOML file per claim).
+    #[arg(default_value = "claims")]
+    claims: PathBuf,
+    /// The results folder the claims' studies are in (`<RESULTS>/<study>/`).
+    #[arg(long, default_value = "results")]
+    results: PathBuf,
+    /// Where to write the page (default <RESULTS>/suite/ledger.md).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Compare with the page on disk instead of writing it: exit 1 if it differs.
+    #[arg(long)]
+    check: bool,
+}
+
+#[derive(Args)]
 struct RenderArgs {
     /// A `simulate --render` output folder (with run.snapshots) or a study's results folder.
     dir: PathBuf,
@@ -254,6 +275,7 @@ fn main() -> ExitCode {
         Command::Slurm(args) => slurm(&args),
         Command::Plot(args) => plot(&args),
         Command::Profiles(args) => profiles(&args),
+        Command::Ledger(args) => ledger(&args),
         Command::Render(args) => render_folder(&args),
         Command::List => list(),
     };
@@ -306,6 +328,7 @@ fn is_bad_input(err: &anyhow::Error) -> bool {
             || e.is::<BadInput>()
             || e.is::<StudyError>()
             || e.is::<study::profiles::ProfilesError>()
+            || e.is::<softbench::ledger::LedgerError>()
             || e.is::<softbench::slurm::SlurmError>()
                 && !e
                     .downcast_ref::<softbench::slurm::SlurmError>()
@@ -953,6 +976,59 @@ fn profiles(args: &ProfilesArgs) -> anyhow::Result<ExitCode> {
         targets.len(),
         written.solvers,
         out.join("profiles.md").display()
+    ));
+    Ok(ExitCode::SUCCESS)
+}
+
+fn ledger(args: &LedgerArgs) -> anyhow::Result<ExitCode> {
+    use softbench::ledger;
+    let claims = ledger::read_claims(&args.claims)?;
+    let judged = ledger::judge(&claims, &args.results);
+    let page = ledger::page::render(&judged, &args.results.display().to_string());
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| args.results.join("suite").join("ledger.md"));
+    let counts: Vec<String> = [
+        ledger::rule::Class::Validated,
+        ledger::rule::Class::Qualified,
+        ledger::rule::Class::Refuted,
+        ledger::rule::Class::Unmeasured,
+    ]
+    .iter()
+    .map(|c| {
+        let n = judged.iter().filter(|j| j.verdict.class == *c).count();
+        format!("{n} {}", c.name())
+    })
+    .collect();
+    if args.check {
+        let on_disk = std::fs::read_to_string(&out).unwrap_or_default();
+        if on_disk != page {
+            console::err(&format!(
+                "{} is not the ledger the claims and results give ({}): run `softbench ledger` \
+                 to write it",
+                out.display(),
+                counts.join(", ")
+            ));
+            return Ok(ExitCode::FAILURE);
+        }
+        console::out(&format!(
+            "{} is up to date ({})",
+            out.display(),
+            counts.join(", ")
+        ));
+        return Ok(ExitCode::SUCCESS);
+    }
+    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    }
+    softbench::io::write_atomic(&out, |w| w.write_all(page.as_bytes()))
+        .with_context(|| format!("cannot write {}", out.display()))?;
+    console::out(&format!(
+        "{} claims: {}; wrote {}",
+        judged.len(),
+        counts.join(", "),
+        out.display()
     ));
     Ok(ExitCode::SUCCESS)
 }

@@ -56,6 +56,7 @@ pub use merge::{MergeError, Merged, merge};
 pub use meta::{Meta, StudyMeta};
 pub use report::compute_findings;
 pub use runner::{MergeOutcome, RunOptions, StudyRun, matches, run};
+pub use settings::check_name as check_study_name;
 pub use shard::Shard;
 pub use shard_record::ShardRecord;
 pub use spec::{RunSpec, Study};

@@ -456,7 +456,8 @@ pub fn reference(
                 let (status, message) = outcome_of(&summary.outcome);
                 return Err(format!(
                     "the reference ({} at dt = {dt:e} s) {status}: {message}; choose another \
-                 reference method or dt (the study's `[<kind>.reference]` table)",
+                 reference method or dt (a study's `[<kind>.reference]` table, a suite \
+                 problem's `[problem] reference`)",
                     method.name()
                 ));
             }

@@ -202,22 +202,42 @@ impl SharedWork {
                 };
                 Ok(result.map(|r| (method, r, solved_here.get())))
             };
+            // `jobs` workers take the next reference as they finish one (references differ in
+            // cost by orders of magnitude, so fixed groups would wait for their slowest);
+            // after a failure no new one is started. Results are kept in template order.
+            let next = std::sync::atomic::AtomicUsize::new(0);
+            let failed = std::sync::atomic::AtomicBool::new(false);
+            let slots: Vec<std::sync::Mutex<Option<Result<Option<Solved>, RunError>>>> = templates
+                .iter()
+                .map(|_| std::sync::Mutex::new(None))
+                .collect();
+            std::thread::scope(|scope| {
+                for _ in 0..jobs.clamp(1, templates.len().max(1)) {
+                    scope.spawn(|| {
+                        use std::sync::atomic::Ordering;
+                        while !failed.load(Ordering::Relaxed) {
+                            let i = next.fetch_add(1, Ordering::Relaxed);
+                            let Some(spec) = templates.get(i) else {
+                                break;
+                            };
+                            let result = compute(spec);
+                            if result.is_err() {
+                                failed.store(true, Ordering::Relaxed);
+                            }
+                            *slots[i].lock().expect("a reference computation panicked") =
+                                Some(result);
+                        }
+                    });
+                }
+            });
             let mut results = Vec::new();
-            for group in templates.chunks(jobs.max(1)) {
-                let computed: Vec<_> = std::thread::scope(|scope| {
-                    let handles: Vec<_> = group
-                        .iter()
-                        .map(|spec| scope.spawn(|| compute(spec)))
-                        .collect();
-                    handles
-                        .into_iter()
-                        .map(|h| h.join().expect("a reference computation panicked"))
-                        .collect()
-                });
-                for (spec, result) in group.iter().copied().zip(computed) {
-                    if let Some(r) = result? {
-                        results.push((spec, r));
-                    }
+            for (spec, slot) in templates.iter().copied().zip(slots) {
+                let Some(result) = slot.into_inner().expect("a reference computation panicked")
+                else {
+                    continue;
+                };
+                if let Some(r) = result? {
+                    results.push((spec, r));
                 }
             }
             for (spec, (method, result, solved_here)) in results {

@@ -38,6 +38,7 @@ const NAME: &str = "suite";
 /// Columns of a suite's `runs.csv` after the run's identity.
 pub const COLUMNS: &[&str] = &[
     "tier",
+    "mesh",
     "scenario",
     "difficulty",
     "material",
@@ -521,6 +522,8 @@ fn judge(study: &Study, spec: &RunSpec, problem: &ProblemConfig, m: &mut Measure
                 .is_some_and(|(f, p)| p.starts_with(f))
     });
     m.set("tier", if hidden { "hidden" } else { "public" }.into());
+    let from_file = config.mesh.as_ref().is_some_and(|mesh| mesh.file.is_some());
+    m.set("mesh", if from_file { "file" } else { "generated" }.into());
     m.set("scenario", problem.scenario.clone());
     m.set("difficulty", problem.difficulty.clone());
     let material = match (&config.material, &config.springs, &config.jello) {

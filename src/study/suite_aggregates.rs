@@ -22,7 +22,15 @@ use std::fmt::Write;
 use std::path::Path;
 
 /// The strata a problem belongs to, by column of `runs.csv`.
-pub const DIMENSIONS: [&str; 6] = ["tier", "difficulty", "scenario", "material", "nu", "size"];
+pub const DIMENSIONS: [&str; 7] = [
+    "tier",
+    "mesh",
+    "difficulty",
+    "scenario",
+    "material",
+    "nu",
+    "size",
+];
 
 /// What a profile's cost is counted in.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
