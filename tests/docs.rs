@@ -205,14 +205,17 @@ fn check_scene(config: Result<SceneConfig, scene::SceneError>, what: &str) {
     }
 }
 
-/// A folder holding a copy of `experiments/scenes/`, where study examples are loaded.
+/// A folder holding a copy of `experiments/scenes/` and `experiments/problems/`, where study
+/// examples are loaded.
 fn study_folder() -> TempDir {
     let tmp = TempDir::new("docs-study");
-    let scenes = tmp.path().join("scenes");
-    std::fs::create_dir(&scenes).unwrap();
-    for entry in std::fs::read_dir(root().join("experiments/scenes")).unwrap() {
-        let path = entry.unwrap().path();
-        std::fs::copy(&path, scenes.join(path.file_name().unwrap())).unwrap();
+    for folder in ["scenes", "problems"] {
+        let to = tmp.path().join(folder);
+        std::fs::create_dir(&to).unwrap();
+        for entry in std::fs::read_dir(root().join("experiments").join(folder)).unwrap() {
+            let path = entry.unwrap().path();
+            std::fs::copy(&path, to.join(path.file_name().unwrap())).unwrap();
+        }
     }
     tmp
 }
@@ -263,8 +266,16 @@ fn check_example(fence: &Fence, what: &str) -> String {
             }
             check_study(&table.to_string(), &format!("{what} (study fragment)"));
         }
+        "claim" => {
+            let tmp = TempDir::new("docs-claim");
+            let path = tmp.write("claim.toml", &fence.text);
+            if let Err(e) = softbench::ledger::Claim::read(&path) {
+                panic!("{what}: not a valid claim: {e}");
+            }
+        }
         other => panic!(
-            "{what}: unknown example kind `{other}` (scene, scene-fragment, study, study-fragment)"
+            "{what}: unknown example kind `{other}` (scene, scene-fragment, study, \
+             study-fragment, claim)"
         ),
     }
     kind

@@ -460,6 +460,9 @@ impl RuleSpec {
     }
 }
 
+/// A row of a trend with its x and y.
+type Point<'t> = (&'t Vec<String>, f64, f64);
+
 /// A case the rule decided: whether the claim held there, the row its strata are read from,
 /// and a label for the evidence.
 struct Case<'t> {
@@ -612,7 +615,7 @@ pub fn evaluate(spec: &RuleSpec, table: &Table) -> Verdict {
             expect,
             slope_at_most,
         } => {
-            let mut groups: BTreeMap<Vec<String>, Vec<(&Vec<String>, f64, f64)>> = BTreeMap::new();
+            let mut groups: BTreeMap<Vec<String>, Vec<Point>> = BTreeMap::new();
             for r in table.rows.iter().filter(|r| rows.keeps(table, r)) {
                 if let (Some(xv), Some(yv)) = (table.number(r, x), table.number(r, y))
                     && xv > 0.0
@@ -630,9 +633,7 @@ pub fn evaluate(spec: &RuleSpec, table: &Table) -> Verdict {
                 if points.len() < 3 {
                     continue;
                 }
-                let slope = |p: &(&Vec<String>, f64, f64), q: &(&Vec<String>, f64, f64)| {
-                    (q.2.ln() - p.2.ln()) / (q.1.ln() - p.1.ln())
-                };
+                let slope = |p: &Point, q: &Point| (q.2.ln() - p.2.ln()) / (q.1.ln() - p.1.ln());
                 let n = points.len();
                 let overall = slope(&points[0], &points[n - 1]);
                 let (holds, detail) = match expect {

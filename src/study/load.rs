@@ -547,7 +547,8 @@ fn check_scenes_build(
                         omitted.push(Omission {
                             scene: run.scene.clone(),
                             method: None,
-                            reason: format!("{}: {error}", why.unwrap_or_default()),
+                            reason: format!("{}: {error}", why.unwrap_or_default())
+                                .replace('\n', " "),
                         });
                         current = None;
                         continue;
@@ -557,11 +558,18 @@ fn check_scenes_build(
             }
             let (_, scene) = current.as_ref().expect("built above");
             if let Err(reason) = scene::applicable(&run.loaded.config, scene) {
-                omitted.push(Omission {
-                    scene: run.scene.clone(),
-                    method: Some(run.method.name().to_owned()),
-                    reason,
-                });
+                // One line per method and scene, whatever its settings.
+                let method = Some(run.method.name().to_owned());
+                if !omitted
+                    .iter()
+                    .any(|o| o.scene == run.scene && o.method == method)
+                {
+                    omitted.push(Omission {
+                        scene: run.scene.clone(),
+                        method,
+                        reason,
+                    });
+                }
                 continue;
             }
             run.dofs = scene.model.num_dofs();

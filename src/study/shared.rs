@@ -207,7 +207,7 @@ impl SharedWork {
             // after a failure no new one is started. Results are kept in template order.
             let next = std::sync::atomic::AtomicUsize::new(0);
             let failed = std::sync::atomic::AtomicBool::new(false);
-            let slots: Vec<std::sync::Mutex<Option<Result<Option<Solved>, RunError>>>> = templates
+            let slots: Vec<Slot> = templates
                 .iter()
                 .map(|_| std::sync::Mutex::new(None))
                 .collect();
@@ -293,6 +293,9 @@ impl SharedWork {
         }
     }
 }
+
+/// Where a worker leaves the reference it computed (or why it could not).
+type Slot = std::sync::Mutex<Option<Result<Option<Solved>, RunError>>>;
 
 /// The name of a stored item: a hash of what determines it and of the softbench version.
 fn item_key(what: &serde_json::Value) -> String {
