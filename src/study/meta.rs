@@ -17,7 +17,8 @@ pub struct Meta {
     pub wall_seconds: Option<f64>,
     pub command: Vec<String>,
     /// The study file (as written and as resolved: its settings) and every run's resolved
-    /// scene configuration.
+    /// scene configuration: `runs.<id>.scene` and `.integrator` name entries of `scenes` (the
+    /// scene without its integrator) and `integrators` (see [`Meta::run_config`]).
     pub config: serde_json::Value,
     /// For a study run as shards and merged: each shard's record (host, machine, times, runs).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -59,16 +60,33 @@ impl Meta {
         started: &str,
         elapsed: Option<std::time::Duration>,
     ) -> Self {
+        // Each run's resolved scene, as two parts kept once each: the scene without its
+        // integrator (one per scene, mostly) and the integrator settings (one per method
+        // block), so a suite of thousands of runs records them in kilobytes, not megabytes.
+        let mut scenes = serde_json::Map::new();
+        let mut integrators = serde_json::Map::new();
+        let part = |table: &mut serde_json::Map<String, serde_json::Value>,
+                        value: serde_json::Value| {
+            let key = format!("{:016x}", super::fnv1a(value.to_string().as_bytes()));
+            table.entry(key.clone()).or_insert(value);
+            key
+        };
         let runs: serde_json::Map<String, serde_json::Value> = study
             .runs
             .iter()
             .map(|r| {
+                let mut scene = serde_json::to_value(&r.loaded.config).unwrap_or_default();
+                let integrator = scene
+                    .as_object_mut()
+                    .and_then(|o| o.remove("integrator"))
+                    .unwrap_or_default();
                 (
                     r.id.clone(),
                     serde_json::json!({
                         "scene_file": r.loaded.path,
                         "config_hash": r.hash,
-                        "scene": r.loaded.config,
+                        "scene": part(&mut scenes, scene),
+                        "integrator": part(&mut integrators, integrator),
                     }),
                 )
             })
@@ -105,6 +123,8 @@ impl Meta {
                     "sweep": study.file.sweep,
                     "quick": study.quick.then_some(&study.file.quick),
                     "runs": runs,
+                    "scenes": scenes,
+                    "integrators": integrators,
                 });
                 // Every kind's settings table as resolved, under its name with `_` for `-`.
                 for (kind, table) in &study.file.tables {
@@ -119,6 +139,25 @@ impl Meta {
 }
 
 impl Meta {
+    /// The resolved scene of run `id`, as recorded (also from a meta.json written before the
+    /// scenes were kept apart, where `runs.<id>.scene` is the configuration itself).
+    pub fn run_config(&self, id: &str) -> Option<serde_json::Value> {
+        let run = self.config.get("runs")?.get(id)?;
+        match run.get("scene")? {
+            serde_json::Value::String(key) => {
+                let mut scene = self.config.get("scenes")?.get(key)?.clone();
+                let integrator = run
+                    .get("integrator")
+                    .and_then(|k| self.config.get("integrators")?.get(k.as_str()?))
+                    .cloned()
+                    .unwrap_or_default();
+                scene.as_object_mut()?.insert("integrator".into(), integrator);
+                Some(scene)
+            }
+            inline => Some(inline.clone()),
+        }
+    }
+
     /// Write `meta.json` into `dir` (atomically).
     pub(super) fn write(&self, dir: &std::path::Path) -> std::io::Result<()> {
         write_atomic(&dir.join("meta.json"), |w| {

@@ -334,13 +334,8 @@ pub fn refresh_findings(dir: &Path, meta: &Meta, runs: &Table) -> std::io::Resul
         .filter_map(|r| {
             let id = runs.get(r, "run_id")?;
             let scene = runs.get(r, "scene")?;
-            let d = meta
-                .config
-                .get("runs")?
-                .get(id)?
-                .get("scene")?
-                .get("damping")?;
-            Some((scene.to_owned(), serde_json::from_value(d.clone()).ok()?))
+            let d = meta.run_config(id)?.get("damping")?.clone();
+            Some((scene.to_owned(), serde_json::from_value(d).ok()?))
         })
         .collect();
     let damped = damped_scenes_of(damping.iter().map(|(s, d)| (s.as_str(), d)));

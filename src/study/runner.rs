@@ -224,7 +224,16 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
     };
     let store = SharedStore::new(dir);
     let source = match options.shard {
-        None => Source::Local,
+        None => {
+            // Redoing every run redoes the work they share too.
+            if options.force {
+                let shared = dir.join("shared");
+                if shared.is_dir() {
+                    std::fs::remove_dir_all(&shared).map_err(io(&shared))?;
+                }
+            }
+            Source::Local(&store)
+        }
         Some(_) => Source::Stored(&store),
     };
     let shared = SharedWork::prepare(

@@ -25,8 +25,10 @@ type Solved = (Method, Result<Reference, String>, bool);
 /// Where shared work comes from.
 #[derive(Clone, Copy)]
 pub(super) enum Source<'a> {
-    /// Computed here, kept in memory (a local study).
-    Local,
+    /// A local study: read from the study folder, or computed here and stored there, so a
+    /// study that stopped (failed, interrupted) does not compute its references again when it
+    /// resumes.
+    Local(&'a SharedStore),
     /// Read from the study folder, or computed here once under the item's lock and stored
     /// (a shard).
     Stored(&'a SharedStore),
@@ -91,8 +93,7 @@ impl SharedWork {
                 };
                 let key = format!("omega-{}", item_key(&serde_json::json!(spec.physics)));
                 let value = match source {
-                    Source::Local => Some(compute()),
-                    Source::Stored(store) => Some(
+                    Source::Local(store) | Source::Stored(store) => Some(
                         store
                             .get_or_compute(
                                 &key,
@@ -189,8 +190,7 @@ impl SharedWork {
                 let stored =
                     |r: Result<StoredReference, String>| r.and_then(|s| Reference::from_stored(&s));
                 let result = match source {
-                    Source::Local => Some(solve()),
-                    Source::Stored(store) => Some(stored(store.get_or_compute(
+                    Source::Local(store) | Source::Stored(store) => Some(stored(store.get_or_compute(
                         &key,
                         on_wait(&task),
                         || solve().map(|r| r.stored()),
@@ -259,6 +259,7 @@ impl SharedWork {
                     Err(m) => return Err(RunError::Run(format!("scene {}: {m}", spec.scene))),
                 };
                 let origin = match source {
+                    Source::Local(_) if !solved_here => ", stored by an earlier invocation",
                     Source::Stored(_) if !solved_here => ", computed by another shard",
                     Source::Stored(_) => ", computed here for every shard",
                     _ => "",
