@@ -144,6 +144,12 @@ fn runs_are_judged_by_their_problem_and_what_cannot_run_is_listed() {
     let report = std::fs::read_to_string(dir.join("report.md")).unwrap();
     assert!(report.contains("### The public problems (1)"), "{report}");
     assert!(report.contains("### The hidden problems (1)"), "{report}");
+    // The footer names what made the numbers: versions, machine, the command, the load.
+    let footer = report.split("## How these results were made").nth(1).expect("a footer");
+    assert!(footer.contains("- Command: `softbench run "), "{footer}");
+    assert!(footer.contains("--jobs 2`"), "{footer}");
+    assert!(footer.contains("at the start,") && footer.contains("at the end"), "{footer}");
+    assert!(footer.contains("cores)"), "{footer}");
     for file in ["profiles.csv", "summary.csv", "costs.csv", "pairwise.csv"] {
         assert!(dir.join("profiles").join(file).is_file(), "{file}");
     }

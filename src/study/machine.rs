@@ -31,7 +31,8 @@ impl Machine {
     }
 }
 
-fn load_average() -> Option<[f64; 3]> {
+/// The load average over 1, 5 and 15 minutes now, from `/proc/loadavg`.
+pub fn load_average() -> Option<[f64; 3]> {
     let text = std::fs::read_to_string("/proc/loadavg").ok()?;
     let mut fields = text.split_whitespace().map(|f| f.parse::<f64>().ok());
     Some([fields.next()??, fields.next()??, fields.next()??])

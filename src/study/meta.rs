@@ -15,6 +15,9 @@ pub struct Meta {
     pub started: String,
     pub finished: Option<String>,
     pub wall_seconds: Option<f64>,
+    /// The load average (1, 5, 15 min) when the study finished (the start's is the machine's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub finished_load_average: Option<[f64; 3]>,
     pub command: Vec<String>,
     /// The study file (as written and as resolved: its settings) and every run's resolved
     /// scene configuration: `runs.<id>.scene` and `.integrator` name entries of `scenes` (the
@@ -114,6 +117,7 @@ impl Meta {
             started: started.to_owned(),
             finished: elapsed.map(|_| now_utc()),
             wall_seconds: elapsed.map(|d| d.as_secs_f64()),
+            finished_load_average: elapsed.and_then(|_| super::machine::load_average()),
             command: std::env::args().collect(),
             config: {
                 let mut config = serde_json::json!({

@@ -219,7 +219,61 @@ fn render(
             let _ = writeln!(out, "- `{id}`");
         }
     }
+    provenance(&mut out, meta);
     out
+}
+
+/// The report's last section: the versions, the machine, the exact command and the load, so a
+/// reader can tell what made these numbers and how comparable its timings are.
+fn provenance(out: &mut String, meta: &Meta) {
+    let m = &meta.machine;
+    let load = |l: Option<[f64; 3]>| {
+        l.map_or("-".to_owned(), |l| {
+            format!("{:.2} / {:.2} / {:.2}", l[0], l[1], l[2])
+        })
+    };
+    let command: Vec<String> = meta
+        .command
+        .iter()
+        .enumerate()
+        .map(|(i, a)| {
+            // The binary by its name, arguments quoted where a shell would need it.
+            let a = if i == 0 {
+                Path::new(a)
+                    .file_name()
+                    .map_or(a.clone(), |n| n.to_string_lossy().into_owned())
+            } else {
+                a.clone()
+            };
+            if a.is_empty() || a.contains(|c: char| c.is_whitespace() || "'\"$`\\*?".contains(c))
+            {
+                format!("'{}'", a.replace('\'', "'\\''"))
+            } else {
+                a
+            }
+        })
+        .collect();
+    let _ = writeln!(
+        out,
+        "\n## How these results were made\n\n\
+         - Command: `{}`\n\
+         - softbench {} (commit `{}`), {}\n\
+         - Machine: {} ({} cores), {}\n\
+         - Load average over 1 / 5 / 15 min: {} at the start, {} at the end\n\
+         - Started {}, finished {}, {} s",
+        command.join(" "),
+        m.softbench_version,
+        m.git_commit,
+        m.rustc,
+        m.cpu,
+        m.cores,
+        m.os,
+        load(m.load_average),
+        load(meta.finished_load_average),
+        meta.started,
+        meta.finished.as_deref().unwrap_or("-"),
+        meta.wall_seconds.map_or("-".into(), |w| format!("{w:.1}")),
+    );
 }
 
 /// For a study run as shards and merged: which shard ran where and how long, and whether
