@@ -300,3 +300,52 @@ fn a_quick_key_of_the_wrong_type_names_its_line() {
     let s = format!("{GOOD}\n[quick]\nsteps = \"many\"\n");
     assert_rejected(&s, &["study.toml", "line 9", "steps", "expected usize"]);
 }
+
+/// A stability trial must cover its horizon: a scene's cost budget would decide the verdict,
+/// so it is refused, not ignored.
+#[test]
+fn a_cost_budget_in_a_stability_study_is_refused() {
+    let study = r#"name = "bad"
+study = "stability"
+scenes = ["beam.toml"]
+[set]
+"run.budget.evaluations" = 100.0
+[grid]
+"integrator.method" = ["rk4"]
+[stability]
+dt_min = 1e-4
+dt_max = 0.01
+horizon = 0.1
+"#;
+    assert_rejected(
+        study,
+        &["sets run.budget", "stability trial must cover its horizon"],
+    );
+}
+
+/// A folder named in `scenes` stands for its scene files; an empty one is refused.
+#[test]
+fn a_scene_folder_runs_its_files_and_an_empty_one_is_refused() {
+    let tmp = TempDir::new("study-folder");
+    std::fs::create_dir_all(tmp.path().join("scenes")).unwrap();
+    tmp.write("scenes/a.toml", SCENE);
+    tmp.write("scenes/b.toml", SCENE);
+    tmp.write("scenes/notes.txt", "not a scene");
+    let path = tmp.write(
+        "study.toml",
+        &GOOD.replace("[\"beam.toml\"]", "[\"scenes\"]"),
+    );
+    let out = tmp.path().join("results");
+    run_study_ok(&path, &out, &[]);
+    let runs = std::fs::read_to_string(out.join("bad/runs.csv")).unwrap();
+    assert_eq!(runs.lines().count(), 1 + 2 * 2, "{runs}");
+    std::fs::create_dir_all(tmp.path().join("empty")).unwrap();
+    let path = tmp.write(
+        "empty.toml",
+        &GOOD.replace("[\"beam.toml\"]", "[\"empty\"]"),
+    );
+    let o = run_study(&path, &tmp.path().join("none"), &[]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("holds no .toml scene file"), "{err}");
+}

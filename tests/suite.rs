@@ -145,10 +145,16 @@ fn runs_are_judged_by_their_problem_and_what_cannot_run_is_listed() {
     assert!(report.contains("### The public problems (1)"), "{report}");
     assert!(report.contains("### The hidden problems (1)"), "{report}");
     // The footer names what made the numbers: versions, machine, the command, the load.
-    let footer = report.split("## How these results were made").nth(1).expect("a footer");
+    let footer = report
+        .split("## How these results were made")
+        .nth(1)
+        .expect("a footer");
     assert!(footer.contains("- Command: `softbench run "), "{footer}");
     assert!(footer.contains("--jobs 2`"), "{footer}");
-    assert!(footer.contains("at the start,") && footer.contains("at the end"), "{footer}");
+    assert!(
+        footer.contains("at the start,") && footer.contains("at the end"),
+        "{footer}"
+    );
     assert!(footer.contains("cores)"), "{footer}");
     for file in ["profiles.csv", "summary.csv", "costs.csv", "pairwise.csv"] {
         assert!(dir.join("profiles").join(file).is_file(), "{file}");

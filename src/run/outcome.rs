@@ -17,7 +17,8 @@ pub enum OutcomeKind {
     /// Newton did not converge when convergence was required, a line search found no
     /// decrease, a linear solver failed, or adaptive step control gave up.
     SolverFailed,
-    /// A cap on the number of steps stopped the run before its horizon.
+    /// A cap stopped the run before its horizon: a stability trial's step cap, or the
+    /// run's cost budget (`run.budget`).
     HorizonNotReached,
     /// A stop was requested (SIGINT or SIGTERM); the rows so far are valid states.
     Interrupted,

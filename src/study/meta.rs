@@ -69,7 +69,7 @@ impl Meta {
         let mut scenes = serde_json::Map::new();
         let mut integrators = serde_json::Map::new();
         let part = |table: &mut serde_json::Map<String, serde_json::Value>,
-                        value: serde_json::Value| {
+                    value: serde_json::Value| {
             let key = format!("{:016x}", super::fnv1a(value.to_string().as_bytes()));
             table.entry(key.clone()).or_insert(value);
             key
@@ -155,7 +155,9 @@ impl Meta {
                     .and_then(|k| self.config.get("integrators")?.get(k.as_str()?))
                     .cloned()
                     .unwrap_or_default();
-                scene.as_object_mut()?.insert("integrator".into(), integrator);
+                scene
+                    .as_object_mut()?
+                    .insert("integrator".into(), integrator);
                 Some(scene)
             }
             inline => Some(inline.clone()),

@@ -245,8 +245,7 @@ fn provenance(out: &mut String, meta: &Meta) {
             } else {
                 a.clone()
             };
-            if a.is_empty() || a.contains(|c: char| c.is_whitespace() || "'\"$`\\*?".contains(c))
-            {
+            if a.is_empty() || a.contains(|c: char| c.is_whitespace() || "'\"$`\\*?".contains(c)) {
                 format!("'{}'", a.replace('\'', "'\\''"))
             } else {
                 a

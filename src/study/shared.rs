@@ -190,12 +190,14 @@ impl SharedWork {
                 let stored =
                     |r: Result<StoredReference, String>| r.and_then(|s| Reference::from_stored(&s));
                 let result = match source {
-                    Source::Local(store) | Source::Stored(store) => Some(stored(store.get_or_compute(
-                        &key,
-                        on_wait(&task),
-                        || solve().map(|r| r.stored()),
-                        |_| crate::interrupt::requested().is_none(),
-                    )?)),
+                    Source::Local(store) | Source::Stored(store) => {
+                        Some(stored(store.get_or_compute(
+                            &key,
+                            on_wait(&task),
+                            || solve().map(|r| r.stored()),
+                            |_| crate::interrupt::requested().is_none(),
+                        )?))
+                    }
                     Source::ReadOnly(store) => store
                         .read::<Result<StoredReference, String>>(&key)?
                         .map(stored),

@@ -288,12 +288,26 @@ impl Kind for Stability {
 
     fn configure(
         &self,
-        _: &Context,
+        ctx: &Context,
         file: &StudyFile,
         config: &mut SceneConfig,
         _: &[Axis],
         _: bool,
     ) -> Result<(), StudyError> {
+        // A trial is judged over its whole horizon: a cost budget would end it early and so
+        // decide the verdict, so a scene that sets one is refused rather than ignored.
+        if config.run.budget.is_some() {
+            return Err(ctx.invalid(
+                0,
+                "scenes",
+                format!(
+                    "scene `{}` sets run.budget: a stability trial must cover its horizon, so a \
+                     budget cannot stop it; remove it (the trials' step bounds are [stability] \
+                     min_steps and max_steps)",
+                    config.name.as_deref().unwrap_or("?")
+                ),
+            ));
+        }
         // It judges methods, so by default an unconverged Newton solve fails the step instead
         // of being accepted.
         if settings(file).is_some_and(|s| s.require_newton_convergence) {
