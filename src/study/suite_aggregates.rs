@@ -488,69 +488,33 @@ pub(super) fn charts(
                 }
             }
         }
-        // The charts: the public problems, per cost and profile.
+        // The charts: the public problems, per cost and profile; and each stratum's data
+        // profile at the tightest level (the rest of the strata's profiles are in the CSV).
         let public = |p: &Problem| p.stratum("tier") != "hidden";
         for cost in Cost::ALL {
-            let table = suite.costs(level, cost, &public);
-            let budget = suite.budget(cost, &public);
-            let n = table.problems.len();
-            for (profile, lines) in [
-                (
-                    "data",
-                    table
-                        .data()
-                        .iter()
-                        .map(|s| within(s, budget))
-                        .collect::<Vec<_>>(),
-                ),
-                ("performance", table.performance()),
-            ] {
-                let chart = LineChart {
-                    title: format!(
-                        "{} profile, level {level}, cost in {}, {n} public problems",
-                        if profile == "data" {
-                            "Data"
-                        } else {
-                            "Performance"
-                        },
-                        cost.unit()
-                    ),
-                    x_label: if profile == "data" {
-                        format!("budget: {}", cost.unit())
-                    } else {
-                        format!("α: cost / the cheapest's ({})", cost.unit())
-                    },
-                    y_label: "fraction of problems solved".into(),
-                    x_log: true,
-                    y_log: false,
-                    series: table
-                        .solvers
-                        .iter()
-                        .zip(lines)
-                        .filter(|(_, steps)| steps.iter().any(|(_, f)| *f > 0.0))
-                        .map(|(s, points)| Series {
-                            label: s.clone(),
-                            points,
-                            ended: false,
-                        })
-                        .collect(),
-                };
-                emit(
-                    format!("{profile}-{}-{}", cost.name(), super::charts::slug(level)),
-                    &format!(
-                        "{} profile of the public problems at cut-off level `{level}`, cost in \
-                         {}; methods that solve none are left out of the chart (profiles.csv \
-                         has every method).{}",
-                        if profile == "data" {
-                            "Data (Moré–Wild): the fraction of problems each method solves within a budget; the axis ends at the largest problem budget"
-                        } else {
-                            "Performance (Dolan–Moré): the fraction solved within α times the cheapest method's cost"
-                        },
-                        cost.unit(),
-                        ""
-                    ),
-                    Chart::Line(chart),
-                )?;
+            for profile in [Profile::Data, Profile::Performance] {
+                profile_chart(&suite, level, cost, profile, None, &public, emit)?;
+            }
+        }
+        if Some(level) == suite.levels.last() {
+            for (d, values) in suite.strata() {
+                if d == "tier" {
+                    continue;
+                }
+                for v in values {
+                    let keep = |p: &Problem| public(p) && p.stratum(d) == v;
+                    for cost in Cost::ALL {
+                        profile_chart(
+                            &suite,
+                            level,
+                            cost,
+                            Profile::Data,
+                            Some((d, &v)),
+                            &keep,
+                            emit,
+                        )?;
+                    }
+                }
             }
         }
     }
@@ -567,6 +531,97 @@ pub(super) fn charts(
     let path = dir.join("omissions.md");
     crate::io::write_atomic(&path, |w| w.write_all(omissions.as_bytes())).map_err(io(&path))?;
     Ok(())
+}
+
+/// Which profile a chart draws.
+#[derive(Clone, Copy, PartialEq)]
+enum Profile {
+    Data,
+    Performance,
+}
+
+/// Draw one profile of the problems `keep` selects (a stratum's, when `stratum` names it) at
+/// `level` in `cost`. Methods that solve none of them are named in the caption instead of
+/// drawn as a line along zero.
+fn profile_chart(
+    suite: &Suite,
+    level: &str,
+    cost: Cost,
+    profile: Profile,
+    stratum: Option<(&str, &str)>,
+    keep: &dyn Fn(&Problem) -> bool,
+    emit: &mut Emit,
+) -> Result<(), PlotError> {
+    let table = suite.costs(level, cost, keep);
+    let n = table.problems.len();
+    if n == 0 {
+        return Ok(());
+    }
+    let budget = suite.budget(cost, keep);
+    let lines: Vec<Steps> = match profile {
+        Profile::Data => table.data().iter().map(|s| within(s, budget)).collect(),
+        Profile::Performance => table.performance(),
+    };
+    let (solving, none): (Vec<_>, Vec<_>) = table
+        .solvers
+        .iter()
+        .zip(lines)
+        .partition(|(_, steps)| steps.iter().any(|(_, f)| *f > 0.0));
+    let name = match profile {
+        Profile::Data => "Data",
+        Profile::Performance => "Performance",
+    };
+    let which = match stratum {
+        Some((d, v)) => format!("{d} = {v}"),
+        None => "public".to_owned(),
+    };
+    let chart = LineChart {
+        title: format!("{name} profile: {which}, level {level}, {n} problems"),
+        x_label: match profile {
+            Profile::Data => format!("budget: {}", cost.unit()),
+            Profile::Performance => format!("α: cost / the cheapest's ({})", cost.unit()),
+        },
+        y_label: "fraction of problems solved".into(),
+        x_log: true,
+        y_log: false,
+        series: solving
+            .into_iter()
+            .map(|(s, points)| Series {
+                label: s.clone(),
+                points,
+                ended: false,
+            })
+            .collect(),
+    };
+    let mut stem = format!(
+        "{}-{}-{}",
+        name.to_lowercase(),
+        cost.name(),
+        super::charts::slug(level)
+    );
+    if let Some((d, v)) = stratum {
+        stem.push_str(&format!("-{d}-{}", super::charts::slug(v)));
+    }
+    let none: Vec<String> = none.iter().map(|(s, _)| format!("`{s}`")).collect();
+    emit(
+        stem,
+        &format!(
+            "{} The {which} problems at cut-off level `{level}`, cost in {}.{}",
+            match profile {
+                Profile::Data =>
+                    "Data profile (Moré–Wild): the fraction of problems each method solves within a budget; the axis ends at the largest problem budget, so a larger budget would only extend it.",
+                Profile::Performance =>
+                    "Performance profile (Dolan–Moré): the fraction of problems each method solves within α times the cheapest method's cost.",
+            },
+            cost.unit(),
+            if none.is_empty() {
+                String::new()
+            } else {
+                format!(" Solving none of them (no line): {}.", none.join(", "))
+            }
+        ),
+        Chart::Line(chart),
+    )
 }
 
 /// The omissions list: every method left out of a profile and why — left out by the suite,
