@@ -184,7 +184,9 @@ impl SharedWork {
                         "method": method.name(),
                         "dt": bits(dt),
                         "settings": w,
-                        "template": spec.hash,
+                        // The template run matters through its integrator settings, which
+                        // a reference with the default integrator does not take.
+                        "template": (!w.reference.default_integrator).then_some(&spec.hash),
                     }))
                 );
                 let stored =
