@@ -143,6 +143,13 @@ fn runs_are_judged_by_their_problem_and_what_cannot_run_is_listed() {
     );
     let report = std::fs::read_to_string(dir.join("report.md")).unwrap();
     assert!(report.contains("### The public problems (1)"), "{report}");
+    // The problems table: BDF2 alone solves the beam, at each level, of the three methods that
+    // run it.
+    let line = report
+        .lines()
+        .find(|l| l.starts_with("| `beam` |"))
+        .expect("the beam's row");
+    assert!(line.ends_with("| 1, 1 of 3 |"), "{line}");
     assert!(report.contains("### The hidden problems (1)"), "{report}");
     // The footer names what made the numbers: versions, machine, the command, the load.
     let footer = report

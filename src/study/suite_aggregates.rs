@@ -783,6 +783,7 @@ pub(super) fn report(out: &mut String, runs: &Table, study: &StudyMeta) {
         suite.methods.len(),
         suite.levels.len()
     );
+    problems_table(out, &suite);
     for (tier, keep) in [
         ("public", &public as &dyn Fn(&Problem) -> bool),
         ("hidden", &hidden as &dyn Fn(&Problem) -> bool),
@@ -847,6 +848,69 @@ pub(super) fn report(out: &mut String, runs: &Table, study: &StudyMeta) {
             pairwise_table(out, &suite, keep);
         }
     }
+}
+
+/// The problems as the runs state them: strata, size, protocol, tolerance, the reference's
+/// error bar, and how many methods solved each at each level.
+fn problems_table(out: &mut String, suite: &Suite) {
+    let runs = suite.runs;
+    let _ = writeln!(
+        out,
+        "### The problems\n\n| problem | tier | difficulty | scenario | material | ν | tets | dt (s) × steps | tolerance | reference error bar | budget (evaluations, factorizations, s) | solved by ({}) |\n|---|---|---|---|---|---|---|---|---|---|---|---|",
+        suite.levels.join(", ")
+    );
+    for p in &suite.problems {
+        let Some(r) = runs
+            .rows
+            .iter()
+            .find(|r| runs.get(r, "scene") == Some(&p.name))
+        else {
+            continue;
+        };
+        let g = |c: &str| runs.get(r, c).unwrap_or_default();
+        let n = |c: &str| runs.number(r, c).map_or("-".to_owned(), short);
+        let solved: Vec<String> = suite
+            .levels
+            .iter()
+            .map(|l| {
+                let table = suite.costs(l, Cost::Evaluations, &|q: &Problem| q.name == p.name);
+                table
+                    .summary()
+                    .iter()
+                    .filter(|s| s.solved > 0)
+                    .count()
+                    .to_string()
+            })
+            .collect();
+        let _ = writeln!(
+            out,
+            "| `{}` | {} | {} | {} | {} | {} | {} | {} × {} | {} | {} | {}, {}, {} | {} of {} |",
+            p.name,
+            g("tier"),
+            g("difficulty"),
+            g("scenario"),
+            g("material"),
+            g("nu"),
+            g("tets"),
+            n("dt"),
+            g("steps"),
+            n("tolerance"),
+            n("reference_difference"),
+            n("budget_evaluations"),
+            n("budget_factorizations"),
+            n("budget_wall_seconds"),
+            solved.join(", "),
+            suite
+                .methods
+                .iter()
+                .filter(|m| suite
+                    .levels
+                    .iter()
+                    .any(|l| suite.row(&p.name, m, l).is_some()))
+                .count()
+        );
+    }
+    let _ = writeln!(out);
 }
 
 /// Whether the ordering by problems solved (then cheapest count) holds across levels.
