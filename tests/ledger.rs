@@ -6,7 +6,8 @@
 mod common;
 
 use common::TempDir;
-use softbench::ledger::rule::{Class, RuleSpec, evaluate};
+use softbench::ledger::rule::RuleSpec;
+use softbench::ledger::verdict::{Class, evaluate};
 use softbench::ledger::{Claim, judge, page, read_claims};
 use softbench::study::table::Table;
 use std::path::Path;

@@ -990,10 +990,10 @@ fn ledger(args: &LedgerArgs) -> anyhow::Result<ExitCode> {
         .clone()
         .unwrap_or_else(|| args.results.join("suite").join("ledger.md"));
     let counts: Vec<String> = [
-        ledger::rule::Class::Validated,
-        ledger::rule::Class::Qualified,
-        ledger::rule::Class::Refuted,
-        ledger::rule::Class::Unmeasured,
+        ledger::verdict::Class::Validated,
+        ledger::verdict::Class::Qualified,
+        ledger::verdict::Class::Refuted,
+        ledger::verdict::Class::Unmeasured,
     ]
     .iter()
     .map(|c| {

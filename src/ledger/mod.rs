@@ -5,16 +5,18 @@
 //! A claim is one TOML file in a folder (`claims/`): the paper, the claim in one sentence,
 //! its dimension (speed, robustness, accuracy, convergence), the study whose results test it
 //! (`results/<study>/`), optionally the two methods it ranks (`beats = ["a", "b"]`, an edge of
-//! the claims graph), and a `[rule]` (see [`rule`]). `softbench ledger` evaluates every claim
+//! the claims graph), and a `[rule]` (see [`rule`]; [`verdict`] counts its cases). `softbench ledger` evaluates every claim
 //! and renders the ledger as one page ([`page`]).
 
 pub mod filter;
 pub mod page;
 pub mod rule;
+pub mod verdict;
 
 use crate::study::table::Table;
-use rule::{RuleSpec, Verdict};
+use rule::RuleSpec;
 use std::path::{Path, PathBuf};
+use verdict::Verdict;
 
 /// The dimensions a claim can be about.
 pub const DIMENSIONS: [&str; 4] = ["speed", "robustness", "accuracy", "convergence"];
@@ -164,7 +166,7 @@ pub fn judge(claims: &[Claim], results: &Path) -> Vec<Judged> {
             let table_path = results.join(&claim.study).join(&claim.rule.table);
             let shown = format!("{}/{}", claim.study, claim.rule.table);
             let unmeasured = |why: String| Verdict {
-                class: rule::Class::Unmeasured,
+                class: verdict::Class::Unmeasured,
                 condition: why,
                 held: 0,
                 decided: 0,
@@ -181,7 +183,7 @@ pub fn judge(claims: &[Claim], results: &Path) -> Vec<Judged> {
                         .filter(|c| table.column(c).is_none())
                         .collect();
                     if missing.is_empty() {
-                        rule::evaluate(&claim.rule, &table)
+                        verdict::evaluate(&claim.rule, &table)
                     } else {
                         unmeasured(format!(
                             "`{shown}` has no column {}",

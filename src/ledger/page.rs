@@ -4,7 +4,7 @@
 //! files and the results give, so rendering it again from the same files gives the same bytes.
 
 use super::Judged;
-use super::rule::Class;
+use super::verdict::Class;
 use std::fmt::Write;
 
 /// The page for `judged` (claims in file order); `results` is how the page names the results

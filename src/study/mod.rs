@@ -41,6 +41,8 @@ mod spec;
 pub mod stability;
 pub mod suite;
 mod suite_aggregates;
+mod suite_report;
+mod suite_tables;
 pub mod table;
 pub mod trajectory;
 pub mod work_precision;

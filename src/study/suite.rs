@@ -11,7 +11,7 @@
 //! else failed with a kind. Methods that cannot run a problem (a local solver without a form
 //! for its material) and problems whose data is missing are left out with the reason, and
 //! listed. The aggregates over the runs — data and performance profiles per stratum, tier and
-//! level, pairwise views and findings — are `suite_aggregates`.
+//! level, pairwise views and findings — are `suite_aggregates` (written by `suite_tables`, read by `suite_report`).
 
 use super::charts::{Emit, SceneRows};
 use super::config::{METHOD_KEY, StudyFile};
@@ -418,7 +418,7 @@ impl Kind for Suite {
     }
 
     fn report_findings(&self, out: &mut String, runs: &Table, study: &StudyMeta) {
-        super::suite_aggregates::report(out, runs, study);
+        super::suite_report::report(out, runs, study);
     }
 
     fn report_runs_table(&self) -> bool {
@@ -432,7 +432,7 @@ impl Kind for Suite {
         runs: &Table,
         emit: &mut Emit,
     ) -> Result<(), PlotError> {
-        super::suite_aggregates::charts(dir, study, runs, emit)
+        super::suite_tables::charts(dir, study, runs, emit)
     }
 
     fn scene_charts(&self, _: &SceneRows, _: &Path, _: &mut Emit) -> Result<(), PlotError> {
