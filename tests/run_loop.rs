@@ -358,3 +358,48 @@ fn a_cost_budget_stops_the_run_after_the_step_that_passes_it() {
     assert!(within.outcome.is_completed());
     assert_eq!(q_within, q_free);
 }
+
+/// An adaptive method covers one step with as many internal steps as its error control asks
+/// for: the budget stops it inside that step, close to the limit, not after the step at many
+/// times the limit.
+#[test]
+fn a_cost_budget_stops_an_adaptive_method_inside_its_step() {
+    let mut model = block(true, false);
+    let mut state = kicked(&model);
+    let mut settings = IntegratorSettings {
+        method: Method::from_name("adaptive-rk4").unwrap(),
+        ..Default::default()
+    };
+    settings.adaptive.tolerance = 1e-10;
+    let mut integ = settings.build();
+    let limit = 200.0;
+    let cfg = RunConfig {
+        budget: Some(softbench::scene::CostBudget {
+            evaluations: Some(limit),
+            ..Default::default()
+        }),
+        ..config(0.5, 2)
+    };
+    let summary = run(
+        &mut model,
+        integ.as_mut(),
+        &mut state,
+        &cfg,
+        &mut |_: &Sample| Ok(()),
+    )
+    .unwrap();
+    assert_eq!(summary.outcome.status, OutcomeKind::HorizonNotReached);
+    assert_eq!(summary.outcome.cause, "budget");
+    assert_eq!(summary.outcome.step, Some(1), "{:?}", summary.outcome);
+    assert!(
+        summary
+            .outcome
+            .message
+            .contains("run.budget.evaluations = 200 was passed inside the step"),
+        "{}",
+        summary.outcome.message
+    );
+    // One internal step (a few evaluations) past the limit at most.
+    let c = model.counters();
+    assert!((c.gradient + c.hessian) as f64 <= limit + 20.0, "{c:?}");
+}

@@ -235,6 +235,9 @@ impl Adaptive {
         self.accepted.clear();
         while remaining > 0.0 {
             StepError::stop_if_requested()?;
+            // Error control can cover one step with any number of internal steps: the run's
+            // budget is checked before each.
+            StepError::stop_if_over_budget(model, report)?;
             attempts += 1;
             if attempts > s.max_substeps {
                 return Err(StepError::TooManySubsteps {

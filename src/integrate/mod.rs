@@ -28,6 +28,7 @@ pub mod bdf;
 pub mod colouring;
 mod complex_shifted;
 pub mod controller;
+pub mod cost_guard;
 pub mod dirk;
 pub mod dopri5;
 pub mod embedded;

@@ -197,6 +197,14 @@ pub enum StepError {
     /// Any other model error.
     #[error(transparent)]
     Model(ModelError),
+    /// The run's cost budget (`run.budget`) was passed inside the step (an adaptive method's
+    /// internal steps); the step is abandoned and the run ends before its horizon.
+    #[error("run.budget.{what} = {limit} was passed inside the step ({spent} spent)")]
+    OverBudget {
+        what: &'static str,
+        limit: f64,
+        spent: f64,
+    },
     /// A stop was requested (SIGINT or SIGTERM) inside the step's iterations or substeps;
     /// the step is abandoned like any failed step.
     #[error("stopped by {} inside the step", .0.name())]
@@ -215,7 +223,25 @@ impl StepError {
             Self::StepTooSmall { .. } => "step too small",
             Self::TooManySubsteps { .. } => "too many substeps",
             Self::Model(_) => "model error",
+            Self::OverBudget { .. } => "budget",
             Self::Interrupted(_) => "interrupted",
+        }
+    }
+
+    /// `Err(OverBudget)` if the run's cost budget is passed, counting the model's evaluations
+    /// and this step's `report` so far (see [`super::cost_guard`]).
+    pub fn stop_if_over_budget(
+        model: &crate::model::Model,
+        report: &StepReport,
+    ) -> Result<(), Self> {
+        let c = model.counters();
+        match super::cost_guard::over_budget(
+            c.gradient + c.hessian,
+            u64::from(report.factorizations),
+            report.linear_iterations,
+        ) {
+            Some((what, limit, spent)) => Err(Self::OverBudget { what, limit, spent }),
+            None => Ok(()),
         }
     }
 

@@ -62,6 +62,7 @@ impl OutcomeKind {
             | StepError::StepTooSmall { .. }
             | StepError::TooManySubsteps { .. }
             | StepError::Model(_) => Self::SolverFailed,
+            StepError::OverBudget { .. } => Self::HorizonNotReached,
             StepError::Interrupted(_) => Self::Interrupted,
         }
     }

@@ -467,8 +467,19 @@ pub fn run(
     observer.sample(&sample(0, state, &initial, momenta, no_work, &balance))?;
     observer.after_step(0, model, state)?;
 
-    // A budget passed before the horizon: the run stops after the step's row is written.
+    // A budget passed before the horizon: the run stops after the step's row is written. Inside
+    // a step, an adaptive method's internal steps ask the guard (see `cost_guard`).
     let mut stopped: Option<Outcome> = None;
+    let _guard = config.budget.map(|b| {
+        let c = model.counters();
+        crate::integrate::cost_guard::arm(
+            b.wall_seconds,
+            b.evaluations,
+            b.factorizations,
+            b.linear_iterations,
+            c.gradient + c.hessian,
+        )
+    });
     for step in 1..=config.steps {
         if let Some(signal) = crate::interrupt::requested() {
             summary.outcome = Outcome::ended(
@@ -481,6 +492,10 @@ pub fn run(
             break;
         }
         balance.before_step(model, state, dt);
+        crate::integrate::cost_guard::before_step(
+            summary.totals.factorizations.into(),
+            summary.totals.linear_iterations,
+        );
         let stepped = integrator.step(model, state, dt);
         integrator.drain_iteration_log(&mut iteration_records);
         if !iteration_records.is_empty() {
