@@ -584,12 +584,30 @@ fn judge(study: &Study, spec: &RunSpec, problem: &ProblemConfig, m: &mut Measure
         })
         .is_some();
     let error = get(m, "error").or_else(|| get(m, "error_unscored"));
+    // An accuracy the reference cannot resolve is not judged: where its error bar (times the
+    // floor factor, below which errors are not scored) reaches the tolerance, two valid
+    // answers differ by more than the tolerance, so a run is judged on reaching the horizon
+    // within the budget alone.
+    let floor =
+        ReferenceSettings::default().floor_factor * get(m, "reference_difference").unwrap_or(0.0);
+    let judged = floor < problem.tolerance;
+    // `outcome_of` writes a budget stop's message as "budget at step ...".
     let failure = if m.outcome == "horizon-not-reached" && m.message.starts_with("budget") {
         "over-budget".to_owned()
     } else if m.outcome != "completed" {
         m.outcome.clone()
     } else if over {
         "over-budget".to_owned()
+    } else if !judged {
+        m.message = format!(
+            "accuracy not judged: the reference's error bar {} (x {} = {}) reaches the \
+             tolerance {}",
+            short(floor / ReferenceSettings::default().floor_factor),
+            ReferenceSettings::default().floor_factor,
+            short(floor),
+            short(problem.tolerance)
+        );
+        String::new()
     } else {
         match error {
             Some(e) if e <= problem.tolerance => String::new(),

@@ -90,9 +90,18 @@ pub struct Problem {
     /// `(dimension, value)` for each of [`DIMENSIONS`].
     pub strata: Vec<(&'static str, String)>,
     pub tolerance: f64,
+    /// The reference's error bar (its difference from the independent solution).
+    pub reference_difference: f64,
 }
 
 impl Problem {
+    /// Whether runs of it are judged on accuracy: its reference's error bar, times the floor
+    /// factor (2), is below its tolerance. Else two valid answers differ by more than the
+    /// tolerance, and a run is judged on reaching the horizon within the budget alone.
+    pub fn accuracy_judged(&self) -> bool {
+        !(2.0 * self.reference_difference >= self.tolerance)
+    }
+
     pub fn stratum(&self, dimension: &str) -> &str {
         self.strata
             .iter()
@@ -134,6 +143,7 @@ impl<'a> Suite<'a> {
                     .map(|d| (*d, runs.get(r, d).unwrap_or_default().to_owned()))
                     .collect(),
                 tolerance: runs.number(r, "tolerance").unwrap_or(f64::NAN),
+                reference_difference: runs.number(r, "reference_difference").unwrap_or(0.0),
             });
         }
         let methods: BTreeSet<String> = runs

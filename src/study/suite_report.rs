@@ -138,7 +138,11 @@ fn problems_table(out: &mut String, suite: &Suite) {
     let runs = suite.runs;
     let _ = writeln!(
         out,
-        "### The problems\n\n| problem | tier | difficulty | scenario | material | ν | tets | dt (s) × steps | tolerance | reference error bar | budget (evaluations, factorizations, s) | solved by ({}) |\n|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "### The problems\n\nA problem is judged on accuracy where its reference's error bar (its \
+         difference from the independent solution), twice over, is below its tolerance; else two \
+         valid answers differ by more than the tolerance, and a run solves it by reaching the \
+         horizon within the budget (judged on robustness).\n\n\
+         | problem | tier | difficulty | scenario | material | ν | tets | dt (s) × steps | tolerance | reference error bar | judged on | budget (evaluations, factorizations, s) | solved by ({}) |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|",
         suite.levels.join(", ")
     );
     for p in &suite.problems {
@@ -166,7 +170,7 @@ fn problems_table(out: &mut String, suite: &Suite) {
             .collect();
         let _ = writeln!(
             out,
-            "| `{}` | {} | {} | {} | {} | {} | {} | {} × {} | {} | {} | {}, {}, {} | {} of {} |",
+            "| `{}` | {} | {} | {} | {} | {} | {} | {} × {} | {} | {} | {} | {}, {}, {} | {} of {} |",
             p.name,
             g("tier"),
             g("difficulty"),
@@ -178,6 +182,11 @@ fn problems_table(out: &mut String, suite: &Suite) {
             g("steps"),
             n("tolerance"),
             n("reference_difference"),
+            if p.accuracy_judged() {
+                "accuracy"
+            } else {
+                "robustness"
+            },
             n("budget_evaluations"),
             n("budget_factorizations"),
             n("budget_wall_seconds"),

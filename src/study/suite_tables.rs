@@ -337,6 +337,27 @@ pub fn omissions_page(suite: &Suite, omitted: &[Omission]) -> String {
     for o in &whole {
         let _ = writeln!(out, "- `{}`: {}", o.scene, o.reason);
     }
+    let _ = writeln!(out, "\n## Problems judged on robustness only\n");
+    let robust: Vec<&Problem> = suite
+        .problems
+        .iter()
+        .filter(|p| !p.accuracy_judged())
+        .collect();
+    if robust.is_empty() {
+        let _ = writeln!(
+            out,
+            "None: every reference resolves its problem's tolerance."
+        );
+    }
+    for p in robust {
+        let _ = writeln!(
+            out,
+            "- `{}`: its reference differs from the independent solution by {:.3e}, and twice \
+             that reaches its tolerance {}: a run solves it by reaching the horizon within the \
+             budget; its error is reported, not judged",
+            p.name, p.reference_difference, p.tolerance
+        );
+    }
     let _ = writeln!(out, "\n## Methods left out of the suite\n");
     let suite_wide: Vec<&Omission> = omitted
         .iter()
