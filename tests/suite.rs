@@ -353,3 +353,37 @@ fn the_shipped_suite_runs_every_registered_method_in_quick_mode() {
     assert!(report.contains("## Suite aggregates"));
     assert!(report.contains("**Ordering across levels.**"));
 }
+
+/// Where the reference cannot resolve the tolerance (its error bar, twice over, reaches it),
+/// accuracy is not judged: a run that reaches the horizon within the budget solves the
+/// problem, with the reason in its message, and the problem is listed as judged on robustness.
+#[test]
+fn a_tolerance_below_the_reference_error_bar_is_judged_on_robustness() {
+    let tmp = TempDir::new("suite-robustness");
+    std::fs::create_dir_all(tmp.path().join("problems")).unwrap();
+    tmp.write("problems/beam.toml", &problem(1e-14, "", ""));
+    let study = tmp.write("suite.toml", SUITE);
+    let out = tmp.path().join("out");
+    run_study_ok(&study, &out, &[]);
+    let runs = Table::read(&out.join("s/runs.csv")).unwrap().unwrap();
+    for r in rows_of(&runs, "backward-euler") {
+        assert!(runs.number(r, "reference_difference").unwrap() * 2.0 >= 1e-14);
+        assert_eq!(runs.get(r, "solved"), Some("yes"), "{r:?}");
+        assert!(
+            runs.get(r, "message")
+                .unwrap()
+                .starts_with("accuracy not judged")
+        );
+    }
+    // A blow-up still fails.
+    for r in rows_of(&runs, "rk4") {
+        assert_eq!(runs.get(r, "failure"), Some("unstable"));
+    }
+    let omissions = std::fs::read_to_string(out.join("s/omissions.md")).unwrap();
+    assert!(
+        omissions.contains("- `beam`: its reference differs from the independent solution"),
+        "{omissions}"
+    );
+    let report = std::fs::read_to_string(out.join("s/report.md")).unwrap();
+    assert!(report.contains("| robustness |"), "{report}");
+}
