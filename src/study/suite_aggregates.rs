@@ -99,7 +99,7 @@ impl Problem {
     /// factor (2), is below its tolerance. Else two valid answers differ by more than the
     /// tolerance, and a run is judged on reaching the horizon within the budget alone.
     pub fn accuracy_judged(&self) -> bool {
-        !(2.0 * self.reference_difference >= self.tolerance)
+        2.0 * self.reference_difference < self.tolerance
     }
 
     pub fn stratum(&self, dimension: &str) -> &str {
