@@ -199,6 +199,7 @@ pub fn load(path: &Path, quick: bool, data: &DataPaths) -> Result<Study, StudyEr
         data,
         measured_by.leaves_out_what_cannot_run(),
     )?);
+    let levels = measured_by.levels(&file);
     let study = Study {
         path: path.to_owned(),
         file,
@@ -208,6 +209,7 @@ pub fn load(path: &Path, quick: bool, data: &DataPaths) -> Result<Study, StudyEr
         text: text.clone(),
         parameters,
         runs,
+        levels,
         omitted,
     };
     check_reference_steps(&study, &ctx)?;

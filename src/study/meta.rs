@@ -110,7 +110,7 @@ impl Meta {
                     .into_iter()
                     .map(|(_, c)| c)
                     .collect(),
-                levels: super::kinds::of(study.kind).levels(&study.file),
+                levels: study.levels.clone(),
                 omitted: study.omitted.clone(),
             },
             machine: machine.clone(),

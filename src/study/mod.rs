@@ -98,10 +98,12 @@ pub fn redraw(dir: &std::path::Path) -> Result<Vec<plots::Plot>, RedrawError> {
     let (meta, runs) = read_results(dir)?;
     check_runs_table(&runs, &meta.study, &dir.join("runs.csv"))?;
     let plots = plots::draw_all(dir, &meta.study, &runs)?;
-    report::refresh_findings(dir, &meta, &runs).map_err(|error| ResultsError::Io {
+    let report_error = |error| ResultsError::Io {
         path: dir.join("report.md"),
         error,
-    })?;
+    };
+    report::refresh_findings(dir, &meta, &runs).map_err(report_error)?;
+    report::refresh_plots(dir, &plots).map_err(report_error)?;
     Ok(plots)
 }
 

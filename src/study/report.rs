@@ -176,14 +176,7 @@ fn render(
         );
     }
 
-    let _ = writeln!(out, "## Plots\n");
-    for p in plots {
-        let _ = writeln!(
-            out,
-            "### {}\n\n{}\n\n![{}]({}.png)\n",
-            p.title, p.caption, p.title, p.stem
-        );
-    }
+    plots_section(&mut out, plots);
 
     let _ = writeln!(out, "## Runs that did not finish cleanly\n");
     let mut any = false;
@@ -226,18 +219,75 @@ fn render(
 /// The report's last section: the versions, the machine, the exact command and the load, so a
 /// reader can tell what made these numbers and how comparable its timings are.
 fn provenance(out: &mut String, meta: &Meta) {
-    let m = &meta.machine;
-    let load = |l: Option<[f64; 3]>| {
-        l.map_or("-".to_owned(), |l| {
-            format!("{:.2} / {:.2} / {:.2}", l[0], l[1], l[2])
-        })
-    };
-    let command: Vec<String> = meta
-        .command
+    let _ = writeln!(out, "\n## How these results were made\n");
+    if meta.shards.is_empty() {
+        let m = &meta.machine;
+        let _ = writeln!(
+            out,
+            "- Command: `{}`\n\
+             - softbench {} (commit `{}`), {}\n\
+             - Machine: {} ({} cores), {}\n\
+             - Load average over 1 / 5 / 15 min: {} at the start, {} at the end\n\
+             - Started {}, finished {}, {} s",
+            shell_words(&meta.command),
+            m.softbench_version,
+            m.git_commit,
+            m.rustc,
+            m.cpu,
+            m.cores,
+            m.os,
+            load(m.load_average),
+            load(meta.finished_load_average),
+            meta.started,
+            meta.finished.as_deref().unwrap_or("-"),
+            meta.wall_seconds.map_or("-".into(), |w| format!("{w:.1}")),
+        );
+        return;
+    }
+    // Merged shards: each shard's own command, build, machine and load (the merge itself
+    // measures nothing, and its time and load would make merging twice differ).
+    let _ = writeln!(
+        out,
+        "Run as {} shards and merged with `softbench merge`:\n",
+        meta.shards.len()
+    );
+    for r in &meta.shards {
+        let m = &r.machine;
+        let _ = writeln!(
+            out,
+            "- Shard {}/{} on {}: `{}`; softbench {} (commit `{}`), {}; {} ({} cores), {}; \
+             load average over 1 / 5 / 15 min {} at its start; started {}, {} s",
+            r.shard,
+            r.of,
+            r.host,
+            shell_words(&r.command),
+            m.softbench_version,
+            m.git_commit,
+            m.rustc,
+            m.cpu,
+            m.cores,
+            m.os,
+            load(m.load_average),
+            r.started,
+            r.wall_seconds.map_or("-".into(), |w| format!("{w:.1}")),
+        );
+    }
+}
+
+/// A load average as `1 / 5 / 15` minutes, or `-` where the platform gives none.
+fn load(l: Option<[f64; 3]>) -> String {
+    l.map_or("-".to_owned(), |l| {
+        format!("{:.2} / {:.2} / {:.2}", l[0], l[1], l[2])
+    })
+}
+
+/// A command line as one would type it: the binary by its name, arguments quoted where a
+/// shell would need it.
+fn shell_words(command: &[String]) -> String {
+    let words: Vec<String> = command
         .iter()
         .enumerate()
         .map(|(i, a)| {
-            // The binary by its name, arguments quoted where a shell would need it.
             let a = if i == 0 {
                 Path::new(a)
                     .file_name()
@@ -252,27 +302,7 @@ fn provenance(out: &mut String, meta: &Meta) {
             }
         })
         .collect();
-    let _ = writeln!(
-        out,
-        "\n## How these results were made\n\n\
-         - Command: `{}`\n\
-         - softbench {} (commit `{}`), {}\n\
-         - Machine: {} ({} cores), {}\n\
-         - Load average over 1 / 5 / 15 min: {} at the start, {} at the end\n\
-         - Started {}, finished {}, {} s",
-        command.join(" "),
-        m.softbench_version,
-        m.git_commit,
-        m.rustc,
-        m.cpu,
-        m.cores,
-        m.os,
-        load(m.load_average),
-        load(meta.finished_load_average),
-        meta.started,
-        meta.finished.as_deref().unwrap_or("-"),
-        meta.wall_seconds.map_or("-".into(), |w| format!("{w:.1}")),
-    );
+    words.join(" ")
 }
 
 /// For a study run as shards and merged: which shard ran where and how long, and whether
@@ -403,6 +433,43 @@ pub fn refresh_findings(dir: &Path, meta: &Meta, runs: &Table) -> std::io::Resul
     Ok(true)
 }
 
+/// The `## Plots` section: each plot's title, caption and image.
+fn plots_section(out: &mut String, plots: &[Plot]) {
+    let _ = writeln!(out, "{PLOTS_HEADING}\n");
+    for p in plots {
+        let _ = writeln!(
+            out,
+            "### {}\n\n{}\n\n![{}]({}.png)\n",
+            p.title, p.caption, p.title, p.stem
+        );
+    }
+}
+
+const PLOTS_HEADING: &str = "## Plots";
+
+/// Rewrite the plots section of `dir/report.md` for `plots` (after `softbench plot` redrew
+/// them, their titles and captions may have changed). Returns whether a report with such a
+/// section was there to update.
+pub fn refresh_plots(dir: &Path, plots: &[Plot]) -> std::io::Result<bool> {
+    let path = dir.join("report.md");
+    let text = match std::fs::read_to_string(&path) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(false),
+        Err(e) => return Err(e),
+    };
+    let Some(start) = text.find(&format!("\n{PLOTS_HEADING}\n")).map(|i| i + 1) else {
+        return Ok(false);
+    };
+    let end = text[start + 1..]
+        .find("\n## ")
+        .map_or(text.len(), |i| start + 1 + i + 1);
+    let mut section = String::new();
+    plots_section(&mut section, plots);
+    let updated = format!("{}{section}{}", &text[..start], &text[end..]);
+    write_atomic(&path, |w| w.write_all(updated.as_bytes()))?;
+    Ok(true)
+}
+
 /// `report` with its findings section (from `## Findings` to the next paragraph that is not
 /// part of it) replaced by `findings`, or `findings` inserted before the `Study file` paragraph.
 fn replace_findings(report: &str, findings: &str) -> String {
@@ -457,33 +524,47 @@ pub fn compute_findings(
             .extend(kind.rankings(&of_scene, how.map(String::as_str)));
     }
     f.warnings.extend(kind.table_warnings(runs));
-    // Per-run warnings.
+    // Per-run warnings, one list per kind; a long list is summarized (a suite has thousands of
+    // runs: the column in runs.csv holds every case).
+    let mut unscored = Vec::new();
+    let mut unconverged = Vec::new();
+    let mut inverted = Vec::new();
+    let mut stopped = Vec::new();
     for r in &runs.rows {
         let id = &r[0];
         if kind.unscored(runs, r) {
-            f.warnings.push(format!(
-                "`{id}`: its error is at the reference's noise floor (not scored): the \
-                 reference is not accurate enough to measure it."
+            unscored.push((
+                id.clone(),
+                format!(
+                    "`{id}`: its error is at the reference's noise floor (not scored): the \
+                     reference is not accurate enough to measure it."
+                ),
             ));
         }
         if let Some(n) = runs
             .number(r, "newton_unconverged_steps")
             .filter(|n| *n > 0.0)
         {
-            f.warnings.push(format!(
-                "`{id}`: Newton stopped unconverged at its cap ({} iterations, required: {}) \
-                 in {n} steps.",
-                runs.get(r, "newton_max_iterations").unwrap_or("?"),
-                runs.get(r, "newton_required").unwrap_or("?"),
+            unconverged.push((
+                id.clone(),
+                format!(
+                    "`{id}`: Newton stopped unconverged at its cap ({} iterations, required: \
+                     {}) in {n} steps.",
+                    runs.get(r, "newton_max_iterations").unwrap_or("?"),
+                    runs.get(r, "newton_required").unwrap_or("?"),
+                ),
             ));
         }
         if let Some(n) = runs.number(r, "inverted_elements_max").filter(|n| *n > 0.0)
             && !kind.stopped_early(runs, r)
         {
-            f.warnings.push(format!(
-                "`{id}`: up to {n} tets inverted (det F <= 0) in one state of a run that was not \
-                 stopped for it (inverted_elements_max): its result is not a valid deformation \
-                 there."
+            inverted.push((
+                id.clone(),
+                format!(
+                    "`{id}`: up to {n} tets inverted (det F <= 0) in one state of a run that was \
+                     not stopped for it (inverted_elements_max): its result is not a valid \
+                     deformation there."
+                ),
             ));
         }
         if kind.stopped_early(runs, r) {
@@ -492,16 +573,83 @@ pub fn compute_findings(
                 .number(r, "final_time")
                 .map(|t| format!(" (stopped at t = {} s)", short(t)))
                 .unwrap_or_default();
-            f.warnings
-                .push(format!("`{id}`: did not reach its horizon: {outcome}{at}."));
+            stopped.push((
+                id.clone(),
+                format!("`{id}`: did not reach its horizon: {outcome}{at}."),
+            ));
         }
+    }
+    let groups = [
+        (
+            unscored,
+            "their errors are at the reference's noise floor (not scored): the reference is \
+             not accurate enough to measure them (`error_unscored`)",
+        ),
+        (
+            unconverged,
+            "Newton stopped unconverged at its cap in some steps (`newton_unconverged_steps`, \
+             `newton_max_iterations`, `newton_required`)",
+        ),
+        (
+            inverted,
+            "tets inverted (det F <= 0) in a state of a run that was not stopped for it: the \
+             result is not a valid deformation there (`inverted_elements_max`)",
+        ),
+        (
+            stopped,
+            "did not reach their horizon (`outcome`, `final_time`)",
+        ),
+    ];
+    for (items, what) in groups {
+        f.warnings.extend(summarized(items, what));
     }
     Some(f)
 }
 
+/// Runs listed one warning each, or, past [`WARNINGS_LISTED`] of one kind, one warning that
+/// counts them, names the first few and says which column of `runs.csv` holds every case.
+fn summarized(items: Vec<(String, String)>, what: &str) -> Vec<String> {
+    if items.len() <= WARNINGS_LISTED {
+        return items.into_iter().map(|(_, w)| w).collect();
+    }
+    let first: Vec<String> = items
+        .iter()
+        .take(5)
+        .map(|(id, _)| format!("`{id}`"))
+        .collect();
+    vec![format!(
+        "{} runs: {what}; for example {}, and {} more (every case is in `runs.csv`).",
+        items.len(),
+        first.join(", "),
+        items.len() - first.len()
+    )]
+}
+
+/// Past this many runs with the same warning, the report counts them instead of listing them.
+const WARNINGS_LISTED: usize = 12;
+
 #[cfg(test)]
 mod tests {
-    use super::replace_findings;
+    use super::{Plot, refresh_plots, replace_findings};
+
+    #[test]
+    fn the_plots_section_is_rewritten_for_redrawn_plots_and_nothing_else() {
+        let dir = tempfile::tempdir().unwrap();
+        let before = "# s\n\nStudy file `a`.\n\n## Plots\n\n### Old title\n\nold\n\n\
+                      ![Old title](p.png)\n\n## Runs that did not finish cleanly\n\nNone.\n";
+        std::fs::write(dir.path().join("report.md"), before).unwrap();
+        let plots = [Plot {
+            stem: "p".into(),
+            title: "New title".into(),
+            caption: "new".into(),
+        }];
+        assert!(refresh_plots(dir.path(), &plots).unwrap());
+        assert_eq!(
+            std::fs::read_to_string(dir.path().join("report.md")).unwrap(),
+            "# s\n\nStudy file `a`.\n\n## Plots\n\n### New title\n\nnew\n\n\
+             ![New title](p.png)\n\n## Runs that did not finish cleanly\n\nNone.\n"
+        );
+    }
 
     #[test]
     fn findings_replace_the_old_section_or_go_before_the_study_paragraph() {

@@ -30,6 +30,8 @@ pub struct Study {
     /// What the grid named that is not run, with why (only kinds that leave such runs out
     /// instead of refusing the study: see `Kind::leaves_out_what_cannot_run`).
     pub omitted: Vec<Omission>,
+    /// The kind's cut-off levels, loosest first (a suite's; empty for other kinds).
+    pub levels: Vec<String>,
 }
 
 /// A run, or a whole scene, that the study leaves out.

@@ -272,7 +272,14 @@ fn profile_chart(
         None => "public".to_owned(),
     };
     let chart = LineChart {
-        title: format!("{name} profile: {which}, level {level}, {n} problems"),
+        title: format!(
+            "{name} profile in {}: {which}, level {level}, {n} problem{}",
+            match cost {
+                Cost::Evaluations => "evaluations",
+                Cost::Wall => "wall time",
+            },
+            if n == 1 { "" } else { "s" }
+        ),
         x_label: match profile {
             Profile::Data => format!("budget: {}", cost.unit()),
             Profile::Performance => format!("α: cost / the cheapest's ({})", cost.unit()),
