@@ -71,7 +71,8 @@ enum Command {
     /// jobs get SOFTBENCH_DATA (made absolute) if it is set here.
     Slurm(SlurmArgs),
     /// Redraw the plots of a study's results folder from runs.csv, series/ and meta.json, and
-    /// refresh the findings in its report.md.
+    /// refresh the findings, the plots section and the list of runs that did not finish
+    /// cleanly in its report.md (its provenance stays that of the run).
     Plot(PlotArgs),
     /// Performance and data profiles of a work-precision study's results folder: for each
     /// scene and accuracy target, each method's cheapest run that completed within the target,

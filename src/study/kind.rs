@@ -284,6 +284,12 @@ pub(super) trait Kind: Sync {
     /// observed orders; a suite's aggregates).
     fn report_findings(&self, _: &mut String, _: &Table, _: &StudyMeta) {}
 
+    /// What the report says under "Runs that did not finish cleanly" instead of listing them,
+    /// for a kind whose failed runs are results (a suite counts them per method and kind).
+    fn failures_note(&self, _: &Table) -> Option<String> {
+        None
+    }
+
     /// Whether the report lists every run in a table (a suite's thousands of runs are in
     /// `runs.csv` and its aggregates instead).
     fn report_runs_table(&self) -> bool {

@@ -103,7 +103,7 @@ pub fn redraw(dir: &std::path::Path) -> Result<Vec<plots::Plot>, RedrawError> {
         error,
     };
     report::refresh_findings(dir, &meta, &runs).map_err(report_error)?;
-    report::refresh_plots(dir, &plots).map_err(report_error)?;
+    report::refresh_closing_sections(dir, &meta, &runs, &plots).map_err(report_error)?;
     Ok(plots)
 }
 

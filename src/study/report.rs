@@ -176,42 +176,7 @@ fn render(
         );
     }
 
-    plots_section(&mut out, plots);
-
-    let _ = writeln!(out, "## Runs that did not finish cleanly\n");
-    let mut any = false;
-    let kind = super::kinds::of(&s.kind);
-    for row in &runs.rows {
-        let verdict = kind.verdict(runs, row);
-        let message = runs.get(row, "message").unwrap_or_default();
-        let unconverged = runs
-            .number(row, "newton_unconverged_steps")
-            .is_some_and(|n| n > 0.0);
-        if !verdict.clean || kind.flagged(runs, row) || unconverged {
-            any = true;
-            let what = verdict.word;
-            let mut detail = message.to_owned();
-            if unconverged {
-                let _ = write!(
-                    detail,
-                    "{}Newton stopped unconverged at its cap ({} iterations) in {} steps",
-                    if detail.is_empty() { "" } else { "; " },
-                    runs.get(row, "newton_max_iterations").unwrap_or("?"),
-                    runs.get(row, "newton_unconverged_steps").unwrap_or("?")
-                );
-            }
-            let _ = writeln!(out, "- `{}`: {what}: {detail}", row[0]);
-        }
-    }
-    if !any {
-        let _ = writeln!(out, "None.");
-    }
-    if !meta.missing.is_empty() {
-        let _ = writeln!(out, "\n## Missing runs\n");
-        for id in &meta.missing {
-            let _ = writeln!(out, "- `{id}`");
-        }
-    }
+    closing_sections(&mut out, meta, runs, plots);
     provenance(&mut out, meta);
     out
 }
@@ -219,7 +184,7 @@ fn render(
 /// The report's last section: the versions, the machine, the exact command and the load, so a
 /// reader can tell what made these numbers and how comparable its timings are.
 fn provenance(out: &mut String, meta: &Meta) {
-    let _ = writeln!(out, "\n## How these results were made\n");
+    let _ = writeln!(out, "\n{PROVENANCE_HEADING}\n");
     if meta.shards.is_empty() {
         let m = &meta.machine;
         let _ = writeln!(
@@ -433,8 +398,9 @@ pub fn refresh_findings(dir: &Path, meta: &Meta, runs: &Table) -> std::io::Resul
     Ok(true)
 }
 
-/// The `## Plots` section: each plot's title, caption and image.
-fn plots_section(out: &mut String, plots: &[Plot]) {
+/// The sections after the runs: `## Plots` (each plot's title, caption and image), the runs
+/// that did not finish cleanly, and the missing runs of a merged study.
+fn closing_sections(out: &mut String, meta: &Meta, runs: &Table, plots: &[Plot]) {
     let _ = writeln!(out, "{PLOTS_HEADING}\n");
     for p in plots {
         let _ = writeln!(
@@ -443,31 +409,81 @@ fn plots_section(out: &mut String, plots: &[Plot]) {
             p.title, p.caption, p.title, p.stem
         );
     }
+    let _ = writeln!(out, "## Runs that did not finish cleanly\n");
+    let kind = super::kinds::of(&meta.study.kind);
+    if let Some(note) = kind.failures_note(runs) {
+        let _ = writeln!(out, "{note}");
+    } else {
+        let mut any = false;
+        for row in &runs.rows {
+            let verdict = kind.verdict(runs, row);
+            let message = runs.get(row, "message").unwrap_or_default();
+            let unconverged = runs
+                .number(row, "newton_unconverged_steps")
+                .is_some_and(|n| n > 0.0);
+            if !verdict.clean || kind.flagged(runs, row) || unconverged {
+                any = true;
+                let what = verdict.word;
+                let mut detail = message.to_owned();
+                if unconverged {
+                    let _ = write!(
+                        detail,
+                        "{}Newton stopped unconverged at its cap ({} iterations) in {} steps",
+                        if detail.is_empty() { "" } else { "; " },
+                        runs.get(row, "newton_max_iterations").unwrap_or("?"),
+                        runs.get(row, "newton_unconverged_steps").unwrap_or("?")
+                    );
+                }
+                let _ = writeln!(out, "- `{}`: {what}: {detail}", row[0]);
+            }
+        }
+        if !any {
+            let _ = writeln!(out, "None.");
+        }
+    }
+    if !meta.missing.is_empty() {
+        let _ = writeln!(out, "\n## Missing runs\n");
+        for id in &meta.missing {
+            let _ = writeln!(out, "- `{id}`");
+        }
+    }
 }
 
 const PLOTS_HEADING: &str = "## Plots";
+const PROVENANCE_HEADING: &str = "## How these results were made";
 
-/// Rewrite the plots section of `dir/report.md` for `plots` (after `softbench plot` redrew
-/// them, their titles and captions may have changed). Returns whether a report with such a
-/// section was there to update.
-pub fn refresh_plots(dir: &Path, plots: &[Plot]) -> std::io::Result<bool> {
+/// Rewrite the sections of `dir/report.md` from its plots to its provenance for `plots` (after
+/// `softbench plot` redrew them, their titles and captions may have changed) and `runs`.
+/// Returns whether a report with a plots section was there to update.
+pub fn refresh_closing_sections(
+    dir: &Path,
+    meta: &Meta,
+    runs: &Table,
+    plots: &[Plot],
+) -> std::io::Result<bool> {
     let path = dir.join("report.md");
     let text = match std::fs::read_to_string(&path) {
         Ok(t) => t,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(false),
         Err(e) => return Err(e),
     };
-    let Some(start) = text.find(&format!("\n{PLOTS_HEADING}\n")).map(|i| i + 1) else {
+    let mut sections = String::new();
+    closing_sections(&mut sections, meta, runs, plots);
+    let Some(updated) = replace_closing_sections(&text, &sections) else {
         return Ok(false);
     };
-    let end = text[start + 1..]
-        .find("\n## ")
-        .map_or(text.len(), |i| start + 1 + i + 1);
-    let mut section = String::new();
-    plots_section(&mut section, plots);
-    let updated = format!("{}{section}{}", &text[..start], &text[end..]);
     write_atomic(&path, |w| w.write_all(updated.as_bytes()))?;
     Ok(true)
+}
+
+/// `report` with everything from its plots section to its provenance (or its end) replaced
+/// by `sections`; `None` without a plots section.
+fn replace_closing_sections(report: &str, sections: &str) -> Option<String> {
+    let start = report.find(&format!("\n{PLOTS_HEADING}\n"))? + 1;
+    let end = report[start..]
+        .find(&format!("\n\n{PROVENANCE_HEADING}\n"))
+        .map_or(report.len(), |i| start + i + 1);
+    Some(format!("{}{sections}{}", &report[..start], &report[end..]))
 }
 
 /// `report` with its findings section (from `## Findings` to the next paragraph that is not
@@ -630,25 +646,17 @@ const WARNINGS_LISTED: usize = 12;
 
 #[cfg(test)]
 mod tests {
-    use super::{Plot, refresh_plots, replace_findings};
+    use super::{replace_closing_sections, replace_findings};
 
     #[test]
-    fn the_plots_section_is_rewritten_for_redrawn_plots_and_nothing_else() {
-        let dir = tempfile::tempdir().unwrap();
-        let before = "# s\n\nStudy file `a`.\n\n## Plots\n\n### Old title\n\nold\n\n\
-                      ![Old title](p.png)\n\n## Runs that did not finish cleanly\n\nNone.\n";
-        std::fs::write(dir.path().join("report.md"), before).unwrap();
-        let plots = [Plot {
-            stem: "p".into(),
-            title: "New title".into(),
-            caption: "new".into(),
-        }];
-        assert!(refresh_plots(dir.path(), &plots).unwrap());
+    fn the_closing_sections_are_replaced_up_to_the_provenance() {
+        let before = "# s\n\nStudy file `a`.\n\n## Plots\n\n### Old\n\n## Runs that did not \
+                      finish cleanly\n\nNone.\n\n## How these results were made\n\n- x\n";
         assert_eq!(
-            std::fs::read_to_string(dir.path().join("report.md")).unwrap(),
-            "# s\n\nStudy file `a`.\n\n## Plots\n\n### New title\n\nnew\n\n\
-             ![New title](p.png)\n\n## Runs that did not finish cleanly\n\nNone.\n"
+            replace_closing_sections(before, "## Plots\n\nnew\n").unwrap(),
+            "# s\n\nStudy file `a`.\n\n## Plots\n\nnew\n\n## How these results were made\n\n- x\n"
         );
+        assert_eq!(replace_closing_sections("# s\n\nno plots\n", "x"), None);
     }
 
     #[test]

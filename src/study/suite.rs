@@ -389,6 +389,29 @@ impl Kind for Suite {
         false
     }
 
+    fn failures_note(&self, runs: &Table) -> Option<String> {
+        let mut by_kind: BTreeMap<&str, usize> = BTreeMap::new();
+        for row in &runs.rows {
+            let failure = runs.get(row, "failure").unwrap_or_default();
+            if !failure.is_empty() {
+                *by_kind.entry(failure).or_default() += 1;
+            }
+        }
+        let failed: usize = by_kind.values().sum();
+        let kinds: Vec<String> = by_kind.iter().map(|(k, n)| format!("{k} {n}")).collect();
+        Some(format!(
+            "{failed} of the {} runs did not solve their problem{}. In a suite a failure is a \
+             result: they are counted per method and kind under *Suite aggregates*, and every \
+             row's `failure` and `message` are in `runs.csv`.",
+            runs.rows.len(),
+            if kinds.is_empty() {
+                String::new()
+            } else {
+                format!(" ({})", kinds.join(", "))
+            }
+        ))
+    }
+
     fn report_settings(&self, out: &mut String, file: &StudyFile) {
         if let Some(s) = settings(file) {
             let _ = writeln!(
