@@ -211,9 +211,11 @@ fn provenance(out: &mut String, meta: &Meta) {
     }
     // Merged shards: each shard's own command, build, machine and load (the merge itself
     // measures nothing, and its time and load would make merging twice differ).
+    let of = meta.shards.iter().map(|r| r.of).max().unwrap_or(0);
     let _ = writeln!(
         out,
-        "Run as {} shards and merged with `softbench merge`:\n",
+        "Run as {of} shard{} ({} recorded) and merged with `softbench merge`:\n",
+        if of == 1 { "" } else { "s" },
         meta.shards.len()
     );
     for r in &meta.shards {
