@@ -340,6 +340,17 @@ fn steps(sorted: &[f64], start: f64, end: f64, n: usize) -> Steps {
     out
 }
 
+/// The points of a step function that a table needs: the first and each where the fraction
+/// changes. The fraction at x is that of the last point at or before x; the corners a chart
+/// draws between them, and the axis end it draws to, follow from these.
+pub fn jumps(steps: &[(f64, f64)]) -> impl Iterator<Item = (f64, f64)> + '_ {
+    steps
+        .iter()
+        .enumerate()
+        .filter(|&(i, &(_, f))| i == 0 || f != steps[i - 1].1)
+        .map(|(_, p)| *p)
+}
+
 /// The default accuracy targets: every decade from 1e-1 to 1e-8.
 pub const DEFAULT_TARGETS: [f64; 8] = [1e-1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8];
 
@@ -561,6 +572,22 @@ pub fn write(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn jumps_keep_the_first_point_and_every_change() {
+        // Three problems solved at costs 2, 2 and 5, drawn from 1 to 8.
+        let drawn = steps(&[2.0, 2.0, 5.0], 1.0, 8.0, 3);
+        let kept: Vec<(f64, f64)> = jumps(&drawn).collect();
+        assert_eq!(
+            kept,
+            vec![(1.0, 0.0), (2.0, 1.0 / 3.0), (2.0, 2.0 / 3.0), (5.0, 1.0)]
+        );
+        // The fraction at any x is the last kept point's at or before it, as drawn.
+        for x in [1.0, 1.5, 2.0, 3.0, 5.0, 7.0, 8.0] {
+            let at = |pts: &[(f64, f64)]| pts.iter().rev().find(|p| p.0 <= x).unwrap().1;
+            assert_eq!(at(&kept), at(&drawn), "x = {x}");
+        }
+    }
 
     fn table(rows: &[(&str, &str, &str, f64, f64, f64)]) -> Table {
         let mut t = Table::new(NEEDED.iter().map(|s| s.to_string()).collect());

@@ -131,7 +131,7 @@ pub(super) fn charts(
                         ("performance", &perf[s]),
                         ("data", &within(&data[s], budget)),
                     ] {
-                        for (x, f) in steps {
+                        for (x, f) in super::profiles::jumps(steps) {
                             profiles.rows.push(vec![
                                 dimension.to_string(),
                                 value.clone(),
@@ -139,7 +139,9 @@ pub(super) fn charts(
                                 cost.name().into(),
                                 profile.into(),
                                 method.clone(),
-                                format!("{x}"),
+                                // Six significant digits: a breakpoint, not a measurement
+                                // (costs.csv has each run's cost in full).
+                                format!("{x:.5e}").parse::<f64>().unwrap_or(x).to_string(),
                                 format!("{f:.4}"),
                             ]);
                         }
