@@ -190,17 +190,13 @@ fn provenance(out: &mut String, meta: &Meta) {
         let _ = writeln!(
             out,
             "- Command: `{}`\n\
-             - softbench {} (commit `{}`), {}\n\
-             - Machine: {} ({} cores), {}\n\
+             - {}\n\
+             - Machine: {}\n\
              - Load average over 1 / 5 / 15 min: {} at the start, {} at the end\n\
              - Started {}, finished {}, {} s",
             shell_words(&meta.command),
-            m.softbench_version,
-            m.git_commit,
-            m.rustc,
-            m.cpu,
-            m.cores,
-            m.os,
+            build(m),
+            machine(m),
             load(m.load_average),
             load(meta.finished_load_average),
             meta.started,
@@ -222,23 +218,32 @@ fn provenance(out: &mut String, meta: &Meta) {
         let m = &r.machine;
         let _ = writeln!(
             out,
-            "- Shard {}/{} on {}: `{}`; softbench {} (commit `{}`), {}; {} ({} cores), {}; \
-             load average over 1 / 5 / 15 min {} at its start; started {}, {} s",
+            "- Shard {}/{} on {}: `{}`; {}; {}; load average over 1 / 5 / 15 min {} at its \
+             start; started {}, {} s",
             r.shard,
             r.of,
             r.host,
             shell_words(&r.command),
-            m.softbench_version,
-            m.git_commit,
-            m.rustc,
-            m.cpu,
-            m.cores,
-            m.os,
+            build(m),
+            machine(m),
             load(m.load_average),
             r.started,
             r.wall_seconds.map_or("-".into(), |w| format!("{w:.1}")),
         );
     }
+}
+
+/// The build that ran: `softbench 0.1.0 (commit `…`), rustc …`.
+fn build(m: &super::machine::Machine) -> String {
+    format!(
+        "softbench {} (commit `{}`), {}",
+        m.softbench_version, m.git_commit, m.rustc
+    )
+}
+
+/// The machine that ran: `CPU (N cores), OS`.
+fn machine(m: &super::machine::Machine) -> String {
+    format!("{} ({} cores), {}", m.cpu, m.cores, m.os)
 }
 
 /// A load average as `1 / 5 / 15` minutes, or `-` where the platform gives none.
