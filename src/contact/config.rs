@@ -62,6 +62,10 @@ crate::named_enum! {
         /// The union of `members` (obstacle tables): the minimum distance.
         Group = "group", "the union of member obstacles (the minimum distance)",
             ObstacleFacts { fields: &["members"], required: &["members"] },
+        /// A static triangle mesh read from an OBJ `file` (placed by `transform`); only
+        /// `contact.response = "ipc"` sees its edges and faces.
+        Mesh = "mesh", "a static triangle mesh from an OBJ file (response ipc only)",
+            ObstacleFacts { fields: &["file"], required: &["file"] },
     }
 }
 
@@ -77,7 +81,9 @@ pub struct ResponseFacts {
 
 impl crate::registry::ListFacts for ResponseFacts {
     fn list(&self) -> Vec<crate::registry::Fact> {
-        let how = if self.in_model {
+        let how = if self.in_model && self.in_newton_loop {
+            "potential+newton-filter"
+        } else if self.in_model {
             "potential"
         } else if self.in_newton_loop {
             "newton-constraints"
@@ -111,6 +117,12 @@ crate::named_enum! {
         Constrained = "constrained",
             "QP-constrained Newton (backward Euler, BDF, Newmark, static); no penetration",
             ResponseFacts { in_model: false, in_newton_loop: true },
+        /// Incremental potential contact: a barrier on the distances of every vertex–face
+        /// and edge–edge pair (body, self, mesh obstacles) and of vertices to analytic
+        /// obstacles, continuous collision detection in the line search, lagged friction.
+        Ipc = "ipc",
+            "barrier + CCD line search (backward Euler, BDF, Newmark, static); intersection-free, self-contact, friction",
+            ResponseFacts { in_model: true, in_newton_loop: true },
     }
 }
 
@@ -197,6 +209,9 @@ pub struct ObstacleConfig {
     /// The obstacles of a group.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub members: Option<Vec<ObstacleConfig>>,
+    /// A mesh obstacle's OBJ file (next to the scene file, then in `SOFTBENCH_DATA`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub file: Option<String>,
     /// Placement of the shape (any kind).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub transform: Option<TransformConfig>,
@@ -222,6 +237,8 @@ pub struct ContactConfig {
     /// Vertices within this distance (m) of an obstacle count as contacts in reports and get
     /// a constraint in the constrained response; >= 0. Default 1e-3.
     pub margin: f64,
+    /// `[contact.ipc]`: incremental potential contact's settings (response `ipc`).
+    pub ipc: super::ipc::IpcConfig,
 }
 
 impl Default for ContactConfig {
@@ -232,6 +249,7 @@ impl Default for ContactConfig {
             friction: 0.0,
             stiffness: 1e5,
             margin: 1e-3,
+            ipc: super::ipc::IpcConfig::default(),
         }
     }
 }
@@ -283,6 +301,19 @@ impl ContactConfig {
                 format!("must be >= 0 (m; got {})", self.margin),
             ));
         }
+        if self.response == ContactResponse::Ipc {
+            self.ipc
+                .validate()
+                .map_err(|(key, message)| error(key, message))?;
+        } else if self.ipc != super::ipc::IpcConfig::default() {
+            return Err(error(
+                "contact.ipc",
+                format!(
+                    "applies to contact.response = \"ipc\" only (the response is \"{}\")",
+                    self.response
+                ),
+            ));
+        }
         if self.response.facts().in_newton_loop && !method.entry().constrained_contact {
             let able: Vec<&str> = Method::all()
                 .into_iter()
@@ -292,8 +323,9 @@ impl ContactConfig {
             return Err(error(
                 "contact.response",
                 format!(
-                    "`constrained` puts contact constraints on the end-of-step positions inside \
-                     a Newton solve; integrator.method `{method}` has none (methods that can: {})",
+                    "`{}` acts on the end-of-step positions inside a Newton solve; \
+                     integrator.method `{method}` has none (methods that can: {})",
+                    self.response,
                     able.join(", ")
                 ),
             ));
@@ -317,6 +349,7 @@ impl ObstacleConfig {
             ("a", self.a.is_some()),
             ("b", self.b.is_some()),
             ("members", self.members.is_some()),
+            ("file", self.file.is_some()),
         ];
         let allowed = kind.facts().fields;
         if let Some((name, _)) = present
@@ -403,6 +436,12 @@ impl ObstacleConfig {
                 validate_rotation(r, &format!("{key}.transform.rotation"))?;
             }
         }
+        if kind == ObstacleKind::Mesh && self.path.is_some() {
+            return Err(error(
+                format!("{key}.path"),
+                "a mesh obstacle is static (place it with `transform`)",
+            ));
+        }
         if let Some(path) = &self.path {
             let key = format!("{key}.path");
             if path.times.is_empty() || path.times.len() != path.offsets.len() {
@@ -458,6 +497,9 @@ impl ObstacleConfig {
                     .map(ObstacleConfig::obstacle)
                     .collect(),
             ),
+            ObstacleKind::Mesh => {
+                panic!("a mesh obstacle has no signed distance (see mesh_obstacle)")
+            }
         };
         let mut obstacle = Obstacle::new(shape);
         if let Some(tr) = &self.transform {
@@ -470,6 +512,34 @@ impl ObstacleConfig {
             ));
         }
         obstacle
+    }
+}
+
+impl ObstacleConfig {
+    /// Whether this table is a mesh obstacle (not a signed distance).
+    pub fn is_mesh(&self) -> bool {
+        self.kind == ObstacleKind::Mesh
+    }
+
+    /// A mesh obstacle's triangles read from `path` (its resolved `file`), placed by its
+    /// transform.
+    pub fn mesh_obstacle(
+        &self,
+        path: &std::path::Path,
+    ) -> Result<super::ipc::MeshObstacle, crate::mesh::MeshError> {
+        let surface = crate::mesh::obj::read(path)?;
+        let iso = self
+            .transform
+            .as_ref()
+            .map_or(Isometry3::identity(), TransformConfig::isometry);
+        Ok(super::ipc::MeshObstacle {
+            positions: surface
+                .positions
+                .iter()
+                .map(|p| (iso * nalgebra::Point3::from(*p)).coords)
+                .collect(),
+            triangles: surface.triangles,
+        })
     }
 }
 

@@ -18,6 +18,13 @@
 //! - `constrained` ([`ContactConstraints`]): inside the Newton loop of any method whose
 //!   unknown is the end-of-step position, iterations solve a convex QP with linearized
 //!   non-penetration constraints (clarabel) and the line search keeps iterates outside.
+//! - `ipc` ([`ipc`]): incremental potential contact — a barrier on the distances between the
+//!   body's surface primitives (self-contact), static triangle-mesh obstacles and the analytic
+//!   obstacles, in the model; continuous collision detection caps every Newton step; lagged
+//!   friction. Intersection-free at any step.
+//!
+//! [`intersection`] certifies sampled frames intersection-free with exact predicates,
+//! independently of every response.
 //!
 //! Every response reports contacts (pairs within the margin) and the deepest penetration in
 //! the [`crate::integrate::StepReport`]. A scene without obstacles builds none of this:
@@ -28,7 +35,10 @@ pub mod config;
 pub mod constrained;
 mod correction;
 mod cuboid;
+pub mod frame_check;
 mod half_space;
+pub mod intersection;
+pub mod ipc;
 pub mod obstacle;
 mod path;
 mod penalty;
@@ -49,6 +59,7 @@ pub use response::{Response, VelocityRule, WithContactResponse};
 pub use sdf::{Sdf, SdfValue};
 pub use sphere::Sphere;
 
+use crate::integrate::newton::NewtonContact;
 use crate::integrate::{Integrator, IntegratorSettings};
 use crate::model::Model;
 use std::sync::Arc;
@@ -58,6 +69,10 @@ use std::sync::Arc;
 pub struct Contact {
     obstacles: Arc<Obstacles>,
     config: ContactConfig,
+    /// Incremental potential contact's shared state (response `ipc`).
+    ipc: Option<Arc<ipc::Ipc>>,
+    /// The independent intersection check of sampled frames.
+    check: Arc<frame_check::FrameCheck>,
 }
 
 impl Contact {
@@ -67,12 +82,64 @@ impl Contact {
         obstacles: &[ObstacleConfig],
         config: &ContactConfig,
         model: &mut Model,
+        surface: &[[usize; 3]],
     ) -> Option<Self> {
         if obstacles.is_empty() {
             return None;
         }
-        let set = obstacles.iter().map(ObstacleConfig::obstacle).collect();
-        Some(Self::new(set, *config, model))
+        let set = obstacles
+            .iter()
+            .filter(|o| !o.is_mesh())
+            .map(ObstacleConfig::obstacle)
+            .collect();
+        let mut contact = Self::new(set, *config, model);
+        contact.check = Arc::new(frame_check::FrameCheck::new(
+            surface.to_vec(),
+            Vec::new(),
+            contact.obstacles.clone(),
+        ));
+        Some(contact)
+    }
+
+    /// Incremental potential contact (`response = "ipc"`) for `model`, whose body's boundary
+    /// triangles are `surface`, against the analytic `obstacles` (mesh tables skipped) and
+    /// the mesh obstacles `meshes`, with steps of `dt`; adds the contact potential to `model`.
+    /// Built even without obstacles (self-contact).
+    pub fn build_ipc(
+        obstacles: &[ObstacleConfig],
+        meshes: &[ipc::MeshObstacle],
+        config: &ContactConfig,
+        model: &mut Model,
+        surface: &[[usize; 3]],
+        dt: f64,
+    ) -> Self {
+        let set: Obstacles = obstacles
+            .iter()
+            .filter(|o| !o.is_mesh())
+            .map(ObstacleConfig::obstacle)
+            .collect();
+        let set = Arc::new(set);
+        let shared = Arc::new(ipc::Ipc::new(
+            model,
+            surface,
+            set.clone(),
+            meshes,
+            config.ipc,
+            dt,
+        ));
+        model.set_contact_potential(Box::new(ipc::IpcPotential(shared.clone())));
+        let check = frame_check::FrameCheck::new(surface.to_vec(), meshes.to_vec(), set.clone());
+        Self {
+            obstacles: set,
+            config: *config,
+            ipc: Some(shared),
+            check: Arc::new(check),
+        }
+    }
+
+    /// Incremental potential contact's state, if the response is `ipc`.
+    pub fn ipc(&self) -> Option<&Arc<ipc::Ipc>> {
+        self.ipc.as_ref()
     }
 
     /// Contact with `obstacles`; with the penalty response, adds the penalty potential to
@@ -85,7 +152,13 @@ impl Contact {
                 config.stiffness,
             )));
         }
-        Self { obstacles, config }
+        let check = frame_check::FrameCheck::new(Vec::new(), Vec::new(), obstacles.clone());
+        Self {
+            obstacles,
+            config,
+            ipc: None,
+            check: Arc::new(check),
+        }
     }
 
     /// The obstacles.
@@ -111,18 +184,34 @@ impl Contact {
             ContactResponse::Penalty => Response::ReportOnly,
             ContactResponse::Projection => Response::Projection(rule),
             ContactResponse::VelocityFlip => Response::VelocityFlip(rule),
+            ContactResponse::Ipc => {
+                let shared = self.ipc.clone().expect("built by Contact::build_ipc");
+                let filter = ipc::IpcFilter::new(shared.clone());
+                let inner = settings
+                    .build_constrained(NewtonContact::Barrier(Box::new(filter)))
+                    .expect("scene validation admits ipc only for methods on the Newton loop");
+                return Box::new(ipc::WithIpc::new(inner, shared, self.check.clone()));
+            }
             ContactResponse::Constrained => {
                 let constraints = ContactConstraints::new(self.obstacles.clone(), c.margin);
-                return settings
-                    .build_constrained(Box::new(constraints))
+                let inner = settings
+                    .build_constrained(NewtonContact::Constraints(Box::new(constraints)))
                     .expect("scene validation admits constrained contact only for such methods");
+                // The constraints record contacts; the wrapper adds the frame check.
+                return Box::new(
+                    WithContactResponse::new(
+                        inner,
+                        self.obstacles.clone(),
+                        Response::ReportOnly,
+                        c.margin,
+                    )
+                    .with_check(self.check.clone()),
+                );
             }
         };
-        Box::new(WithContactResponse::new(
-            settings.build(),
-            self.obstacles.clone(),
-            response,
-            c.margin,
-        ))
+        Box::new(
+            WithContactResponse::new(settings.build(), self.obstacles.clone(), response, c.margin)
+                .with_check(self.check.clone()),
+        )
     }
 }

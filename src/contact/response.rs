@@ -80,6 +80,8 @@ pub struct WithContactResponse {
     /// The inner step's result while the state is corrected.
     end_q: Vec<f64>,
     end_v: Vec<f64>,
+    /// The independent intersection check of sampled frames, if attached.
+    check: Option<Arc<super::frame_check::FrameCheck>>,
 }
 
 /// Passes of the correction: vertices the previous pass pushed inside join the next one.
@@ -88,6 +90,12 @@ const MAX_PASSES: usize = 4;
 impl WithContactResponse {
     /// `inner` followed by `response` against `obstacles`; vertices within `margin` (m) of an
     /// obstacle count as contacts in the report.
+    /// The same, answering [`Integrator::intersection_free`] with `check`.
+    pub fn with_check(mut self, check: Arc<super::frame_check::FrameCheck>) -> Self {
+        self.check = Some(check);
+        self
+    }
+
     pub fn new(
         inner: Box<dyn Integrator>,
         obstacles: Arc<Obstacles>,
@@ -108,6 +116,7 @@ impl WithContactResponse {
             row_of: Vec::new(),
             end_q: Vec::new(),
             end_v: Vec::new(),
+            check: None,
         }
     }
 
@@ -249,6 +258,11 @@ impl Integrator for WithContactResponse {
 
     fn drain_iteration_log(&mut self, out: &mut Vec<crate::integrate::newton::IterationRecord>) {
         self.inner.drain_iteration_log(out);
+    }
+
+    fn intersection_free(&self, model: &Model, state: &State) -> Option<bool> {
+        let check = self.check.as_ref()?;
+        Some(check.intersection_free(&model.full_positions(&state.q), state.t))
     }
 
     fn advance(

@@ -23,7 +23,7 @@
 //! equal steps).
 
 use super::implicit_midpoint::ImplicitMidpoint;
-use super::newton::{NewtonSettings, StepConstraints, with_halving};
+use super::newton::{NewtonContact, NewtonSettings, with_halving};
 use super::scheme::{NewtonIntegrator, Scheme, StepProblem};
 use super::{Integrator, State, StepError, StepReport};
 use crate::model::Model;
@@ -222,7 +222,7 @@ impl Bdf {
         settings: BdfSettings,
         solver: Box<dyn LinearSolver>,
         newton: NewtonSettings,
-        constraints: Option<Box<dyn StepConstraints>>,
+        constraints: Option<NewtonContact>,
     ) -> Self {
         assert!((1..=MAX_ORDER).contains(&order), "BDF order {order}");
         // A constrained start-up would constrain the midpoint, not the end of the step.

@@ -20,8 +20,8 @@ use super::linearly_implicit_euler::LinearlyImplicitEuler;
 use super::newmark::{
     GeneralizedAlphaSettings, HhtSettings, Newmark, NewmarkParameters, NewmarkSettings,
 };
+use super::newton::NewtonContact;
 use super::newton::NewtonSettings;
-use super::newton::StepConstraints;
 use super::projective_dynamics::ProjectiveDynamics;
 use super::projective_dynamics::ProjectiveDynamicsSettings;
 use super::radau_iia::RadauIIA;
@@ -42,8 +42,7 @@ use crate::solve::{LinearSolverKind, SolverSettings};
 
 /// How a method is built from its settings; `constraints` is `Some` only for methods whose
 /// entry allows constrained contact.
-pub type BuildMethod =
-    fn(&IntegratorSettings, Option<Box<dyn StepConstraints>>) -> Box<dyn Integrator>;
+pub type BuildMethod = fn(&IntegratorSettings, Option<NewtonContact>) -> Box<dyn Integrator>;
 
 /// Everything the rest of the code asks about a method.
 pub struct MethodEntry {
@@ -152,7 +151,7 @@ impl MethodEntry {
 /// `scheme` on the one Newton loop with the settings' linear solver and Newton settings.
 pub fn newton_scheme<S: Scheme + 'static>(
     s: &IntegratorSettings,
-    constraints: Option<Box<dyn StepConstraints>>,
+    constraints: Option<NewtonContact>,
     scheme: S,
 ) -> Box<dyn Integrator> {
     let solver = s.linear_solver.build(&s.solver);
@@ -218,7 +217,7 @@ fn bdf(
     name: &'static str,
     k: u32,
     s: &IntegratorSettings,
-    c: Option<Box<dyn StepConstraints>>,
+    c: Option<NewtonContact>,
 ) -> Box<dyn Integrator> {
     let solver = s.linear_solver.build(&s.solver);
     Box::new(Bdf::new(name, k, s.bdf, solver, s.newton, c))
@@ -396,15 +395,12 @@ impl IntegratorSettings {
         (self.method.entry().build)(self, None)
     }
 
-    /// Build the integrator with every Newton iterate kept feasible for `constraints`; `None`
-    /// if the method cannot take constraints (see [`super::MethodEntry::constrained_contact`]).
-    pub fn build_constrained(
-        &self,
-        constraints: Box<dyn StepConstraints>,
-    ) -> Option<Box<dyn Integrator>> {
+    /// Build the integrator with a contact response inside its Newton loop (`contact`); `None`
+    /// if the method has no such loop (see [`super::MethodEntry::constrained_contact`]).
+    pub fn build_constrained(&self, contact: NewtonContact) -> Option<Box<dyn Integrator>> {
         let entry = self.method.entry();
         entry
             .constrained_contact
-            .then(|| (entry.build)(self, Some(constraints)))
+            .then(|| (entry.build)(self, Some(contact)))
     }
 }

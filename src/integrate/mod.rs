@@ -44,6 +44,7 @@ pub mod methods;
 pub mod midpoint;
 pub mod newmark;
 pub mod newton;
+mod pattern_extension;
 pub mod projective_dynamics;
 pub mod radau_iia;
 mod report;
@@ -134,6 +135,13 @@ pub trait Integrator: Send {
     /// Move the Newton iteration records of the last step into `out` (methods on the Newton
     /// loop with `integrator.newton.log_iterations`; nothing by default).
     fn drain_iteration_log(&mut self, _out: &mut Vec<newton::IterationRecord>) {}
+
+    /// Whether `state` is free of intersections, by an exact check independent of the
+    /// method and of its contact response (answered by the contact wrappers; `None`, the
+    /// default, without contact).
+    fn intersection_free(&self, _model: &Model, _state: &State) -> Option<bool> {
+        None
+    }
 
     /// For a method on the Newton loop: the incremental potential its next step of `dt` from
     /// `state` minimizes, frozen so another Newton can solve it ([`scheme::solve_frozen`]);

@@ -103,6 +103,13 @@ pub struct StepReport {
     pub max_penetration: f64,
     /// Quadratic programs solved (the constrained contact response).
     pub qp_solves: u32,
+    /// Incremental potential contact: the smallest unsigned distance between contact
+    /// primitives (and to analytic obstacles) after the step (m); `None` without it.
+    pub min_distance: Option<f64>,
+    /// Its barrier stiffness κ in the step (J; the largest over absorbed sub-steps).
+    pub barrier_stiffness: f64,
+    /// Its continuous-collision-detection queries (primitive pairs tested) in the step.
+    pub ccd_queries: u64,
     /// Iterations of a local solver: VBD's Gauss–Seidel sweeps, projective dynamics'
     /// local/global iterations, XPBD's constraint sweeps (substeps × iterations).
     pub local_iterations: u32,
@@ -164,6 +171,12 @@ impl StepReport {
         self.contacts = self.contacts.max(other.contacts);
         self.max_penetration = self.max_penetration.max(other.max_penetration);
         self.qp_solves += other.qp_solves;
+        self.min_distance = match (self.min_distance, other.min_distance) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        };
+        self.barrier_stiffness = self.barrier_stiffness.max(other.barrier_stiffness);
+        self.ccd_queries += other.ccd_queries;
     }
 }
 

@@ -13,7 +13,7 @@
 //! the constant force term `l`, the initial guess and the force time; then
 //! [`Scheme::finish`] turns the minimizer into the new positions and velocities.
 
-use super::newton::{Newton, NewtonSettings, Problem, StepConstraints, with_halving};
+use super::newton::{Newton, NewtonContact, NewtonSettings, Problem, with_halving};
 use super::{Integrator, State, StepError, StepReport};
 use crate::model::Model;
 use crate::solve::LinearSolver;
@@ -146,10 +146,13 @@ impl<S: Scheme> NewtonIntegrator<S> {
         }
     }
 
-    /// The same, with every Newton iterate kept feasible for `constraints`.
-    pub fn constrained(mut self, constraints: Option<Box<dyn StepConstraints>>) -> Self {
-        if let Some(c) = constraints {
-            self.newton.set_constraints(c);
+    /// The same, with a contact response inside the Newton loop: constraints that keep every
+    /// iterate feasible, or a barrier's step filter (continuous collision detection).
+    pub fn constrained(mut self, contact: Option<NewtonContact>) -> Self {
+        match contact {
+            Some(NewtonContact::Constraints(c)) => self.newton.set_constraints(c),
+            Some(NewtonContact::Barrier(f)) => self.newton.set_step_filter(f),
+            None => {}
         }
         self
     }

@@ -11,7 +11,7 @@
 //! The matrix is `K` alone: a body that nothing holds (no fixed vertex, no obstacle) has no
 //! equilibrium and fails with the solver's message about a singular matrix.
 
-use super::newton::{NewtonSettings, StepConstraints};
+use super::newton::{NewtonContact, NewtonSettings};
 use super::scheme::{NewtonIntegrator, Scheme, StepProblem};
 use super::{Integrator, State, StepError, StepReport};
 use crate::model::Model;
@@ -108,7 +108,7 @@ impl Static {
         settings: StaticSettings,
         solver: Box<dyn LinearSolver>,
         newton: NewtonSettings,
-        constraints: Option<Box<dyn StepConstraints>>,
+        constraints: Option<NewtonContact>,
     ) -> Self {
         let scheme = StaticScheme {
             load: 1.0,

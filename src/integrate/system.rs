@@ -11,17 +11,26 @@
 //! (`projected_elements`) at every assembly.
 
 use super::filter::FilterSettings;
+use super::pattern_extension::PatternExtension;
 use super::{StepError, StepReport};
 use crate::fem::ElementFilter;
 use crate::model::{HessianOptions, Model};
 use crate::solve::{LinearSolver, SolveError};
-use crate::sparse::SymmetricMatrix;
+use crate::sparse::{SparsityPattern, SymmetricMatrix};
+use std::sync::Arc;
 use std::time::Instant;
 
 /// `M + beta K(x)` with its solver.
 pub struct ImplicitSystem {
     solver: Box<dyn LinearSolver>,
+    /// The matrix over the model's (element) pattern.
     matrix: Option<SymmetricMatrix>,
+    /// The matrix over the element pattern extended by contact blocks, when the last
+    /// assembly had any outside it ([`crate::model::Model::off_pattern_blocks`]).
+    extension: Option<PatternExtension>,
+    extended: bool,
+    /// The pattern the solver last analyzed.
+    analyzed: Option<Arc<SparsityPattern>>,
     /// The Hessian filter.
     filter: FilterSettings,
     /// Assemblies since [`Self::begin_solve`]: the Newton iteration of `progressive`.
@@ -77,6 +86,9 @@ impl ImplicitSystem {
         Self {
             solver,
             matrix: None,
+            extension: None,
+            extended: false,
+            analyzed: None,
             filter,
             iteration: 0,
             projected: false,
@@ -117,13 +129,7 @@ impl ImplicitSystem {
         report: &mut StepReport,
     ) -> Result<(), StepError> {
         let start = Instant::now();
-        if self.matrix.is_none() {
-            let m = model.new_hessian();
-            self.solver.analyze(m.pattern())?;
-            report.symbolic_analyses += 1;
-            self.matrix = Some(m);
-        }
-        let h = self.matrix.as_mut().expect("created above");
+        let h = self.matrix.get_or_insert_with(|| model.new_hessian());
         model.hessian(x, h, HessianOptions { filter })?;
         report.projected_elements += model.filtered_elements() as u64;
         if self.mass_term {
@@ -139,6 +145,7 @@ impl ImplicitSystem {
                 self.damping.as_ref().expect("assembled with the step"),
             );
         }
+        self.extend(model);
         self.projected = match (filter, self.filter.fallback()) {
             (None, _) => false,
             (Some(_), None) => true,
@@ -146,6 +153,40 @@ impl ImplicitSystem {
         };
         report.times.assemble += start.elapsed().as_secs_f64();
         Ok(())
+    }
+
+    /// Carry the contact blocks the element pattern lacks (if any) into the extended matrix.
+    fn extend(&mut self, model: &Model) {
+        let off = model.off_pattern_blocks();
+        self.extended = !off.is_empty();
+        if !self.extended {
+            return;
+        }
+        let base = self.matrix.as_ref().expect("assembled");
+        if !self
+            .extension
+            .as_ref()
+            .is_some_and(|e| e.covers(base.pattern(), off))
+        {
+            self.extension = Some(PatternExtension::new(
+                base.pattern(),
+                off,
+                self.extension.as_ref(),
+            ));
+        }
+        self.extension
+            .as_mut()
+            .expect("built above")
+            .fill(base, off);
+    }
+
+    /// The assembled matrix the solver sees: the extended one when contact needs it.
+    fn active(&self) -> Option<&SymmetricMatrix> {
+        if self.extended {
+            self.extension.as_ref().map(PatternExtension::matrix)
+        } else {
+            self.matrix.as_ref()
+        }
     }
 
     /// Assemble `M + beta K(x)` without factoring it, element Hessians through a PSD filter
@@ -162,21 +203,37 @@ impl ImplicitSystem {
         self.beta = beta;
         let filter = project.then(|| self.filter.psd(self.iteration));
         self.assemble(model, x, filter, report)?;
-        Ok(self.matrix.as_ref().expect("assembled"))
+        Ok(self.active().expect("assembled"))
     }
 
-    /// The last assembled matrix (None before the first assembly).
+    /// The last assembled matrix (None before the first assembly), on the extended pattern
+    /// when contact blocks needed one.
     pub fn matrix(&self) -> Option<&SymmetricMatrix> {
-        self.matrix.as_ref()
+        self.active()
     }
 
     /// Factor the assembled matrix. A factorization that reports negative pivots (LDLᵀ) is
     /// counted as done but returned as `Indefinite`: the matrix is not positive definite.
     fn factor_current(&mut self, x: &[f64], report: &mut StepReport) -> Result<(), SolveError> {
         let start = Instant::now();
+        let pattern = self.active().expect("assembled").pattern().clone();
+        if !self
+            .analyzed
+            .as_ref()
+            .is_some_and(|a| Arc::ptr_eq(a, &pattern))
+        {
+            self.solver.analyze(&pattern)?;
+            report.symbolic_analyses += 1;
+            self.analyzed = Some(pattern);
+        }
         self.solver.set_coordinates(x);
         let amg_before = self.solver.stats().amg;
-        let result = self.solver.factor(self.matrix.as_ref().expect("assembled"));
+        let matrix = if self.extended {
+            self.extension.as_ref().map(PatternExtension::matrix)
+        } else {
+            self.matrix.as_ref()
+        };
+        let result = self.solver.factor(matrix.expect("assembled"));
         report.times.factor += start.elapsed().as_secs_f64();
         let amg = self.solver.stats().amg;
         report.amg_builds += amg.builds.saturating_sub(amg_before.builds) as u32;

@@ -83,6 +83,8 @@ impl Model {
             elastic,
             springs,
             vertex_potentials: Vec::new(),
+            contact_potential: None,
+            off_pattern: Vec::new(),
             diagonal_slots,
             time: 0.0,
             damping,

@@ -5,7 +5,7 @@
 
 use super::elastic::ElementFailure;
 use super::pattern::{gather_matrix, gather_vector};
-use super::{FIXED, HessianOptions, Model, ModelError, PotentialParts};
+use super::{FIXED, HessianOptions, Model, ModelError, OffPatternBlock, PotentialParts};
 use crate::fem::FilterScope;
 use crate::sparse::SymmetricMatrix;
 use std::sync::Arc;
@@ -85,11 +85,16 @@ impl Model {
             .iter()
             .map(|p| p.energy(self.time, x))
             .sum();
+        let contact = self
+            .contact_potential
+            .as_ref()
+            .map_or(0.0, |p| p.energy(self.time, x));
         Ok(PotentialParts {
             elastic,
             springs,
             gravity,
             vertex,
+            contact,
         })
     }
 
@@ -133,8 +138,8 @@ impl Model {
         Ok(())
     }
 
-    /// Add the gradients of gravity and of the vertex potentials (at the loaded positions and
-    /// the model's time) to `g`.
+    /// Add the gradients of gravity, the vertex potentials and the contact potential (at the
+    /// loaded positions and the model's time) to `g`.
     pub(super) fn add_load_gradients(&self, g: &mut [f64]) {
         if let Some(gr) = self.gravity {
             for (f, &v) in self.dofs.free_vertices().iter().enumerate() {
@@ -155,10 +160,22 @@ impl Model {
                 }
             });
         }
+        if let Some(p) = &self.contact_potential {
+            p.gradient(self.time, &self.positions, &mut |v, gv| {
+                let f = dofs.free_index(v);
+                if f != FIXED {
+                    let f = f as usize;
+                    for i in 0..3 {
+                        g[3 * f + i] += gv[i];
+                    }
+                }
+            });
+        }
     }
 
     /// The Hessian of the potential at `q`, written into `h` (which must be over
-    /// [`Self::hessian_pattern`]; see [`Self::new_hessian`]).
+    /// [`Self::hessian_pattern`]; see [`Self::new_hessian`]). Contact-potential blocks the
+    /// pattern lacks are kept in [`Self::off_pattern_blocks`] instead.
     pub fn hessian(
         &mut self,
         q: &[f64],
@@ -236,6 +253,39 @@ impl Model {
                     }
                 },
             );
+        }
+        self.off_pattern.clear();
+        if let Some(p) = &self.contact_potential {
+            let (pattern, off) = (&self.pattern, &mut self.off_pattern);
+            let col_ptr = pattern.scalar().col_ptr();
+            let project = filter.is_some();
+            p.hessian(self.time, &self.positions, project, &mut |a, b, block| {
+                let (fa, fb) = (dofs.free_index(a), dofs.free_index(b));
+                if fa == FIXED || fb == FIXED {
+                    return;
+                }
+                let (row, col) = (fa as usize, fb as usize);
+                match pattern.block_index(row, col) {
+                    Some(_) => {
+                        // Block (row, col) sits in scalar columns 3col..3col+3 at the same
+                        // offset within each column.
+                        let rows = pattern.scalar().row_idx();
+                        for j in 0..3 {
+                            let c = 3 * col + j;
+                            let column = &rows[col_ptr[c]..col_ptr[c + 1]];
+                            let start = column.partition_point(|&r| r < 3 * row);
+                            for i in 0..3 {
+                                values[col_ptr[c] + start + i] += block[(i, j)];
+                            }
+                        }
+                    }
+                    None => off.push(OffPatternBlock {
+                        row: fa,
+                        col: fb,
+                        block: *block,
+                    }),
+                }
+            });
         }
         Ok(())
     }

@@ -10,6 +10,7 @@
 //! stability limit `2 / omega_max`).
 
 mod build;
+mod contact_potential;
 mod damping;
 mod discrete_gradient;
 mod dofs;
@@ -25,6 +26,7 @@ mod spectrum;
 mod springs;
 mod vertex_potential;
 
+pub use contact_potential::{ContactPotential, OffPatternBlock};
 pub use damping::Damping;
 pub use dofs::{AxisRule, DofMap, FIXED, FixedSelection, Side};
 pub use drag::{Drag, DragPath, Waypoint};
@@ -120,12 +122,14 @@ pub struct PotentialParts {
     pub gravity: f64,
     /// Vertex potentials (contact penalties, drag springs).
     pub vertex: f64,
+    /// The contact potential (barrier and friction; see [`ContactPotential`]).
+    pub contact: f64,
 }
 
 impl PotentialParts {
     /// Sum of all parts.
     pub fn total(&self) -> f64 {
-        self.elastic + self.springs + self.gravity + self.vertex
+        self.elastic + self.springs + self.gravity + self.vertex + self.contact
     }
 }
 
@@ -182,6 +186,10 @@ pub struct Model {
     elastic: Option<ElasticBody>,
     springs: Vec<Spring>,
     vertex_potentials: Vec<Box<dyn VertexPotential>>,
+    /// The contact potential, if the scene has one (incremental potential contact).
+    contact_potential: Option<Box<dyn ContactPotential>>,
+    /// Its Hessian blocks the element pattern lacks, from the last [`Self::hessian`].
+    off_pattern: Vec<OffPatternBlock>,
     /// Where each free vertex's 3×3 diagonal block sits in the Hessian values (column-major).
     diagonal_slots: Vec<[usize; 9]>,
     /// The time time-dependent potentials are evaluated at (s).
@@ -265,6 +273,34 @@ impl Model {
     /// so the pattern does not change.
     pub fn add_vertex_potential(&mut self, potential: Box<dyn VertexPotential>) {
         self.vertex_potentials.push(potential);
+    }
+
+    /// Set the contact potential (replacing any). Its Hessian may couple vertices no element
+    /// couples: see [`Self::off_pattern_blocks`].
+    pub fn set_contact_potential(&mut self, potential: Box<dyn ContactPotential>) {
+        self.contact_potential = Some(potential);
+    }
+
+    /// The contact potential, if any.
+    pub fn contact_potential(&self) -> Option<&dyn ContactPotential> {
+        self.contact_potential.as_deref()
+    }
+
+    /// The contact potential's Hessian blocks that the last [`Self::hessian`] could not store
+    /// because the element pattern lacks them (empty without self-contact). A caller that
+    /// factors the Hessian adds them on an extended pattern.
+    pub fn off_pattern_blocks(&self) -> &[OffPatternBlock] {
+        &self.off_pattern
+    }
+
+    /// The stored energy of the contact potential at positions `q` (0 without one; see
+    /// [`ContactPotential::stored_energy`]).
+    pub fn contact_stored_energy(&mut self, q: &[f64]) -> Result<f64, ModelError> {
+        self.load_state(q)?;
+        Ok(self
+            .contact_potential
+            .as_ref()
+            .map_or(0.0, |p| p.stored_energy(self.time, &self.positions)))
     }
 
     /// The per-vertex potentials.

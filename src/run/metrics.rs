@@ -12,12 +12,14 @@ pub struct Energies {
     pub gravity: f64,
     /// Per-vertex potentials: contact penalties and drag springs.
     pub external: f64,
+    /// The contact barrier's stored energy (incremental potential contact; 0 otherwise).
+    pub contact: f64,
 }
 
 impl Energies {
     /// Kinetic plus potential.
     pub fn total(&self) -> f64 {
-        self.kinetic + self.elastic + self.springs + self.gravity + self.external
+        self.kinetic + self.elastic + self.springs + self.gravity + self.external + self.contact
     }
 
     /// Kinetic plus stored (elastic and spring) energy: what blows up when a method is
@@ -42,7 +44,9 @@ impl Metrics {
             springs,
             gravity,
             vertex,
+            contact: _,
         } = model.potential_parts(&state.q)?;
+        let contact = model.contact_stored_energy(&state.q)?;
         self.mv.resize(state.v.len(), 0.0);
         model.mass().mul_vec(&state.v, &mut self.mv);
         let kinetic = 0.5
@@ -58,6 +62,7 @@ impl Metrics {
             springs,
             gravity,
             external: vertex,
+            contact,
         })
     }
 

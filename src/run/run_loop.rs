@@ -43,6 +43,8 @@ pub struct Sample {
     pub springs: f64,
     /// Per-vertex potentials: contact penalties and drag springs (J).
     pub external: f64,
+    /// The contact barrier's energy (incremental potential contact; J).
+    pub contact_energy: f64,
     /// Angular momentum about the origin (kg m^2/s).
     pub angular_momentum_x: f64,
     pub angular_momentum_y: f64,
@@ -75,6 +77,17 @@ pub struct Sample {
     pub max_penetration: f64,
     /// Quadratic programs solved since the previous row (constrained contact).
     pub qp_solves: u64,
+    /// Incremental potential contact since the previous row: the smallest distance between
+    /// contact primitives after any step (m; empty without it), the largest barrier
+    /// stiffness (J), the collision-detection queries and the Newton steps they shortened.
+    pub min_distance: Option<f64>,
+    pub barrier_stiffness: f64,
+    pub ccd_queries: u64,
+    pub ccd_limited_steps: u64,
+    /// Whether the sampled frame is free of intersections by an exact test independent of
+    /// the contact response (surface self-intersection, surface against obstacle meshes,
+    /// vertices inside analytic obstacles); empty for scenes without contact.
+    pub intersection_free: Option<bool>,
     /// Their wall time (s).
     pub qp_seconds: f64,
     /// Entries of the largest sparse factor built since the previous row (nnz(L)).
@@ -281,6 +294,7 @@ fn sample(
         wall_seconds: work.times.total,
         springs: energies.springs,
         external: energies.external,
+        contact_energy: energies.contact,
         angular_momentum_x: l[0],
         angular_momentum_y: l[1],
         angular_momentum_z: l[2],
@@ -305,6 +319,11 @@ fn sample(
         contacts: work.contacts.into(),
         max_penetration: work.max_penetration,
         qp_solves: work.qp_solves.into(),
+        min_distance: work.min_distance,
+        barrier_stiffness: work.barrier_stiffness,
+        ccd_queries: work.ccd_queries,
+        ccd_limited_steps: work.filtered_steps.into(),
+        intersection_free: None,
         qp_seconds: work.times.qp,
         factor_nnz: work.factor_nnz as u64,
         factor_flops: work.factor_flops,
@@ -464,7 +483,9 @@ pub fn run(
         elapsed: 0.0,
         internal_dt: None,
     };
-    observer.sample(&sample(0, state, &initial, momenta, no_work, &balance))?;
+    let mut row = sample(0, state, &initial, momenta, no_work, &balance);
+    row.intersection_free = integrator.intersection_free(model, state);
+    observer.sample(&row)?;
     observer.after_step(0, model, state)?;
 
     // A budget passed before the horizon: the run stops after the step's row is written. Inside
@@ -564,7 +585,9 @@ pub fn run(
                 elapsed: start.elapsed().as_secs_f64(),
                 internal_dt: StepSizes::of(&mut row_dts),
             };
-            observer.sample(&sample(step, state, &energies, momenta, work, &balance))?;
+            let mut row = sample(step, state, &energies, momenta, work, &balance);
+            row.intersection_free = integrator.intersection_free(model, state);
+            observer.sample(&row)?;
             since_row = StepReport::default();
             row_dts.clear();
             steps_since_row = 0;

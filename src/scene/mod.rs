@@ -353,6 +353,18 @@ fn validate(c: &SceneConfig, path: &Path) -> Result<(), SceneError> {
     c.contact
         .validate(c.integrator.method)
         .map_err(|e| invalid(&e.key, e.message))?;
+    if c.contact.response != crate::contact::ContactResponse::Ipc
+        && let Some(i) = c.obstacles.iter().position(|o| o.is_mesh())
+    {
+        return Err(invalid(
+            &format!("obstacles[{i}].kind"),
+            format!(
+                "a mesh obstacle has no signed distance; only contact.response = \"ipc\" sees \
+                 its faces (the response is \"{}\")",
+                c.contact.response
+            ),
+        ));
+    }
     Ok(())
 }
 
@@ -386,7 +398,7 @@ fn validate_newton_components(c: &SceneConfig, path: &Path) -> Result<(), SceneE
         }
         if !matches!(*key, "log_iterations" | "roundoff_stop")
             && !c.obstacles.is_empty()
-            && c.contact.response.facts().in_newton_loop
+            && c.contact.response == crate::contact::ContactResponse::Constrained
         {
             return Err(invalid(
                 &format!("integrator.newton.{key}"),
@@ -767,6 +779,14 @@ pub fn build(
         parallelism,
         damping: c.damping.to_model(),
     };
+    // The boundary surface contact works on (incremental potential contact) and the
+    // intersection check of sampled frames examines.
+    let surface =
+        if c.contact.response == crate::contact::ContactResponse::Ipc || !c.obstacles.is_empty() {
+            crate::mesh::surface::boundary_faces(&spec.mesh.tets)
+        } else {
+            Vec::new()
+        };
     let mut model = Model::new(spec).map_err(|error| SceneError::Model {
         path: path.clone(),
         error,
@@ -776,7 +796,39 @@ pub fn build(
         key: e.key,
         message: e.message,
     })?;
-    let contact = Contact::build(&c.obstacles, &c.contact, &mut model);
+    let contact = if c.contact.response == crate::contact::ContactResponse::Ipc {
+        let meshes = c
+            .obstacles
+            .iter()
+            .enumerate()
+            .filter(|(_, o)| o.is_mesh())
+            .map(|(i, o)| {
+                let file = o.file.as_deref().expect("validated");
+                let resolved = data.resolve(file, Some(loaded.base_dir())).map_err(|e| {
+                    SceneError::Invalid {
+                        path: path.clone(),
+                        key: format!("obstacles[{i}].file"),
+                        message: e.to_string(),
+                    }
+                })?;
+                o.mesh_obstacle(&resolved)
+                    .map_err(|error| SceneError::Mesh {
+                        path: path.clone(),
+                        error,
+                    })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        Some(Contact::build_ipc(
+            &c.obstacles,
+            &meshes,
+            &c.contact,
+            &mut model,
+            &surface,
+            c.run.dt,
+        ))
+    } else {
+        Contact::build(&c.obstacles, &c.contact, &mut model, &surface)
+    };
     // A method that has no form for the model's material or potentials says so now, not at
     // its first step. The integrator checked is the one the first run uses.
     let integrator = new_integrator(c, &model, contact.as_ref());

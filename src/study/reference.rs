@@ -344,6 +344,7 @@ pub(super) fn sampled_run(
             springs: r.springs,
             gravity: r.gravity,
             external: r.external,
+            contact: r.contact_energy,
         })
         .collect();
     (summary, observer.rows, observer.snapshots, pictures)
@@ -607,6 +608,8 @@ impl Reference {
                             springs,
                             gravity,
                             external,
+                            // Stored references predate the barrier (no reference scene has one).
+                            contact: 0.0,
                         }
                     })
                     .collect(),

@@ -75,6 +75,18 @@ pub struct NewtonTrace {
     pub first_step_lengths: Vec<f64>,
 }
 
+/// A contact response inside the Newton loop of a method whose unknown is the end-of-step
+/// position.
+pub enum NewtonContact {
+    /// Constraints that choose the direction and keep every iterate feasible (the
+    /// constrained response).
+    Constraints(Box<dyn StepConstraints>),
+    /// The step filter of a barrier potential in the model (incremental potential contact):
+    /// continuous collision detection caps every step, and the solve starts from the
+    /// start-of-step positions moved toward the guess as far as the filter allows.
+    Barrier(Box<dyn StepFilter>),
+}
+
 /// Caps the length of a step before it is tried: the largest `alpha` such that `x + alpha
 /// dx` is safe (continuous collision detection of a barrier contact response). The line
 /// search starts at `min(initial_step, alpha)`; a trust-region or full step is scaled to it.
@@ -82,6 +94,24 @@ pub trait StepFilter: Send {
     /// The largest allowed step length along `dx` from `x` at time `t` (> 0; `f64::INFINITY`
     /// for no cap).
     fn max_step(&mut self, x: &[f64], dx: &[f64], t: f64) -> f64;
+
+    /// A solve starts from `x_ref` (the start-of-step positions) at time `t`: fix what the
+    /// filter's potential lags over a solve (a barrier's stiffness, friction's normal forces
+    /// and tangent bases). Default: nothing.
+    fn begin_solve(
+        &mut self,
+        _model: &mut Model,
+        _x_ref: &[f64],
+        _t: f64,
+    ) -> Result<(), StepError> {
+        Ok(())
+    }
+
+    /// The solve converged at `x`: update the lagged quantities there and return `true` to
+    /// minimize again from `x` (lagged friction's further iterations). Default: `false`.
+    fn relag(&mut self, _x: &[f64], _t: f64) -> bool {
+        false
+    }
 }
 
 /// The scales every criterion of a solve is relative to (set at its first iterate).
@@ -295,6 +325,18 @@ impl Newton {
         {
             x.copy_from_slice(p.x_ref);
         }
+        // A barrier's solve starts intersection-free: from the start-of-step positions as far
+        // toward the guess as the step filter allows (the guess itself may have tunnelled).
+        if let Some(filter) = self.step_filter.as_mut() {
+            filter.begin_solve(model, p.x_ref, t)?;
+            for ((d, g), r) in self.dx.iter_mut().zip(x.iter()).zip(p.x_ref) {
+                *d = g - r;
+            }
+            let alpha = filter.max_step(p.x_ref, &self.dx, t).clamp(0.0, 1.0);
+            for ((xi, r), d) in x.iter_mut().zip(p.x_ref).zip(&self.dx) {
+                *xi = r + alpha * d;
+            }
+        }
         // The guess may invert elements (a large step); the start-of-step state does not.
         let current = match self.objective(model, p, x) {
             Ok(e) => e,
@@ -304,11 +346,16 @@ impl Newton {
             }
             Err(e) => return Err(e.into()),
         };
-        let converged = if self.constraints.is_some() {
+        let mut converged = if self.constraints.is_some() {
             self.iterate_constrained(model, p, x, current, t, report)?
         } else {
             self.iterate(model, p, x, current, t, report)?
         };
+        // Lagged quantities updated at the solution change the potential: minimize again.
+        while converged && self.step_filter.as_mut().is_some_and(|f| f.relag(x, t)) {
+            let current = self.objective(model, p, x)?;
+            converged = self.iterate(model, p, x, current, t, report)?;
+        }
         self.trace.converged = converged;
         match self.trace.stop {
             Stop::Criterion => report.newton_criterion_stops += 1,

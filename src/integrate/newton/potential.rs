@@ -128,8 +128,11 @@ impl IncrementalPotential {
             dot(p.linear, x)
         };
         let value = inertia + p.beta * parts.total() + damping + linear;
-        let terms =
-            parts.elastic.abs() + parts.springs.abs() + parts.gravity.abs() + parts.vertex.abs();
+        let terms = parts.elastic.abs()
+            + parts.springs.abs()
+            + parts.gravity.abs()
+            + parts.vertex.abs()
+            + parts.contact.abs();
         let scale = inertia.abs()
             + p.beta * (terms + model.energy_roundoff_scale())
             + damping.abs()
