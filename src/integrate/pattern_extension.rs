@@ -86,9 +86,10 @@ impl PatternExtension {
         }
     }
 
-    /// Fill the extended matrix with `base`'s values plus the `extra` blocks (each must be
-    /// stored: see [`Self::covers`]).
-    pub fn fill(&mut self, base: &SymmetricMatrix, extra: &[OffPatternBlock]) {
+    /// Fill the extended matrix with `base`'s values plus `scale` times the `extra` blocks
+    /// (each must be stored: see [`Self::covers`]); `scale` is the weight the base matrix
+    /// gave the potential's Hessian (`beta` in `M + beta K`).
+    pub fn fill(&mut self, base: &SymmetricMatrix, extra: &[OffPatternBlock], scale: f64) {
         let pattern = self.matrix.pattern().clone();
         let values = self.matrix.values_mut();
         values.fill(0.0);
@@ -102,7 +103,7 @@ impl PatternExtension {
                     let k = pattern
                         .find(r + i, c + j)
                         .expect("the extension stores every covered block");
-                    values[k] += b.block[(i, j)];
+                    values[k] += scale * b.block[(i, j)];
                 }
             }
         }
@@ -145,7 +146,7 @@ mod tests {
         let mut e = PatternExtension::new(&base, &extra, None);
         assert!(e.covers(&base, &extra));
         assert!(!e.covers(&Arc::new((*base).clone()), &extra));
-        e.fill(&a, &extra);
+        e.fill(&a, &extra, 1.0);
         let dense = e.matrix().to_dense();
         let mut expected = a.to_dense();
         for i in 0..3 {

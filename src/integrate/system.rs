@@ -174,10 +174,11 @@ impl ImplicitSystem {
                 self.extension.as_ref(),
             ));
         }
+        // The base holds `M + beta K` (or `beta K`): the contact blocks take the same weight.
         self.extension
             .as_mut()
             .expect("built above")
-            .fill(base, off);
+            .fill(base, off, self.beta);
     }
 
     /// The assembled matrix the solver sees: the extended one when contact needs it.

@@ -2,11 +2,12 @@
 //! [`Kind`](super::kind::Kind) plus one line here; `tests/study_kinds.rs` runs every kind listed.
 
 use super::kind::Kind;
-use super::{solver, stability, suite, trajectory, work_precision};
+use super::{contact, solver, stability, suite, trajectory, work_precision};
 
 /// Every kind a study can measure.
-pub(super) static KINDS: [&dyn Kind; 5] = [
+pub(super) static KINDS: [&dyn Kind; 6] = [
     &trajectory::Trajectory,
+    &contact::ContactStudy,
     &work_precision::WorkPrecision,
     &stability::Stability,
     &solver::Solver,

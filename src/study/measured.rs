@@ -264,21 +264,6 @@ pub fn picture_surface(
     Ok(body.picture_surface(scene))
 }
 
-/// Run `scene` from rest with `run`, keeping every sampled row (and snapshots of `surface`).
-pub fn run_rows(
-    scene: &mut Scene,
-    run: &RunConfig,
-    surface: Option<crate::render::Surface>,
-) -> (RunSummary, Vec<Sample>, Option<crate::render::Snapshots>) {
-    let mut rows = Vec::new();
-    let mut keep = |s: &Sample| {
-        rows.push(s.clone());
-        Ok(())
-    };
-    let (summary, _, snapshots) = run_observed(scene, run, surface, &mut keep);
-    (summary, rows, snapshots)
-}
-
 /// The highest mode of a scene at rest: `omega_max` and the explicit limit `2 / omega_max`.
 pub fn highest_mode_at_rest(scene: &mut Scene) -> Result<crate::model::HighestMode, String> {
     let q = scene.initial.q.clone();

@@ -10,6 +10,7 @@
 
 mod charts;
 pub mod config;
+mod contact;
 mod context;
 mod error;
 pub mod findings;

@@ -10,7 +10,7 @@ use super::format::cell;
 use super::grid::Axis;
 use super::kind::{Kind, RunInputs, number, parse_quick};
 use super::measured::{
-    Measured, build, cap_cells, outcome_of, picture_surface, run_rows, summary_cells,
+    Measured, build, cap_cells, outcome_of, picture_surface, run_observed, summary_cells,
 };
 use super::spec::{RunSpec, Study};
 use super::table::Table;
@@ -225,11 +225,25 @@ impl Kind for Trajectory {
 
 /// Run one trajectory.
 pub fn measure(spec: &RunSpec, parallelism: Parallelism) -> Result<Measured, String> {
+    measure_with_state(spec, parallelism).map(|(m, _, _)| m)
+}
+
+/// Run one trajectory; also return the scene and its final state (for kinds that add
+/// columns of their own).
+pub fn measure_with_state(
+    spec: &RunSpec,
+    parallelism: Parallelism,
+) -> Result<(Measured, crate::scene::Scene, crate::integrate::State), String> {
     super::measured::reset_peak_rss();
     let mut scene = build(spec, parallelism).map_err(|e| e.to_string())?;
     let run = scene.config.run;
     let surface = picture_surface(&scene, spec)?;
-    let (summary, rows, snapshots) = run_rows(&mut scene, &run, surface);
+    let mut rows = Vec::new();
+    let mut keep = |s: &Sample| {
+        rows.push(s.clone());
+        Ok(())
+    };
+    let (summary, state, snapshots) = run_observed(&mut scene, &run, surface, &mut keep);
     let (outcome, message) = outcome_of(&summary.outcome);
     let mut m = Measured {
         outcome,
@@ -248,7 +262,7 @@ pub fn measure(spec: &RunSpec, parallelism: Parallelism) -> Result<Measured, Str
     m.set("angular_momentum_drift", cell(l));
     m.series = rows;
     m.snapshots = snapshots;
-    Ok(m)
+    Ok((m, scene, state))
 }
 
 /// Which momenta a scene conserves, and the force that changes linear momentum.
