@@ -105,8 +105,15 @@ fn every_obstacle_kind_parses_and_builds() {
     assert_eq!((c.restitution, c.friction, c.margin), (0.5, 0.25, 2e-3));
     // Projection is a wrapper, not a potential.
     assert!(scene.model.vertex_potentials().is_empty());
+    // Every kind with a signed distance (a mesh obstacle needs ipc and a file: see
+    // tests/ipc_contact.rs).
     let kinds: Vec<_> = scene.config.obstacles.iter().map(|o| o.kind).collect();
-    assert_eq!(kinds, ObstacleKind::ALL);
+    let sdf_kinds: Vec<ObstacleKind> = ObstacleKind::ALL
+        .iter()
+        .copied()
+        .filter(|k| *k != ObstacleKind::Mesh)
+        .collect();
+    assert_eq!(kinds, sdf_kinds);
 }
 
 #[test]
@@ -131,7 +138,7 @@ fn unknown_obstacle_kind_and_response_list_the_valid_names() {
         "{err}"
     );
     assert!(
-        err.contains("(valid: plane, sphere, box, capsule, group)"),
+        err.contains("(valid: plane, sphere, box, capsule, group, mesh)"),
         "{err}"
     );
     assert!(err.contains("line"), "the message has the line: {err}");
@@ -140,7 +147,7 @@ fn unknown_obstacle_kind_and_response_list_the_valid_names() {
         .to_string();
     assert!(err.contains("did you mean `velocity-flip`?"), "{err}");
     assert!(
-        err.contains("(valid: penalty, projection, velocity-flip, constrained)"),
+        err.contains("(valid: penalty, projection, velocity-flip, constrained, ipc)"),
         "{err}"
     );
     let err = parse("[contact]\nstiffnes = 1.0\n")
@@ -234,13 +241,19 @@ fn bad_obstacle_and_contact_values_name_their_key() {
 }
 
 /// No obstacles: no contact setup, no potential, and not one obstacle query while stepping —
-/// even with a `[contact]` section. The same scene with a far-away obstacle does query.
+/// even with a `[contact]` section (incremental potential contact alone builds its
+/// self-contact, and still queries no obstacle). The same scene with a far-away obstacle
+/// does query.
 #[test]
 fn scene_without_obstacles_runs_no_contact_code() {
     for response in ContactResponse::ALL {
         let contact = format!("[contact]\nresponse = \"{response}\"\n");
         let mut scene = build(&contact);
-        assert!(scene.contact.is_none());
+        assert_eq!(
+            scene.contact.is_some(),
+            *response == ContactResponse::Ipc,
+            "{response}"
+        );
         assert!(scene.model.vertex_potentials().is_empty());
         let before = query_count();
         let contacts = run(&mut scene);
@@ -272,6 +285,11 @@ fn simulate_ball_drop_reports_contacts_with_every_response() {
             ContactResponse::Projection | ContactResponse::VelocityFlip => "run.dt=1e-4",
             _ => "run.dt=5e-3",
         };
+        // Incremental potential contact refuses a start that touches: 0.5 mm above.
+        let origin = match response {
+            ContactResponse::Ipc => "mesh.generate.origin=[0.0, 0.1005, 0.0]",
+            _ => "mesh.generate.origin=[0.0, 0.1, 0.0]",
+        };
         let result = simulate(
             &scene,
             &out,
@@ -281,7 +299,7 @@ fn simulate_ball_drop_reports_contacts_with_every_response() {
                 "--set",
                 "mesh.generate.ball=2",
                 "--set",
-                "mesh.generate.origin=[0.0, 0.1, 0.0]",
+                origin,
                 "--set",
                 "run.steps=20",
                 "--set",
@@ -300,8 +318,18 @@ fn simulate_ball_drop_reports_contacts_with_every_response() {
             .expect("a contacts column");
         assert!(at > 12, "contact columns come after the required ones");
         assert_eq!(
-            header[at..at + 4],
-            ["contacts", "max_penetration", "qp_solves", "qp_seconds"]
+            header[at..at + 9],
+            [
+                "contacts",
+                "max_penetration",
+                "qp_solves",
+                "qp_seconds",
+                "min_distance",
+                "barrier_stiffness",
+                "ccd_queries",
+                "ccd_limited_steps",
+                "intersection_free"
+            ]
         );
         let rows: Vec<Vec<f64>> = lines
             .map(|l| {

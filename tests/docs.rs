@@ -192,7 +192,8 @@ fn check_scene(config: Result<SceneConfig, scene::SceneError>, what: &str) {
     let config = config.unwrap_or_else(|e| panic!("{what}: not a valid scene: {e}"));
     let needs_files = config.mesh.as_ref().is_some_and(|m| m.file.is_some())
         || config.display.is_some()
-        || config.initial.from.is_some();
+        || config.initial.from.is_some()
+        || config.obstacles.iter().any(|o| o.file.is_some());
     if needs_files {
         return;
     }

@@ -81,13 +81,18 @@ fn barrier_gradient_and_hessian_match_finite_differences_across_self_contact() {
     }
     let g_scale = g.iter().fold(0.0f64, |a, b| a.max(b.abs()));
     let h_scale = h.iter().fold(0.0f64, |a, b| a.max(b.abs()));
-    eprintln!("ipc FD: gradient error {worst_g:.2e} of {g_scale:.2e}, Hessian {worst_h:.2e} of {h_scale:.2e}");
+    eprintln!(
+        "ipc FD: gradient error {worst_g:.2e} of {g_scale:.2e}, Hessian {worst_h:.2e} of {h_scale:.2e}"
+    );
     assert!(worst_g < 1e-5 * g_scale, "gradient error {worst_g:e}");
     assert!(worst_h < 1e-4 * h_scale, "Hessian error {worst_h:e}");
     // Projected, the whole matrix is positive semi-definite.
     let p = dense_hessian(model, &q, HessianOptions::projected());
     let min = p.symmetric_eigenvalues().min();
-    assert!(min > -1e-8 * h_scale, "projected Hessian eigenvalue {min:e}");
+    assert!(
+        min > -1e-8 * h_scale,
+        "projected Hessian eigenvalue {min:e}"
+    );
 }
 
 #[test]
@@ -95,7 +100,10 @@ fn the_barrier_adds_nothing_where_nothing_is_within_dhat() {
     let (mut with, q) = stacked(0.05, &[]);
     let (mut without, _) = stacked(0.05, &["contact.response=penalty"]);
     let (a, b) = (&mut with.model, &mut without.model);
-    assert_eq!(a.potential(&q).unwrap().to_bits(), b.potential(&q).unwrap().to_bits());
+    assert_eq!(
+        a.potential(&q).unwrap().to_bits(),
+        b.potential(&q).unwrap().to_bits()
+    );
     let (mut ga, mut gb) = (vec![0.0; q.len()], vec![0.0; q.len()]);
     a.gradient(&q, &mut ga).unwrap();
     b.gradient(&q, &mut gb).unwrap();
@@ -104,14 +112,18 @@ fn the_barrier_adds_nothing_where_nothing_is_within_dhat() {
         dense_hessian(a, &q, HessianOptions::default()),
         dense_hessian(b, &q, HessianOptions::default()),
     );
-    assert!(ha.iter().zip(hb.iter()).all(|(x, y)| x.to_bits() == y.to_bits()));
+    assert!(
+        ha.iter()
+            .zip(hb.iter())
+            .all(|(x, y)| x.to_bits() == y.to_bits())
+    );
     let _ = Vector3::<f64>::zeros();
 }
 
 #[test]
 fn the_linear_system_carries_the_self_contact_blocks_outside_the_element_pattern() {
-    use softbench::integrate::newton::{ImplicitSystem, NewtonSettings};
     use softbench::integrate::StepReport;
+    use softbench::integrate::newton::{ImplicitSystem, NewtonSettings};
     let (mut scene, q) = stacked(4e-4, &[]);
     let model = &mut scene.model;
     let settings = NewtonSettings::default();
@@ -128,5 +140,283 @@ fn the_linear_system_carries_the_self_contact_blocks_outside_the_element_pattern
     model.mass().add_scaled_to(1.0, &mut mass);
     expected += mass.to_dense();
     let worst = (&a - &expected).abs().max();
-    assert!(worst <= 1e-12 * expected.abs().max(), "assembled vs expected: {worst:e}");
+    assert!(
+        worst <= 1e-12 * expected.abs().max(),
+        "assembled vs expected: {worst:e}"
+    );
+}
+
+/// A run's rows.
+fn run(
+    mut scene: Scene,
+    steps: usize,
+) -> (Vec<softbench::run::Sample>, softbench::integrate::State) {
+    let mut integrator = scene.take_integrator();
+    let mut state = scene.initial.clone();
+    let mut config = scene.config.run;
+    config.steps = steps;
+    let mut rows = Vec::new();
+    let mut keep = |s: &softbench::run::Sample| {
+        rows.push(s.clone());
+        Ok(())
+    };
+    let summary = softbench::run::run(
+        &mut scene.model,
+        integrator.as_mut(),
+        &mut state,
+        &config,
+        &mut keep,
+    )
+    .unwrap();
+    assert!(summary.outcome.is_completed(), "{:?}", summary.outcome);
+    (rows, state)
+}
+
+/// The lowest y of any vertex of `state`.
+fn lowest(scene_model: &Model, state: &softbench::integrate::State) -> f64 {
+    scene_model
+        .full_positions(&state.q)
+        .iter()
+        .map(|p| p.y)
+        .fold(f64::INFINITY, f64::min)
+}
+
+#[test]
+fn ipc_stops_the_fast_ball_on_the_thin_plate_where_the_vertex_responses_let_it_through() {
+    let scene = shipped("plate.toml", &[]);
+    let model_rest = scene.model.rest_positions().to_vec();
+    let _ = model_rest;
+    let (rows, state) = {
+        let s = shipped("plate.toml", &[]);
+        run(s, 40)
+    };
+    assert!(rows.iter().all(|r| r.intersection_free == Some(1)));
+    assert!(
+        rows.iter()
+            .skip(1)
+            .all(|r| r.min_distance.is_some_and(|d| d > 0.0))
+    );
+    // The plate's top is at y = 0.005: the ball rests on it.
+    let low = lowest(&scene.model, &state);
+    assert!(low > 0.005 && low < 0.01, "lowest vertex at {low}");
+    for response in ["penalty", "projection", "constrained"] {
+        let set = format!("contact.response={response}");
+        let s = shipped("plate.toml", &[&set]);
+        let (rows, state) = run(s, 40);
+        let low = lowest(&scene.model, &state);
+        eprintln!(
+            "{response}: lowest vertex {low:.3} m, {} intersecting frame(s)",
+            rows.iter()
+                .filter(|r| r.intersection_free == Some(0))
+                .count()
+        );
+        assert!(
+            low < -0.005,
+            "{response} did not tunnel (lowest vertex {low})"
+        );
+    }
+}
+
+#[test]
+fn self_contact_stops_the_upper_cube_and_nothing_else_does() {
+    let (rows, _) = run(shipped("stack.toml", &[]), 100);
+    assert!(rows.iter().all(|r| r.intersection_free == Some(1)));
+    let touched = rows
+        .iter()
+        .filter_map(|r| r.min_distance)
+        .fold(1.0, f64::min);
+    assert!(
+        touched < 1e-3,
+        "the cubes never came within dhat ({touched})"
+    );
+    let (rows, _) = run(shipped("stack.toml", &["contact.response=penalty"]), 100);
+    assert!(rows.iter().any(|r| r.intersection_free == Some(0)));
+}
+
+/// The cube's speed (root-mean-square, from its kinetic energy) after 1 s under gravity
+/// tilted by `degrees`, mu = 0.5.
+fn final_speed(degrees: f64) -> f64 {
+    let t = degrees.to_radians();
+    let g = format!(
+        "forces.gravity=[{}, {}, 0.0]",
+        9.81 * t.sin(),
+        -9.81 * t.cos()
+    );
+    let scene = shipped("slope.toml", &[&g]);
+    let mass: f64 = scene.model.vertex_masses().iter().sum();
+    let (rows, _) = run(scene, 100);
+    assert!(rows.iter().all(|r| r.intersection_free == Some(1)));
+    (2.0 * rows.last().unwrap().kinetic / mass).sqrt()
+}
+
+#[test]
+fn friction_holds_below_the_friction_angle_and_lets_go_above_it() {
+    // atan(0.5) = 26.565 degrees; 2 degrees either side. Sticking, lagged smooth friction
+    // creeps below epsilon_v = 1 mm/s; sliding accelerates at g (sin - mu cos) = 0.38 m/s^2.
+    let stick = final_speed(24.565);
+    let slip = final_speed(28.565);
+    eprintln!("speed after 1 s: {stick:.2e} m/s at 24.6 degrees, {slip:.2e} m/s at 28.6 degrees");
+    assert!(stick < 1e-3, "{stick} m/s below the friction angle");
+    assert!(slip > 0.2, "only {slip} m/s above the friction angle");
+}
+
+#[test]
+fn every_end_position_method_runs_ipc_and_other_methods_are_refused_with_the_list() {
+    // The ball at 20 m/s on the plate for the dissipative schemes; the trapezoidal rule
+    // (newmark's default) gains energy at that impact, so it lands the stack.
+    for method in ["backward-euler", "bdf2"] {
+        let set = format!("integrator.method={method}");
+        let (rows, _) = run(shipped("plate.toml", &[&set]), 5);
+        assert!(
+            rows.iter().all(|r| r.intersection_free == Some(1)),
+            "{method}"
+        );
+    }
+    let (rows, _) = run(shipped("stack.toml", &["integrator.method=newmark"]), 40);
+    assert!(
+        rows.iter().all(|r| r.intersection_free == Some(1)),
+        "newmark"
+    );
+    // Static: a cantilever that sags onto a sphere rests on it.
+    let text = r#"
+[mesh]
+generate = { box = [8, 2, 2], size = [0.4, 0.05, 0.05], origin = [0.0, 0.0, -0.025] }
+[material]
+model = "stable-neo-hookean"
+youngs_modulus = 1e5
+poisson_ratio = 0.3
+density = 1000.0
+[fixed]
+rule = { axis = "x", side = "min", tolerance = 1e-6 }
+[forces]
+gravity = [0.0, -9.81, 0.0]
+[integrator]
+method = "static"
+[run]
+dt = 0.01
+steps = 1
+[[obstacles]]
+kind = "sphere"
+center = [0.3, -0.1005, 0.0]
+radius = 0.1
+[contact]
+response = "ipc"
+"#;
+    let path = PathBuf::from("cantilever.toml");
+    let config = scene::parse(text, &path, &[]).unwrap();
+    let loaded = LoadedScene { path, config };
+    let s = scene::build(&loaded, &DataPaths::new(None), Parallelism::Sequential).unwrap();
+    let (rows, _) = run(s, 1);
+    let last = rows.last().unwrap();
+    assert_eq!(last.intersection_free, Some(1));
+    assert!(last.contacts > 0 && last.min_distance.is_some_and(|d| d > 0.0 && d < 1e-3));
+    let path = scene_dir().join("plate.toml");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let config = scene::parse(&text, &path, &["integrator.method=rk4".to_string()]);
+    let message = match config {
+        Err(e) => e.to_string(),
+        Ok(c) => {
+            let loaded = LoadedScene { path, config: c };
+            match scene::build(&loaded, &DataPaths::new(None), Parallelism::Sequential) {
+                Err(e) => e.to_string(),
+                Ok(_) => panic!("rk4 accepted with ipc"),
+            }
+        }
+    };
+    assert!(
+        message.contains("ipc") && message.contains("backward-euler"),
+        "{message}"
+    );
+}
+
+#[test]
+fn ipc_settings_and_mesh_obstacles_are_checked() {
+    let path = scene_dir().join("plate.toml");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let refused = |sets: &[&str]| {
+        let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
+        scene::parse(&text, &path, &sets)
+            .err()
+            .map(|e| e.to_string())
+    };
+    let m = refused(&["contact.ipc.dhat=0"]).unwrap();
+    assert!(m.contains("contact.ipc.dhat"), "{m}");
+    let m = refused(&["contact.ipc.min_separation=0.01"]).unwrap();
+    assert!(m.contains("contact.ipc.min_separation"), "{m}");
+    let m = refused(&["contact.response=penalty", "contact.ipc.mu=0.3"]).unwrap();
+    assert!(m.contains("contact.ipc") && m.contains("penalty"), "{m}");
+    let m = refused(&["contact.ipc.kappa=\"often\""]).unwrap();
+    assert!(m.contains("kappa"), "{m}");
+}
+
+#[test]
+fn a_ball_dropped_on_a_mesh_obstacle_rests_on_it_intersection_free() {
+    let dir = tempfile::tempdir().unwrap();
+    // A 1 m square plate at y = 0 as two triangles (a codimensional obstacle).
+    std::fs::write(
+        dir.path().join("plate.obj"),
+        "v -0.5 0 -0.5\nv 0.5 0 -0.5\nv 0.5 0 0.5\nv -0.5 0 0.5\nf 1 3 2\nf 1 4 3\n",
+    )
+    .unwrap();
+    let text = std::fs::read_to_string(scene_dir().join("plate.toml"))
+        .unwrap()
+        .replace(
+            "kind = \"box\"\ncenter = [0.0, 0.0, 0.0]\nhalf_extents = [0.5, 0.005, 0.5]",
+            "kind = \"mesh\"\nfile = \"plate.obj\"",
+        );
+    assert!(text.contains("kind = \"mesh\""));
+    let path = dir.path().join("scene.toml");
+    std::fs::write(&path, &text).unwrap();
+    let config = scene::parse(&text, &path, &[]).unwrap();
+    let loaded = LoadedScene { path, config };
+    let scene = scene::build(&loaded, &DataPaths::new(None), Parallelism::Sequential).unwrap();
+    let model = shipped("plate.toml", &[]).model;
+    let (rows, state) = run(scene, 40);
+    assert!(rows.iter().all(|r| r.intersection_free == Some(1)));
+    let low = lowest(&model, &state);
+    assert!(low > 0.0 && low < 0.005, "lowest vertex at {low}");
+    // Penalty cannot see a mesh obstacle: refused.
+    let text2 = text.replace(
+        "response = \"ipc\"\nipc = { dhat = 1e-3 }",
+        "response = \"penalty\"",
+    );
+    let path2 = dir.path().join("scene2.toml");
+    let config = scene::parse(&text2, &path2, &[]).unwrap_err().to_string();
+    assert!(config.contains("mesh obstacle"), "{config}");
+}
+
+#[test]
+fn the_distance_log_barrier_and_repeated_friction_lagging_run_intersection_free() {
+    let (rows, _) = run(
+        shipped("stack.toml", &["contact.ipc.barrier=\"distance-log\""]),
+        60,
+    );
+    assert!(rows.iter().all(|r| r.intersection_free == Some(1)));
+    let (a, _) = run(shipped("slope.toml", &[]), 30);
+    let (b, _) = run(
+        shipped("slope.toml", &["contact.ipc.friction_iterations=3"]),
+        30,
+    );
+    assert!(b.iter().all(|r| r.intersection_free == Some(1)));
+    let iterations =
+        |rows: &[softbench::run::Sample]| rows.iter().map(|r| r.newton_iterations).sum::<u64>();
+    assert!(iterations(&b) > iterations(&a), "re-lagging solves again");
+}
+
+#[test]
+fn a_start_that_touches_is_refused_with_the_key() {
+    let path = scene_dir().join("plate.toml");
+    let text = std::fs::read_to_string(&path).unwrap();
+    // The ball's lowest vertex on the plate's top.
+    let sets = vec!["mesh.generate.origin=[0.0, 0.105, 0.0]".to_string()];
+    let config = scene::parse(&text, &path, &sets).unwrap();
+    let loaded = LoadedScene { path, config };
+    let err = scene::build(&loaded, &DataPaths::new(None), Parallelism::Sequential)
+        .err()
+        .expect("a touching start is refused")
+        .to_string();
+    assert!(
+        err.contains("contact.response") && err.contains("touch"),
+        "{err}"
+    );
 }

@@ -5,7 +5,7 @@
 //! obstacle. It shares no code with any contact response, so a response cannot certify itself.
 
 use super::intersection::{intersections_between, self_intersections};
-use super::ipc::MeshObstacle;
+use super::mesh_obstacle::MeshObstacle;
 use super::obstacle::{Obstacle, Obstacles, Shape};
 use nalgebra::{Point3, Vector3};
 use std::sync::Arc;

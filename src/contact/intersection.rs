@@ -27,7 +27,7 @@
 //! products neither overflow nor underflow, which holds for coordinate differences between
 //! about 1e-70 and 1e70 (or zero).
 
-use crate::contact::ipc::broad_phase::{Aabb, BroadPhase};
+use crate::contact::broad_phase::{Aabb, BroadPhase};
 use nalgebra::Vector3;
 use robust::{Coord, Coord3D};
 

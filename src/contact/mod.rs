@@ -30,6 +30,7 @@
 //! the [`crate::integrate::StepReport`]. A scene without obstacles builds none of this:
 //! [`Contact::build`] returns `None`, and no obstacle is ever queried ([`query_count`]).
 
+pub mod broad_phase;
 mod capsule;
 pub mod config;
 pub mod constrained;
@@ -39,6 +40,7 @@ pub mod frame_check;
 mod half_space;
 pub mod intersection;
 pub mod ipc;
+pub mod mesh_obstacle;
 pub mod obstacle;
 mod path;
 mod penalty;

@@ -77,6 +77,8 @@ pub struct Sample {
     pub max_penetration: f64,
     /// Quadratic programs solved since the previous row (constrained contact).
     pub qp_solves: u64,
+    /// Their wall time (s).
+    pub qp_seconds: f64,
     /// Incremental potential contact since the previous row: the smallest distance between
     /// contact primitives after any step (m; empty without it), the largest barrier
     /// stiffness (J), the collision-detection queries and the Newton steps they shortened.
@@ -84,12 +86,10 @@ pub struct Sample {
     pub barrier_stiffness: f64,
     pub ccd_queries: u64,
     pub ccd_limited_steps: u64,
-    /// Whether the sampled frame is free of intersections by an exact test independent of
-    /// the contact response (surface self-intersection, surface against obstacle meshes,
-    /// vertices inside analytic obstacles); empty for scenes without contact.
-    pub intersection_free: Option<bool>,
-    /// Their wall time (s).
-    pub qp_seconds: f64,
+    /// 1 if the sampled frame is free of intersections by an exact test independent of the
+    /// contact response (surface self-intersection, surface against obstacle meshes and
+    /// boxes, vertices inside analytic obstacles), 0 if not; empty for scenes without contact.
+    pub intersection_free: Option<u8>,
     /// Entries of the largest sparse factor built since the previous row (nnz(L)).
     pub factor_nnz: u64,
     /// Predicted flops of that factorization.
@@ -319,12 +319,12 @@ fn sample(
         contacts: work.contacts.into(),
         max_penetration: work.max_penetration,
         qp_solves: work.qp_solves.into(),
+        qp_seconds: work.times.qp,
         min_distance: work.min_distance,
         barrier_stiffness: work.barrier_stiffness,
         ccd_queries: work.ccd_queries,
         ccd_limited_steps: work.filtered_steps.into(),
         intersection_free: None,
-        qp_seconds: work.times.qp,
         factor_nnz: work.factor_nnz as u64,
         factor_flops: work.factor_flops,
         newton_unconverged_steps: w.unconverged_steps,
@@ -484,7 +484,7 @@ pub fn run(
         internal_dt: None,
     };
     let mut row = sample(0, state, &initial, momenta, no_work, &balance);
-    row.intersection_free = integrator.intersection_free(model, state);
+    row.intersection_free = integrator.intersection_free(model, state).map(u8::from);
     observer.sample(&row)?;
     observer.after_step(0, model, state)?;
 
@@ -586,7 +586,7 @@ pub fn run(
                 internal_dt: StepSizes::of(&mut row_dts),
             };
             let mut row = sample(step, state, &energies, momenta, work, &balance);
-            row.intersection_free = integrator.intersection_free(model, state);
+            row.intersection_free = integrator.intersection_free(model, state).map(u8::from);
             observer.sample(&row)?;
             since_row = StepReport::default();
             row_dts.clear();

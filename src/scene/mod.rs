@@ -846,6 +846,21 @@ pub fn build(
         data,
         tets.as_deref().unwrap_or(&[]),
     )?;
+    if let Some(ipc) = contact.as_ref().and_then(Contact::ipc) {
+        let x = model.full_positions(&initial.q);
+        let (_, distance, admissible) = ipc.contact_stats(&x, initial.t);
+        if !admissible {
+            return Err(SceneError::Invalid {
+                path: path.clone(),
+                key: "contact.response".into(),
+                message: format!(
+                    "incremental potential contact needs a start where nothing touches: \
+                     primitives of the initial state touch or intersect (or a vertex is inside \
+                     an obstacle; smallest distance {distance:.3e} m); move the body apart"
+                ),
+            });
+        }
+    }
     Ok(Scene {
         name: loaded.name(),
         config: c.clone(),

@@ -39,6 +39,7 @@ const CONTACT: &[&str] = &[
     "centroid_height_initial",
     "centroid_height_final",
     "centroid_displacement",
+    "speed_final",
     "seconds_per_simulated_second",
 ];
 
@@ -53,7 +54,11 @@ fn centroid(model: &crate::model::Model, q: &[f64]) -> nalgebra::Vector3<f64> {
     let x = model.full_positions(q);
     let m = model.vertex_masses();
     let total: f64 = m.iter().sum();
-    x.iter().zip(m).map(|(p, m)| p * *m).sum::<nalgebra::Vector3<f64>>() / total
+    x.iter()
+        .zip(m)
+        .map(|(p, m)| p * *m)
+        .sum::<nalgebra::Vector3<f64>>()
+        / total
 }
 
 /// The centroid's height along −gravity (along +y without gravity), mass-weighted (m).
@@ -152,15 +157,14 @@ impl Kind for ContactStudy {
         let (mut m, scene, state) = measure_with_state(spec, parallelism)?;
         let series = std::mem::take(&mut m.series);
         let rows = &series;
-        let max = |f: &dyn Fn(&crate::run::Sample) -> f64| {
-            rows.iter().map(f).fold(0.0_f64, f64::max)
-        };
-        let checked: Vec<bool> = rows.iter().filter_map(|r| r.intersection_free).collect();
-        let intersecting = checked.iter().filter(|free| !**free).count();
-        let min_distance = rows
+        let max =
+            |f: &dyn Fn(&crate::run::Sample) -> f64| rows.iter().map(f).fold(0.0_f64, f64::max);
+        let checked: Vec<bool> = rows
             .iter()
-            .filter_map(|r| r.min_distance)
-            .reduce(f64::min);
+            .filter_map(|r| r.intersection_free.map(|f| f == 1))
+            .collect();
+        let intersecting = checked.iter().filter(|free| !**free).count();
+        let min_distance = rows.iter().filter_map(|r| r.min_distance).reduce(f64::min);
         let has_contact = scene.contact.is_some();
         let response = if has_contact {
             scene.config.contact.response.name().to_owned()
@@ -189,9 +193,15 @@ impl Kind for ContactStudy {
         );
         m.set(
             "ccd_limited_steps",
-            rows.iter().map(|r| r.ccd_limited_steps).sum::<u64>().to_string(),
+            rows.iter()
+                .map(|r| r.ccd_limited_steps)
+                .sum::<u64>()
+                .to_string(),
         );
-        m.set("barrier_stiffness", cell(Some(max(&|r| r.barrier_stiffness))));
+        m.set(
+            "barrier_stiffness",
+            cell(Some(max(&|r| r.barrier_stiffness))),
+        );
         m.set("contact_energy_max", cell(Some(max(&|r| r.contact_energy))));
         m.set(
             "centroid_height_initial",
@@ -204,9 +214,13 @@ impl Kind for ContactStudy {
         m.set(
             "centroid_displacement",
             cell(Some(
-                (centroid(&scene.model, &state.q) - centroid(&scene.model, &scene.initial.q)).norm(),
+                (centroid(&scene.model, &state.q) - centroid(&scene.model, &scene.initial.q))
+                    .norm(),
             )),
         );
+        let mass: f64 = scene.model.vertex_masses().iter().sum();
+        let kinetic = rows.last().map_or(0.0, |r| r.kinetic);
+        m.set("speed_final", cell(Some((2.0 * kinetic / mass).sqrt())));
         m.set(
             "seconds_per_simulated_second",
             cell((simulated > 0.0).then(|| wall / simulated)),

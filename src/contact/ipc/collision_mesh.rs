@@ -2,15 +2,10 @@
 //! edges and triangles, by model vertex index) and static triangle-mesh obstacles, whose
 //! vertices are numbered after the body's (`num_body + k`) and never move.
 
-use super::broad_phase::Aabb;
+use crate::contact::broad_phase::Aabb;
 use nalgebra::Vector3;
 
-/// A static triangle mesh obstacle (read from OBJ, placed in the world).
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct MeshObstacle {
-    pub positions: Vec<Vector3<f64>>,
-    pub triangles: Vec<[usize; 3]>,
-}
+use crate::contact::mesh_obstacle::MeshObstacle;
 
 /// Surface vertices, edges and triangles of the body and of the mesh obstacles.
 #[derive(Clone, Debug, Default)]

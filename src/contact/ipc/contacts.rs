@@ -8,12 +8,12 @@
 //! (near-linear in the surface size), distances from [`super::distance`].
 
 use super::barrier::BarrierKind;
-use super::broad_phase::{Aabb, BroadPhase};
 use super::collision_mesh::CollisionMesh;
 use super::distance::{
     Mat12, Vec12, edge_edge_distance_derivatives, edge_edge_distance_squared, edge_edge_mollifier,
     point_triangle_distance_derivatives, point_triangle_distance_squared,
 };
+use crate::contact::broad_phase::{Aabb, BroadPhase};
 use crate::contact::obstacle::{ObstacleSample, Obstacles};
 use nalgebra::{Matrix3, Vector3};
 

@@ -45,7 +45,6 @@
 //! `friction_iterations > 1` re-lags them at the solution and solves again.
 
 pub mod barrier;
-pub mod broad_phase;
 pub mod ccd;
 mod collision_mesh;
 pub mod contacts;
@@ -53,16 +52,17 @@ pub mod distance;
 pub mod friction;
 mod settings;
 
+pub use crate::contact::mesh_obstacle::MeshObstacle;
 pub use barrier::BarrierKind;
-pub use collision_mesh::{CollisionMesh, MeshObstacle};
+pub use collision_mesh::CollisionMesh;
 pub use settings::{IpcConfig, Stiffness};
 
 use super::obstacle::Obstacles;
+use crate::contact::broad_phase::{Aabb, BroadPhase};
 use crate::fem::project_to_psd;
 use crate::integrate::newton::StepFilter;
 use crate::integrate::{Integrator, State, StepError, StepReport};
 use crate::model::{ContactPotential, DofMap, Model};
-use broad_phase::{Aabb, BroadPhase};
 use contacts::{Contact, Scratch, Search};
 use friction::{FrictionParameters, FrictionStencil};
 use nalgebra::{Matrix3, Vector3};

@@ -6,7 +6,7 @@
 //! response = "ipc"
 //! [contact.ipc]
 //! dhat = 1e-3          # barrier activation distance d̂ (m)
-//! barrier = "clamped-log"
+//! barrier = "clamped-log"   # or "distance-log"
 //! kappa = "auto"       # or a number (J): a fixed, declared barrier stiffness
 //! self_contact = true
 //! mu = 0.3             # friction coefficient (0: frictionless)
