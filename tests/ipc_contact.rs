@@ -420,3 +420,92 @@ fn a_start_that_touches_is_refused_with_the_key() {
         "{err}"
     );
 }
+
+/// A moving analytic obstacle: evaluated where the step ends. One that sweeps past the body
+/// without reaching it runs; one that carries itself into a resting body between two steps
+/// stops the run with that message (a limit of this implementation, in docs/contact.md).
+#[test]
+fn moving_obstacles_are_evaluated_at_the_end_of_the_step() {
+    let ball = |path: &str| {
+        let text = format!(
+            r#"
+[mesh]
+generate = {{ ball = 2, radius = 0.1, origin = [0.0, 0.1005, 0.0] }}
+[material]
+model = "stable-neo-hookean"
+youngs_modulus = 1e7
+poisson_ratio = 0.3
+density = 1000.0
+[forces]
+gravity = [0.0, -9.81, 0.0]
+[integrator]
+newton = {{ max_iterations = 50 }}
+[run]
+dt = 0.01
+steps = 30
+[[obstacles]]
+kind = "plane"
+normal = [0.0, 1.0, 0.0]
+{path}
+[[obstacles]]
+kind = "sphere"
+center = [0.5, 0.1, 0.0]
+radius = 0.05
+path = {{ times = [0.0, 0.3], offsets = [[0.0, 0.0, 0.0], [0.0, 0.0, 0.3]] }}
+[contact]
+response = "ipc"
+"#
+        );
+        let path = PathBuf::from("moving.toml");
+        let config = scene::parse(&text, &path, &[]).unwrap();
+        let loaded = LoadedScene { path, config };
+        scene::build(&loaded, &DataPaths::new(None), Parallelism::Sequential).unwrap()
+    };
+    let (rows, _) = run(ball(""), 30);
+    assert!(rows.iter().all(|r| r.intersection_free == Some(1)));
+    let mut scene =
+        ball("path = { times = [0.1, 0.3], offsets = [[0.0, 0.0, 0.0], [0.0, 0.02, 0.0]] }");
+    let mut integrator = scene.take_integrator();
+    let mut state = scene.initial.clone();
+    let mut config = scene.config.run;
+    config.steps = 30;
+    let summary = softbench::run::run(
+        &mut scene.model,
+        integrator.as_mut(),
+        &mut state,
+        &config,
+        &mut |_: &softbench::run::Sample| Ok(()),
+    )
+    .unwrap();
+    assert!(!summary.outcome.is_completed());
+    assert!(
+        summary
+            .outcome
+            .message
+            .contains("obstacle moved into the body"),
+        "{:?}",
+        summary.outcome
+    );
+}
+
+/// The jello cube (a mass-spring body) in its bowl of still boxes: the boxes take part as
+/// triangle meshes, so their edges and corners meet the cube's faces and edges, and every
+/// sampled frame is intersection-free.
+#[test]
+fn the_jello_cube_lands_in_its_bowl_of_boxes_intersection_free() {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("experiments/scenes/jello_cube.toml");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let sets = vec![
+        "contact.response=ipc".to_string(),
+        "integrator.newton.max_iterations=50".to_string(),
+    ];
+    let config = scene::parse(&text, &path, &sets).unwrap();
+    let loaded = LoadedScene { path, config };
+    let scene = scene::build(&loaded, &DataPaths::new(None), Parallelism::Sequential).unwrap();
+    let (rows, _) = run(scene, 250);
+    assert!(rows.iter().all(|r| r.intersection_free == Some(1)));
+    assert!(
+        rows.iter().any(|r| r.contacts > 0),
+        "the cube never reached the bowl"
+    );
+}

@@ -120,12 +120,24 @@ impl Contact {
             .filter(|o| !o.is_mesh())
             .map(ObstacleConfig::obstacle)
             .collect();
+        // Still boxes take part as triangle meshes (their edges and corners then meet the
+        // body's edges and faces, not only its vertices); the rest stay signed distances.
+        let mut contact_meshes = meshes.to_vec();
+        let mut distances = Vec::new();
+        for o in set.iter() {
+            if o.is_static() {
+                o.box_meshes(0.0, &mut contact_meshes);
+                distances.extend(o.without_boxes());
+            } else {
+                distances.push(o.clone());
+            }
+        }
         let set = Arc::new(set);
         let shared = Arc::new(ipc::Ipc::new(
             model,
             surface,
-            set.clone(),
-            meshes,
+            Arc::new(Obstacles::new(distances)),
+            &contact_meshes,
             config.ipc,
             dt,
         ));

@@ -1,6 +1,7 @@
 //! Obstacles: a shape placed by a rigid transform, optionally moving along a [`Path`]; groups
 //! of obstacles (their union: the minimum distance); and [`Obstacles`], a scene's set.
 
+use super::mesh_obstacle::MeshObstacle;
 use super::path::Path;
 use super::sdf::{Sdf, SdfValue};
 use super::{Capsule, Cuboid, HalfSpace, Sphere};
@@ -87,6 +88,69 @@ impl Obstacle {
         }
     }
 
+    /// Whether the obstacle and every member of it stand still (no path anywhere).
+    pub fn is_static(&self) -> bool {
+        self.path.is_none()
+            && match &self.shape {
+                Shape::Group(members) => members.iter().all(Obstacle::is_static),
+                _ => true,
+            }
+    }
+
+    /// The boxes of this obstacle (members of groups included) at time `t` as closed
+    /// triangle meshes (12 triangles each, wound outward), appended to `out`.
+    pub fn box_meshes(&self, t: f64, out: &mut Vec<MeshObstacle>) {
+        self.box_meshes_in(t, &Isometry3::identity(), out);
+    }
+
+    fn box_meshes_in(&self, t: f64, parent: &Isometry3<f64>, out: &mut Vec<MeshObstacle>) {
+        let pose = parent * self.pose(t).0;
+        match &self.shape {
+            Shape::Cuboid(c) => {
+                let (center, half, rotation) = c.placement();
+                let positions = (0..8)
+                    .map(|k| {
+                        let s = Vector3::new(
+                            if k & 1 == 0 { -1.0 } else { 1.0 },
+                            if k & 2 == 0 { -1.0 } else { 1.0 },
+                            if k & 4 == 0 { -1.0 } else { 1.0 },
+                        );
+                        let local = center + rotation * half.component_mul(&s);
+                        (pose * Point3::from(local)).coords
+                    })
+                    .collect();
+                out.push(MeshObstacle {
+                    positions,
+                    triangles: BOX_TRIANGLES.to_vec(),
+                });
+            }
+            Shape::Group(members) => {
+                for m in members {
+                    m.box_meshes_in(t, &pose, out);
+                }
+            }
+            _ => {}
+        }
+    }
+
+    /// The obstacle without its boxes (`None` if nothing else is left): what remains a
+    /// signed distance once the boxes are triangle meshes.
+    pub fn without_boxes(&self) -> Option<Obstacle> {
+        match &self.shape {
+            Shape::Cuboid(_) => None,
+            Shape::Group(members) => {
+                let rest: Vec<Obstacle> =
+                    members.iter().filter_map(Obstacle::without_boxes).collect();
+                (!rest.is_empty()).then(|| Obstacle {
+                    shape: Shape::Group(rest),
+                    transform: self.transform,
+                    path: self.path.clone(),
+                })
+            }
+            _ => Some(self.clone()),
+        }
+    }
+
     /// The rigid motion from the shape's frame to its parent's at time `t`.
     pub fn pose_at(&self, t: f64) -> Isometry3<f64> {
         self.pose(t).0
@@ -164,6 +228,23 @@ impl Obstacle {
         }
     }
 }
+
+/// A box's corners (bit k of the index: the sign along axis k) in the order its 12
+/// triangles, wound outward, index them.
+const BOX_TRIANGLES: [[usize; 3]; 12] = [
+    [0, 2, 1],
+    [1, 2, 3],
+    [4, 5, 6],
+    [5, 7, 6],
+    [0, 1, 4],
+    [1, 5, 4],
+    [2, 6, 3],
+    [3, 6, 7],
+    [0, 4, 2],
+    [2, 4, 6],
+    [1, 3, 5],
+    [3, 7, 5],
+];
 
 /// The obstacles of a scene.
 #[derive(Clone, Debug, Default, PartialEq)]

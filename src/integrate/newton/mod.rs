@@ -542,7 +542,13 @@ impl Newton {
             // `None`: the predicted decrease is below the energy's round-off, where the Armijo
             // test cannot tell a decrease from noise, and the full step was taken.
             let accepted = if -slope <= current.roundoff {
-                axpy(1.0, &self.dx, x);
+                // The full step, capped by the step filter (collision detection) if any.
+                let alpha = if self.step_filter.is_some() {
+                    self.filtered_length(x, 1.0, t, report)?
+                } else {
+                    1.0
+                };
+                axpy(alpha, &self.dx, x);
                 None
             } else {
                 match s.globalization {
