@@ -149,27 +149,20 @@ impl Model {
             }
         }
         let dofs = &self.dofs;
-        for p in &self.vertex_potentials {
-            p.gradient(self.time, &self.positions, &mut |v, gv| {
-                let f = dofs.free_index(v);
-                if f != FIXED {
-                    let f = f as usize;
-                    for i in 0..3 {
-                        g[3 * f + i] += gv[i];
-                    }
+        let mut add = |v: usize, gv: nalgebra::Vector3<f64>| {
+            let f = dofs.free_index(v);
+            if f != FIXED {
+                let f = f as usize;
+                for i in 0..3 {
+                    g[3 * f + i] += gv[i];
                 }
-            });
+            }
+        };
+        for p in &self.vertex_potentials {
+            p.gradient(self.time, &self.positions, &mut add);
         }
         if let Some(p) = &self.contact_potential {
-            p.gradient(self.time, &self.positions, &mut |v, gv| {
-                let f = dofs.free_index(v);
-                if f != FIXED {
-                    let f = f as usize;
-                    for i in 0..3 {
-                        g[3 * f + i] += gv[i];
-                    }
-                }
-            });
+            p.gradient(self.time, &self.positions, &mut add);
         }
     }
 

@@ -256,30 +256,24 @@ impl Ipc {
             }
             // λ = κ |db/dd| = κ |b'(s)| 2 d.
             let normal_force = kappa * barrier.first_derivative(s, s_hat).abs() * 2.0 * s.sqrt();
-            let (ids, weights, count, offset): ([u32; 4], [f64; 4], usize, Vector3<f64>) = match *c
-            {
+            let (ids, weights, count, offset, normal) = match *c {
                 Contact::PointTriangle(v, _) => {
-                    let (w, _) =
+                    let (w, n) =
                         friction::point_triangle_weights(&p(v[0]), &p(v[1]), &p(v[2]), &p(v[3]));
-                    (v, w, 4, Vector3::zeros())
+                    (v, w, 4, Vector3::zeros(), n)
                 }
                 Contact::EdgeEdge(v, _, _) => {
-                    let (w, _) =
+                    let (w, n) =
                         friction::edge_edge_weights(&p(v[0]), &p(v[1]), &p(v[2]), &p(v[3]));
-                    (v, w, 4, Vector3::zeros())
+                    (v, w, 4, Vector3::zeros(), n)
                 }
-                Contact::PointObstacle(v, sample) => {
-                    ([v, 0, 0, 0], [1.0, 0.0, 0.0, 0.0], 1, sample.velocity * dt)
-                }
-            };
-            let normal = match *c {
-                Contact::PointTriangle(v, _) => {
-                    friction::point_triangle_weights(&p(v[0]), &p(v[1]), &p(v[2]), &p(v[3])).1
-                }
-                Contact::EdgeEdge(v, _, _) => {
-                    friction::edge_edge_weights(&p(v[0]), &p(v[1]), &p(v[2]), &p(v[3])).1
-                }
-                Contact::PointObstacle(_, sample) => sample.sdf.gradient,
+                Contact::PointObstacle(v, sample) => (
+                    [v, 0, 0, 0],
+                    [1.0, 0.0, 0.0, 0.0],
+                    1,
+                    sample.velocity * dt,
+                    sample.sdf.gradient,
+                ),
             };
             // Obstacle vertices never move: they drop out of the relative displacement.
             let mut stencil = FrictionStencil {
