@@ -211,14 +211,26 @@ fn check_scene(config: Result<SceneConfig, scene::SceneError>, what: &str) {
 fn study_folder() -> TempDir {
     let tmp = TempDir::new("docs-study");
     for folder in ["scenes", "problems"] {
-        let to = tmp.path().join(folder);
-        std::fs::create_dir(&to).unwrap();
-        for entry in std::fs::read_dir(root().join("experiments").join(folder)).unwrap() {
-            let path = entry.unwrap().path();
-            std::fs::copy(&path, to.join(path.file_name().unwrap())).unwrap();
-        }
+        copy_folder(
+            &root().join("experiments").join(folder),
+            &tmp.path().join(folder),
+        );
     }
     tmp
+}
+
+/// Copy `from` into `to`, subfolders included.
+fn copy_folder(from: &std::path::Path, to: &std::path::Path) {
+    std::fs::create_dir(to).unwrap();
+    for entry in std::fs::read_dir(from).unwrap() {
+        let path = entry.unwrap().path();
+        let target = to.join(path.file_name().unwrap());
+        if path.is_dir() {
+            copy_folder(&path, &target);
+        } else {
+            std::fs::copy(&path, target).unwrap();
+        }
+    }
 }
 
 fn check_study(text: &str, what: &str) {
