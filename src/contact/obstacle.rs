@@ -88,6 +88,15 @@ impl Obstacle {
         }
     }
 
+    /// Whether no member of the obstacle has a path of its own (its own path may move it
+    /// as one translation).
+    pub fn is_static_apart_from_its_path(&self) -> bool {
+        match &self.shape {
+            Shape::Group(members) => members.iter().all(Obstacle::is_static),
+            _ => true,
+        }
+    }
+
     /// Whether the obstacle and every member of it stand still (no path anywhere).
     pub fn is_static(&self) -> bool {
         self.path.is_none()

@@ -20,6 +20,13 @@ pub trait ContactPotential: Send + Sync + std::fmt::Debug {
     /// potential of the current step, not a stored energy), for energy reports.
     fn stored_energy(&self, t: f64, x: &[Vector3<f64>]) -> f64;
 
+    /// The power (W) moving obstacles put into the body through the potential at positions
+    /// `x` and time `t`: the sum over contacts of the contact force times the obstacle's
+    /// velocity (the energy balance counts it as work done on the body). Default: 0.
+    fn driven_power(&self, _t: f64, _x: &[Vector3<f64>]) -> f64 {
+        0.0
+    }
+
     /// Call `add(v, dphi/dx_v)` for each vertex with a non-zero gradient.
     fn gradient(&self, t: f64, x: &[Vector3<f64>], add: &mut dyn FnMut(usize, Vector3<f64>));
 

@@ -303,6 +303,16 @@ impl Model {
             .map_or(0.0, |p| p.stored_energy(self.time, &self.positions)))
     }
 
+    /// The power moving obstacles put into the body through the contact potential at `q`,
+    /// time `t` (W; 0 without one: see [`ContactPotential::driven_power`]).
+    pub fn contact_driven_power(&mut self, q: &[f64], t: f64) -> Result<f64, ModelError> {
+        self.load_state(q)?;
+        Ok(self
+            .contact_potential
+            .as_ref()
+            .map_or(0.0, |p| p.driven_power(t, &self.positions)))
+    }
+
     /// The per-vertex potentials.
     pub fn vertex_potentials(&self) -> &[Box<dyn VertexPotential>] {
         &self.vertex_potentials

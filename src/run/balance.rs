@@ -218,6 +218,15 @@ impl EnergyBalance {
     /// Account the work of time-dependent potentials over the step from `state.t` to
     /// `state.t + dt`, at the start-of-step positions. Call before the step.
     pub fn before_step(&mut self, model: &mut Model, state: &State, dt: f64) {
+        if model.contact_potential().is_some()
+            && let Ok(power) = model.contact_driven_power(&state.q, state.t)
+            && power != 0.0
+        {
+            // Moving obstacles pushing through a contact potential: force times their
+            // velocity, at the start of the step.
+            self.driven += power * dt;
+            self.scale.driven = self.scale.driven.max(self.driven.abs());
+        }
         if model.vertex_potentials().is_empty() {
             return;
         }

@@ -83,6 +83,10 @@ struct Lagged {
     relags_left: u32,
     /// The smallest squared distance after the previous step (adaptive κ).
     previous_min_s: f64,
+    /// The end time of the last converged solve or step (where moving obstacles were), and a
+    /// start carried along by moving obstacles for the current solve (stacked free DOFs).
+    last_end: Option<f64>,
+    carried: Option<Vec<f64>>,
 }
 
 /// Incremental potential contact of one body: its collision mesh, the analytic obstacles,
@@ -312,13 +316,29 @@ impl Ipc {
         let dt = self.dt;
         let mut x = Vec::new();
         self.full_positions(q, &mut x);
-        {
+        let from = {
             let mut lagged = self.lagged.lock().expect("not poisoned");
             lagged.friction.clear();
             lagged.x_start.clone_from(&x);
             lagged.relags_left = self.config.friction_iterations.saturating_sub(1);
+            lagged.carried = None;
+            lagged.last_end.unwrap_or(t - dt).min(t)
+        };
+        let (mut count, _, mut admissible) = self.contact_stats(&x, t);
+        if !admissible {
+            // Moving obstacles may have come onto the body since `from`: start the solve with
+            // the surface vertices near each one carried along by its displacement (they keep
+            // their place relative to it), if that start is admissible.
+            let carried = self.carry(&x, from, t);
+            if let Some(y) = carried {
+                (count, _, admissible) = self.contact_stats(&y, t);
+                if admissible {
+                    let mut start = q.to_vec();
+                    self.dofs.gather(&y, &mut start);
+                    self.lagged.lock().expect("not poisoned").carried = Some(start);
+                }
+            }
         }
-        let (count, _, admissible) = self.contact_stats(&x, t);
         if !admissible {
             return Err(StepError::NewtonFailed {
                 iterations: 0,
@@ -357,10 +377,60 @@ impl Ipc {
         Ok(())
     }
 
+    /// The positions `x` with every free surface vertex that a moving analytic obstacle could
+    /// reach over `[from, to]` (closer at `to` than its displacement plus d̂) moved by that
+    /// displacement; `None` when no obstacle moved or one has members with paths of their
+    /// own (a displacement that is not one translation).
+    fn carry(&self, x: &[Vector3<f64>], from: f64, to: f64) -> Option<Vec<Vector3<f64>>> {
+        let mut y = x.to_vec();
+        let mut moved = false;
+        for o in self.obstacles.iter() {
+            let Some(path) = &o.path else { continue };
+            if !o.is_static_apart_from_its_path() {
+                return None;
+            }
+            let shift = path.offset(to) - path.offset(from);
+            if shift == Vector3::zeros() {
+                continue;
+            }
+            let reach = shift.norm() + self.config.dhat;
+            for &v in self
+                .mesh
+                .vertices
+                .iter()
+                .filter(|&&v| !self.mesh.is_obstacle(v))
+            {
+                let v = v as usize;
+                if !self.dofs.is_fixed(v)
+                    && y[v] == x[v]
+                    && o.sample(&x[v], to).sdf.distance < reach
+                {
+                    y[v] += shift;
+                    moved = true;
+                }
+            }
+        }
+        moved.then_some(y)
+    }
+
+    /// A carried start for the current solve, if [`Self::begin_solve`] made one.
+    fn start_point(&self, start: &mut [f64]) -> bool {
+        match &self.lagged.lock().expect("not poisoned").carried {
+            Some(c) => {
+                start.copy_from_slice(c);
+                true
+            }
+            None => false,
+        }
+    }
+
     /// After a converged solve at `q`: re-lag friction there if iterations are left.
     fn relag(&self, q: &[f64], t: f64) -> bool {
         let dt = self.dt;
         let mut lagged = self.lagged.lock().expect("not poisoned");
+        // A converged solve: the obstacles are at its end time (a halved step's second half
+        // starts there).
+        lagged.last_end = Some(t);
         if lagged.relags_left == 0 || self.config.mu <= 0.0 {
             return false;
         }
@@ -524,6 +594,27 @@ impl ContactPotential for IpcPotential {
         e
     }
 
+    fn driven_power(&self, t: f64, x: &[Vector3<f64>]) -> f64 {
+        let ipc = &self.0;
+        let kappa = ipc.kappa();
+        let s_hat = ipc.config.dhat * ipc.config.dhat;
+        let mut scratch = ipc.scratch.lock().expect("not poisoned");
+        contacts::find(&ipc.search(), x, t, &mut scratch);
+        scratch
+            .contacts
+            .iter()
+            .map(|c| match *c {
+                Contact::PointObstacle(_, sample) if sample.velocity != Vector3::zeros() => {
+                    let d = sample.sdf.distance;
+                    // The force on the vertex, −κ b'(s) 2d n, times the obstacle's velocity.
+                    let b1 = ipc.config.barrier.first_derivative(d * d, s_hat);
+                    -kappa * b1 * 2.0 * d * sample.sdf.gradient.dot(&sample.velocity)
+                }
+                _ => 0.0,
+            })
+            .sum()
+    }
+
     fn stored_energy(&self, t: f64, x: &[Vector3<f64>]) -> f64 {
         self.0.kappa() * self.0.unit_barrier(x, t, None)
     }
@@ -642,6 +733,10 @@ impl StepFilter for IpcFilter {
     fn relag(&mut self, x: &[f64], t: f64) -> bool {
         self.ipc.relag(x, t)
     }
+
+    fn start_point(&mut self, start: &mut [f64]) -> bool {
+        self.ipc.start_point(start)
+    }
 }
 
 /// The scene's integrator with IPC in its Newton loop, reporting contacts, the smallest
@@ -711,6 +806,7 @@ impl Integrator for WithIpc {
     ) -> Result<(), StepError> {
         let queries = self.ipc.ccd_queries();
         self.inner.advance(model, state, dt, report)?;
+        self.ipc.lagged.lock().expect("not poisoned").last_end = Some(state.t + dt);
         self.ipc.full_positions(&state.q, &mut self.x);
         let (count, distance, _) = self.ipc.contact_stats(&self.x, state.t + dt);
         self.ipc.after_step(distance);

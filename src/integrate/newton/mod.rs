@@ -107,6 +107,13 @@ pub trait StepFilter: Send {
         Ok(())
     }
 
+    /// A start other than `x_ref` that [`Self::begin_solve`] chose (written into `start`,
+    /// which holds `x_ref` on entry), e.g. vertices carried along by a moving obstacle;
+    /// `false` (the default) to start from `x_ref`.
+    fn start_point(&mut self, _start: &mut [f64]) -> bool {
+        false
+    }
+
     /// The solve converged at `x`: update the lagged quantities there and return `true` to
     /// minimize again from `x` (lagged friction's further iterations). Default: `false`.
     fn relag(&mut self, _x: &[f64], _t: f64) -> bool {
@@ -329,11 +336,14 @@ impl Newton {
         // toward the guess as the step filter allows (the guess itself may have tunnelled).
         if let Some(filter) = self.step_filter.as_mut() {
             filter.begin_solve(model, p.x_ref, t)?;
-            for ((d, g), r) in self.dx.iter_mut().zip(x.iter()).zip(p.x_ref) {
+            let from = &mut self.trial;
+            from.copy_from_slice(p.x_ref);
+            filter.start_point(from);
+            for ((d, g), r) in self.dx.iter_mut().zip(x.iter()).zip(from.iter()) {
                 *d = g - r;
             }
-            let alpha = filter.max_step(p.x_ref, &self.dx, t).clamp(0.0, 1.0);
-            for ((xi, r), d) in x.iter_mut().zip(p.x_ref).zip(&self.dx) {
+            let alpha = filter.max_step(from, &self.dx, t).clamp(0.0, 1.0);
+            for ((xi, r), d) in x.iter_mut().zip(from.iter()).zip(&self.dx) {
                 *xi = r + alpha * d;
             }
         }
