@@ -419,6 +419,9 @@ fn the_distance_log_barrier_and_repeated_friction_lagging_run_intersection_free(
         60,
     );
     assert!(rows.iter().all(|r| r.intersection_free == Some(1)));
+    // Friction between the two pieces (self-contact stencils) and with the floor.
+    let (rows, _) = run(shipped("stack.toml", &["contact.ipc.mu=0.3"]), 60);
+    assert!(rows.iter().all(|r| r.intersection_free == Some(1)));
     let (a, _) = run(shipped("slope.toml", &[]), 30);
     let (b, _) = run(
         shipped("slope.toml", &["contact.ipc.friction_iterations=3"]),
