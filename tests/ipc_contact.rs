@@ -3,7 +3,6 @@
 //! element pattern included) against finite differences, the barrier adding exactly nothing
 //! where nothing is within d̂, and the scenes of the contact study staying intersection-free.
 
-use nalgebra::Vector3;
 use softbench::data::DataPaths;
 use softbench::model::{HessianOptions, Model};
 use softbench::parallel::Parallelism;
@@ -125,7 +124,9 @@ fn check_derivatives(model: &mut Model, q: &[f64]) {
 #[test]
 fn the_barrier_adds_nothing_where_nothing_is_within_dhat() {
     let (mut with, q) = stacked(0.05, &[]);
-    let (mut without, _) = stacked(0.05, &["contact.response=penalty"]);
+    // Without any contact: no obstacles, and a response that then builds nothing.
+    let (mut without, _) = stacked(0.05, &["contact.response=penalty", "obstacles=[]"]);
+    assert!(without.contact.is_none() && without.model.contact_potential().is_none());
     let (a, b) = (&mut with.model, &mut without.model);
     assert_eq!(
         a.potential(&q).unwrap().to_bits(),
@@ -144,7 +145,6 @@ fn the_barrier_adds_nothing_where_nothing_is_within_dhat() {
             .zip(hb.iter())
             .all(|(x, y)| x.to_bits() == y.to_bits())
     );
-    let _ = Vector3::<f64>::zeros();
 }
 
 #[test]
@@ -211,12 +211,7 @@ fn lowest(scene_model: &Model, state: &softbench::integrate::State) -> f64 {
 #[test]
 fn ipc_stops_the_fast_ball_on_the_thin_plate_where_the_vertex_responses_let_it_through() {
     let scene = shipped("plate.toml", &[]);
-    let model_rest = scene.model.rest_positions().to_vec();
-    let _ = model_rest;
-    let (rows, state) = {
-        let s = shipped("plate.toml", &[]);
-        run(s, 40)
-    };
+    let (rows, state) = run(shipped("plate.toml", &[]), 40);
     assert!(rows.iter().all(|r| r.intersection_free == Some(1)));
     assert!(
         rows.iter()

@@ -160,11 +160,6 @@ impl Obstacle {
         }
     }
 
-    /// The rigid motion from the shape's frame to its parent's at time `t`.
-    pub fn pose_at(&self, t: f64) -> Isometry3<f64> {
-        self.pose(t).0
-    }
-
     /// The signed distance to this obstacle (a group: the nearest member) at `p`, time `t`.
     pub fn sample(&self, p: &Vector3<f64>, t: f64) -> ObstacleSample {
         count_query();

@@ -258,25 +258,24 @@ impl Model {
                     return;
                 }
                 let (row, col) = (fa as usize, fb as usize);
-                match pattern.block_index(row, col) {
-                    Some(_) => {
-                        // Block (row, col) sits in scalar columns 3col..3col+3 at the same
-                        // offset within each column.
-                        let rows = pattern.scalar().row_idx();
-                        for j in 0..3 {
-                            let c = 3 * col + j;
-                            let column = &rows[col_ptr[c]..col_ptr[c + 1]];
-                            let start = column.partition_point(|&r| r < 3 * row);
-                            for i in 0..3 {
-                                values[col_ptr[c] + start + i] += block[(i, j)];
-                            }
+                // Block (row, col), if stored, sits in scalar columns 3col..3col+3 at the same
+                // offset within each column (rows 3row..3row+3, contiguous).
+                let rows = pattern.scalar().row_idx();
+                let first = &rows[col_ptr[3 * col]..col_ptr[3 * col + 1]];
+                let start = first.partition_point(|&r| r < 3 * row);
+                if first.get(start) == Some(&(3 * row)) {
+                    for j in 0..3 {
+                        let c = 3 * col + j;
+                        for i in 0..3 {
+                            values[col_ptr[c] + start + i] += block[(i, j)];
                         }
                     }
-                    None => off.push(OffPatternBlock {
+                } else {
+                    off.push(OffPatternBlock {
                         row: fa,
                         col: fb,
                         block: *block,
-                    }),
+                    });
                 }
             });
         }

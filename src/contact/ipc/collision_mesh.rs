@@ -22,8 +22,6 @@ pub struct CollisionMesh {
     pub edge_rest_length2: Vec<f64>,
     /// The body's boundary triangles, then the obstacles'.
     pub faces: Vec<[u32; 3]>,
-    /// The body's boundary triangles alone (for the intersection check).
-    pub body_faces: usize,
 }
 
 impl CollisionMesh {
@@ -35,7 +33,6 @@ impl CollisionMesh {
             .iter()
             .map(|f| f.map(|v| u32::try_from(v).expect("vertex index fits u32")))
             .collect();
-        let body_faces = faces.len();
         let mut obstacle_positions = Vec::new();
         for o in obstacles {
             let offset = num_body + obstacle_positions.len();
@@ -59,7 +56,6 @@ impl CollisionMesh {
             edges,
             edge_rest_length2: Vec::new(),
             faces,
-            body_faces,
         };
         mesh.edge_rest_length2 = mesh
             .edges
@@ -82,16 +78,6 @@ impl CollisionMesh {
             Some(p) if (v as usize) < self.num_body => *p,
             _ => self.obstacle_positions[v as usize - self.num_body],
         }
-    }
-
-    /// Vertices of the body.
-    pub fn num_body(&self) -> usize {
-        self.num_body
-    }
-
-    /// The obstacle vertices' positions.
-    pub fn obstacle_positions(&self) -> &[Vector3<f64>] {
-        &self.obstacle_positions
     }
 
     /// Bounding boxes of vertices, edges and faces at `x`, vertices inflated by `r`, edges

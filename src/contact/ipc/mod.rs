@@ -79,6 +79,8 @@ struct Lagged {
     balanced: bool,
     friction: Vec<FrictionStencil>,
     x_start: Vec<Vector3<f64>>,
+    /// Scratch: every vertex's position at a solution being re-lagged.
+    positions: Vec<Vector3<f64>>,
     /// Friction solves left in this step.
     relags_left: u32,
     /// The smallest squared distance after the previous step (adaptive κ).
@@ -158,21 +160,6 @@ impl Ipc {
             scratch: Mutex::new(Scratch::default()),
             ccd_queries: AtomicU64::new(0),
         }
-    }
-
-    /// The settings.
-    pub fn config(&self) -> &IpcConfig {
-        &self.config
-    }
-
-    /// The collision mesh.
-    pub fn mesh(&self) -> &CollisionMesh {
-        &self.mesh
-    }
-
-    /// The analytic obstacles.
-    pub fn obstacles(&self) -> &Obstacles {
-        &self.obstacles
     }
 
     /// The current barrier stiffness κ (J).
@@ -314,39 +301,62 @@ impl Ipc {
     /// friction there.
     fn begin_solve(&self, model: &mut Model, q: &[f64], t: f64) -> Result<(), StepError> {
         let dt = self.dt;
-        let mut x = Vec::new();
-        self.full_positions(q, &mut x);
-        let from = {
+        // The step's start positions (friction's x^t), in the lagged buffer.
+        let (mut x_start, mut stencils, from) = {
             let mut lagged = self.lagged.lock().expect("not poisoned");
-            lagged.friction.clear();
-            lagged.x_start.clone_from(&x);
             lagged.relags_left = self.config.friction_iterations.saturating_sub(1);
             lagged.carried = None;
-            lagged.last_end.unwrap_or(t - dt).min(t)
+            let from = lagged.last_end.unwrap_or(t - dt).min(t);
+            (
+                std::mem::take(&mut lagged.x_start),
+                std::mem::take(&mut lagged.friction),
+                from,
+            )
         };
-        let (mut count, _, mut admissible) = self.contact_stats(&x, t);
-        if !admissible {
-            // Moving obstacles may have come onto the body since `from`: start the solve with
-            // the surface vertices near each one carried along by its displacement (they keep
-            // their place relative to it), if that start is admissible.
-            let carried = self.carry(&x, from, t);
-            if let Some(y) = carried {
-                (count, _, admissible) = self.contact_stats(&y, t);
-                if admissible {
-                    let mut start = q.to_vec();
-                    self.dofs.gather(&y, &mut start);
-                    self.lagged.lock().expect("not poisoned").carried = Some(start);
-                }
+        self.full_positions(q, &mut x_start);
+        let (mut count, _, mut admissible) = self.contact_stats(&x_start, t);
+        // Moving obstacles may have come onto the body since `from`: start the solve with the
+        // surface vertices near each one carried along by its displacement (they keep their
+        // place relative to it), if that start is admissible; κ and friction are lagged there.
+        let mut carried = None;
+        if !admissible && let Some(y) = self.carry(&x_start, from, t) {
+            (count, _, admissible) = self.contact_stats(&y, t);
+            if admissible {
+                let mut start = q.to_vec();
+                self.dofs.gather(&y, &mut start);
+                self.lagged.lock().expect("not poisoned").carried = Some(start);
+                carried = Some(y);
             }
         }
-        if !admissible {
-            return Err(StepError::NewtonFailed {
+        let result = if admissible {
+            let x = carried.as_deref().unwrap_or(&x_start);
+            self.lag_at(model, q, x, t, count, &mut stencils)
+        } else {
+            stencils.clear();
+            Err(StepError::NewtonFailed {
                 iterations: 0,
                 reason: "incremental potential contact: the step starts with touching or \
                          intersecting primitives (or an obstacle moved into the body)"
                     .into(),
-            });
-        }
+            })
+        };
+        let mut lagged = self.lagged.lock().expect("not poisoned");
+        lagged.x_start = x_start;
+        lagged.friction = stencils;
+        result
+    }
+
+    /// Lag κ (the gradient balance at the first solve with contacts) and the friction
+    /// stencils at full positions `x` (stacked free positions `q`), with `count` contacts.
+    fn lag_at(
+        &self,
+        model: &mut Model,
+        q: &[f64],
+        x: &[Vector3<f64>],
+        t: f64,
+        count: usize,
+        stencils: &mut Vec<FrictionStencil>,
+    ) -> Result<(), StepError> {
         let needs_balance = {
             let lagged = self.lagged.lock().expect("not poisoned");
             count > 0 && !lagged.balanced && self.config.kappa == Stiffness::Auto
@@ -356,7 +366,7 @@ impl Ipc {
             let mut g = vec![0.0; q.len()];
             model.gradient(q, &mut g).map_err(StepError::from)?;
             let mut gb = vec![Vector3::zeros(); x.len()];
-            self.unit_barrier(&x, t, Some(&mut gb));
+            self.unit_barrier(x, t, Some(&mut gb));
             let kappa_now = self.kappa();
             let (mut dot, mut norm2) = (0.0, 0.0);
             for (f, &v) in self.dofs.free_vertices().iter().enumerate() {
@@ -370,10 +380,7 @@ impl Ipc {
                 lagged.balanced = true;
             }
         }
-        let kappa = self.kappa();
-        let mut stencils = Vec::new();
-        self.friction_stencils(&x, t, dt, kappa, &mut stencils);
-        self.lagged.lock().expect("not poisoned").friction = stencils;
+        self.friction_stencils(x, t, self.dt, self.kappa(), stencils);
         Ok(())
     }
 
@@ -436,12 +443,14 @@ impl Ipc {
         }
         lagged.relags_left -= 1;
         let kappa = lagged.kappa;
+        let mut x = std::mem::take(&mut lagged.positions);
+        let mut stencils = std::mem::take(&mut lagged.friction);
         drop(lagged);
-        let mut x = Vec::new();
         self.full_positions(q, &mut x);
-        let mut stencils = Vec::new();
         self.friction_stencils(&x, t, dt, kappa, &mut stencils);
-        self.lagged.lock().expect("not poisoned").friction = stencils;
+        let mut lagged = self.lagged.lock().expect("not poisoned");
+        lagged.positions = x;
+        lagged.friction = stencils;
         true
     }
 
