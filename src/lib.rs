@@ -14,6 +14,7 @@
 //! `vec(F)` is column-major (`F[(0,0)], F[(1,0)], F[(2,0)], F[(0,1)], ...`), which is nalgebra's
 //! storage order.
 
+pub mod cli;
 pub mod console;
 pub mod contact;
 pub mod data;
