@@ -124,8 +124,9 @@ where
     }
 }
 
-/// Whether an error comes from the user's input files rather than from softbench or the system.
-fn is_bad_input(err: &anyhow::Error) -> bool {
+/// Whether an error comes from the user's input files rather than from softbench or the system
+/// (exit code 2; the Python package raises `BadInputError` for it).
+pub fn is_bad_input(err: &anyhow::Error) -> bool {
     err.chain().any(|e| {
         e.is::<MeshError>()
             || e.is::<DataError>()

@@ -222,6 +222,10 @@ pub enum StepError {
     /// the step is abandoned like any failed step.
     #[error("stopped by {} inside the step", .0.name())]
     Interrupted(crate::interrupt::Signal),
+    /// A method's own code refused or failed the step, with its reason (a method registered
+    /// from outside the crate, such as a Python step function that raised).
+    #[error("the method failed: {0}")]
+    Method(String),
 }
 
 impl StepError {
@@ -238,6 +242,7 @@ impl StepError {
             Self::Model(_) => "model error",
             Self::OverBudget { .. } => "budget",
             Self::Interrupted(_) => "interrupted",
+            Self::Method(_) => "method error",
         }
     }
 

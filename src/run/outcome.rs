@@ -61,7 +61,8 @@ impl OutcomeKind {
             | StepError::Solver(_)
             | StepError::StepTooSmall { .. }
             | StepError::TooManySubsteps { .. }
-            | StepError::Model(_) => Self::SolverFailed,
+            | StepError::Model(_)
+            | StepError::Method(_) => Self::SolverFailed,
             StepError::OverBudget { .. } => Self::HorizonNotReached,
             StepError::Interrupted(_) => Self::Interrupted,
         }

@@ -1,0 +1,275 @@
+//! `Model`: a built scene's potential, gradient, Hessian and mass at positions Python gives,
+//! so a method can be prototyped in Python against softbench's FEM. Coordinates are the free
+//! DOFs stacked `[x0 y0 z0 x1 ...]` over the free vertices in order; `full_positions` puts
+//! them back among the fixed ones.
+
+use numpy::ndarray::Array2;
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use softbench::data::DataPaths;
+use softbench::model::{HessianOptions, Model as FemModel};
+use softbench::parallel::Parallelism;
+use softbench::scene::{self, Scene};
+
+use crate::errors::IntoPy;
+use crate::scene::SceneSource;
+
+/// A sparse matrix as SciPy's CSC arrays: `(data, indices, indptr, n)`.
+pub type Csc<'py> = (
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<i64>>,
+    Bound<'py, PyArray1<i64>>,
+    usize,
+);
+
+/// A scene built once: its model and initial state.
+#[pyclass(module = "softbench._native", unsendable)]
+pub struct Model {
+    scene: Scene,
+}
+
+#[pymethods]
+impl Model {
+    /// Build the scene (mesh, material, fixed vertices, forces, obstacles).
+    #[new]
+    #[pyo3(signature = (path=None, table_json=None, base_dir=None, set=Vec::new(), set_json=None, data_dir=None))]
+    fn new(
+        py: Python<'_>,
+        path: Option<std::path::PathBuf>,
+        table_json: Option<String>,
+        base_dir: Option<std::path::PathBuf>,
+        set: Vec<String>,
+        set_json: Option<String>,
+        data_dir: Option<std::path::PathBuf>,
+    ) -> PyResult<Self> {
+        let source = SceneSource {
+            path,
+            table_json,
+            base_dir,
+            set,
+            set_json,
+        };
+        let data = data_dir.map_or_else(DataPaths::from_env, |d| DataPaths::new(Some(d)));
+        let scene = py
+            .detach(|| -> anyhow::Result<Scene> {
+                let loaded = source.load()?;
+                Ok(scene::build(&loaded, &data, Parallelism::Rayon)?)
+            })
+            .py_err()?;
+        Ok(Self { scene })
+    }
+
+    /// The scene's name.
+    #[getter]
+    fn name(&self) -> String {
+        self.scene.name.clone()
+    }
+
+    /// The scene's initial free coordinates and velocities and start time.
+    fn initial_state<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>, f64) {
+        let s = &self.scene.initial;
+        (
+            PyArray1::from_slice(py, &s.q),
+            PyArray1::from_slice(py, &s.v),
+            s.t,
+        )
+    }
+
+    /// The scene's time step and number of steps (`run.dt`, `run.steps`).
+    fn run_length(&self) -> (f64, usize) {
+        (self.scene.config.run.dt, self.scene.config.run.steps)
+    }
+
+    fn num_dofs(&self) -> usize {
+        self.scene.model.num_dofs()
+    }
+    fn counts<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        counts(py, &self.scene.model)
+    }
+    fn rest_q<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        self.scene.model.rest_state().into_pyarray(py)
+    }
+    fn fixed<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<bool>> {
+        fixed(py, &self.scene.model)
+    }
+    fn tets<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<i64>> {
+        let tets = self.scene.surface_tets();
+        let flat: Vec<i64> = tets.iter().flatten().map(|&i| i as i64).collect();
+        Array2::from_shape_vec((tets.len(), 4), flat)
+            .expect("4 per tet")
+            .into_pyarray(py)
+    }
+    fn full_positions<'py>(
+        &self,
+        py: Python<'py>,
+        q: PyReadonlyArray1<'py, f64>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        full_positions(py, &self.scene.model, q)
+    }
+    fn vertex_masses<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, self.scene.model.vertex_masses())
+    }
+    fn energy(&mut self, q: PyReadonlyArray1<'_, f64>) -> PyResult<f64> {
+        energy(&mut self.scene.model, q)
+    }
+    fn energy_parts<'py>(
+        &mut self,
+        py: Python<'py>,
+        q: PyReadonlyArray1<'py, f64>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        energy_parts(py, &mut self.scene.model, q)
+    }
+    fn gradient<'py>(
+        &mut self,
+        py: Python<'py>,
+        q: PyReadonlyArray1<'py, f64>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        gradient(py, &mut self.scene.model, q)
+    }
+    #[pyo3(signature = (q, projected=false))]
+    fn hessian<'py>(
+        &mut self,
+        py: Python<'py>,
+        q: PyReadonlyArray1<'py, f64>,
+        projected: bool,
+    ) -> PyResult<Csc<'py>> {
+        hessian(py, &mut self.scene.model, q, projected)
+    }
+    fn mass<'py>(&self, py: Python<'py>) -> Csc<'py> {
+        mass(py, &self.scene.model)
+    }
+    fn evaluations<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        evaluations(py, &self.scene.model)
+    }
+}
+
+/// `q` as a slice of the model's length.
+fn free<'a>(model: &FemModel, q: &'a PyReadonlyArray1<'_, f64>) -> PyResult<&'a [f64]> {
+    let q = q
+        .as_slice()
+        .map_err(|_| PyValueError::new_err("q must be a contiguous float64 array"))?;
+    if q.len() != model.num_dofs() {
+        return Err(PyValueError::new_err(format!(
+            "q has {} entries; the model has {} free DOFs",
+            q.len(),
+            model.num_dofs()
+        )));
+    }
+    Ok(q)
+}
+
+pub fn counts<'py>(py: Python<'py>, model: &FemModel) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    let dofs = model.dofs();
+    d.set_item("vertices", dofs.num_vertices())?;
+    d.set_item("free_vertices", dofs.num_free())?;
+    d.set_item("fixed_vertices", dofs.num_vertices() - dofs.num_free())?;
+    d.set_item("free_dofs", model.num_dofs())?;
+    d.set_item("fixed_dofs", 3 * dofs.num_vertices() - model.num_dofs())?;
+    Ok(d)
+}
+
+pub fn fixed<'py>(py: Python<'py>, model: &FemModel) -> Bound<'py, PyArray1<bool>> {
+    let dofs = model.dofs();
+    let fixed: Vec<bool> = (0..dofs.num_vertices()).map(|v| dofs.is_fixed(v)).collect();
+    fixed.into_pyarray(py)
+}
+
+pub fn full_positions<'py>(
+    py: Python<'py>,
+    model: &FemModel,
+    q: PyReadonlyArray1<'py, f64>,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    let x = model.full_positions(free(model, &q)?);
+    let flat: Vec<f64> = x.iter().flat_map(|p| [p.x, p.y, p.z]).collect();
+    Ok(Array2::from_shape_vec((x.len(), 3), flat)
+        .expect("3 per vertex")
+        .into_pyarray(py))
+}
+
+pub fn energy(model: &mut FemModel, q: PyReadonlyArray1<'_, f64>) -> PyResult<f64> {
+    let q = free(model, &q)?;
+    model.potential(q).py_err()
+}
+
+pub fn energy_parts<'py>(
+    py: Python<'py>,
+    model: &mut FemModel,
+    q: PyReadonlyArray1<'py, f64>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let q = free(model, &q)?;
+    let p = model.potential_parts(q).py_err()?;
+    let d = PyDict::new(py);
+    d.set_item("elastic", p.elastic)?;
+    d.set_item("springs", p.springs)?;
+    d.set_item("gravity", p.gravity)?;
+    d.set_item("vertex", p.vertex)?;
+    d.set_item("contact", p.contact)?;
+    d.set_item("total", p.total())?;
+    Ok(d)
+}
+
+pub fn gradient<'py>(
+    py: Python<'py>,
+    model: &mut FemModel,
+    q: PyReadonlyArray1<'py, f64>,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let q = free(model, &q)?;
+    let mut g = vec![0.0; q.len()];
+    model.gradient(q, &mut g).py_err()?;
+    Ok(g.into_pyarray(py))
+}
+
+pub fn hessian<'py>(
+    py: Python<'py>,
+    model: &mut FemModel,
+    q: PyReadonlyArray1<'py, f64>,
+    projected: bool,
+) -> PyResult<Csc<'py>> {
+    let q = free(model, &q)?;
+    let mut h = model.new_hessian();
+    let options = if projected {
+        HessianOptions::projected()
+    } else {
+        HessianOptions::default()
+    };
+    model.hessian(q, &mut h, options).py_err()?;
+    let p = h.pattern().clone();
+    let indptr: Vec<i64> = p.col_ptr().iter().map(|&i| i as i64).collect();
+    let indices: Vec<i64> = p.row_idx().iter().map(|&i| i as i64).collect();
+    let n = h.dim();
+    Ok((
+        h.values().to_vec().into_pyarray(py),
+        indices.into_pyarray(py),
+        indptr.into_pyarray(py),
+        n,
+    ))
+}
+
+pub fn mass<'py>(py: Python<'py>, model: &FemModel) -> Csc<'py> {
+    let m = model.mass().to_csc();
+    let n = m.nrows();
+    let (offsets, rows, values) = m.disassemble();
+    let indptr: Vec<i64> = offsets.into_iter().map(|i| i as i64).collect();
+    let indices: Vec<i64> = rows.into_iter().map(|i| i as i64).collect();
+    (
+        values.into_pyarray(py),
+        indices.into_pyarray(py),
+        indptr.into_pyarray(py),
+        n,
+    )
+}
+
+pub fn evaluations<'py>(py: Python<'py>, model: &FemModel) -> PyResult<Bound<'py, PyDict>> {
+    let c = model.counters();
+    let d = PyDict::new(py);
+    d.set_item("potential", c.potential)?;
+    d.set_item("gradient", c.gradient)?;
+    d.set_item("hessian", c.hessian)?;
+    Ok(d)
+}

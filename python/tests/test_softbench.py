@@ -1,0 +1,230 @@
+"""The Python package against softbench itself: the same files the command line writes, the
+same trajectories as built-in methods, derivatives checked by finite differences, meshes
+checked against meshio, and bad input raised as BadInputError."""
+
+import shutil
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+import scipy.sparse
+
+import softbench
+
+TIMING = {"wall_seconds", "assemble_seconds", "factor_seconds", "solve_seconds",
+          "elapsed_seconds", "qp_seconds", "force_seconds", "mass_solve_seconds"}
+
+
+def untimed(df: pd.DataFrame) -> pd.DataFrame:
+    return df[[c for c in df.columns if c not in TIMING and not c.endswith("_seconds")]]
+
+
+def test_version_is_the_crates(root):
+    cargo = tomllib.loads((root / "Cargo.toml").read_text())
+    assert softbench.__version__ == cargo["workspace"]["package"]["version"]
+
+
+def test_load_mesh_matches_meshio(root, tmp_path):
+    meshio = pytest.importorskip("meshio")
+    vertices, tets = softbench.load_mesh(root / "experiments/scenes/contact/two_cubes.mesh")
+    assert vertices.dtype == np.float64 and vertices.shape[1] == 3
+    assert tets.dtype == np.int64 and tets.shape[1] == 4
+    other = meshio.read(root / "experiments/scenes/contact/two_cubes.mesh")
+    # meshio's MEDIT reader keeps single precision; the indices are exact.
+    np.testing.assert_allclose(vertices, other.points, rtol=1e-7)
+    np.testing.assert_array_equal(tets, other.cells_dict["tetra"])
+    # A file meshio writes in another format reads back the same.
+    meshio.write(tmp_path / "m.vtu", meshio.Mesh(vertices, [("tetra", tets)]))
+    v2, t2 = softbench.load_mesh(tmp_path / "m.vtu")
+    np.testing.assert_array_equal(v2, vertices)
+    np.testing.assert_array_equal(t2, tets)
+
+
+def test_simulate_returns_what_the_command_line_writes(beam, tmp_path):
+    run = softbench.simulate(beam, {"run.steps": 20}, out=tmp_path / "run")
+    assert run.outcome == "completed"
+    header = (tmp_path / "run" / "trajectory.csv").read_text().splitlines()[0].split(",")
+    assert list(run.trajectory.columns) == header
+    assert run.trajectory["step"].iloc[-1] == 20
+    assert run.final_positions.shape == (99, 3)
+    assert run.summary["summary"]["steps_completed"] == 20
+    # The same scene again, into a temporary folder, gives the same numbers.
+    again = softbench.simulate(beam, ["run.steps=20"])
+    assert again.out is None
+    pd.testing.assert_frame_equal(untimed(again.trajectory), untimed(run.trajectory))
+    np.testing.assert_array_equal(again.final_positions, run.final_positions)
+
+
+def test_simulate_matches_the_softbench_binary(root, beam, tmp_path):
+    binary = root / "target" / "release" / "softbench"
+    if not binary.exists():
+        pytest.skip("target/release/softbench is not built")
+    cli = tmp_path / "cli"
+    subprocess.run([binary, "simulate", beam, "--out", cli, "--set", "run.steps=15",
+                    "--set", "integrator.method=bdf2"], check=True, capture_output=True)
+    run = softbench.simulate(beam, {"run.steps": 15, "integrator.method": "bdf2"})
+    expected = pd.read_csv(cli / "trajectory.csv")
+    pd.testing.assert_frame_equal(untimed(run.trajectory), untimed(expected))
+    final = pd.read_csv(cli / "final_positions.csv")[["x", "y", "z"]].to_numpy()
+    np.testing.assert_array_equal(run.final_positions, final)
+
+
+def test_a_scene_dict_runs_like_its_file(beam):
+    scene = tomllib.loads(beam.read_text())
+    scene["run"]["steps"] = 10
+    from_dict = softbench.simulate(scene, base_dir=beam.parent)
+    from_file = softbench.simulate(beam, {"run.steps": 10})
+    np.testing.assert_array_equal(from_dict.final_positions, from_file.final_positions)
+
+
+def test_positions_over_time(beam):
+    run = softbench.simulate(beam, {"run.steps": 20}, every=5)
+    assert run.positions.shape == (5, 99, 3)
+    np.testing.assert_allclose(run.times, [0.0, 0.01, 0.02, 0.03, 0.04])
+    np.testing.assert_array_equal(run.positions[-1], run.final_positions)
+
+
+def test_model_derivatives_by_finite_differences(beam):
+    model = softbench.Model(beam)
+    q0, v0, t0 = model.initial_state()
+    assert model.counts["free_dofs"] == q0.size == model.num_dofs == 270
+    assert model.counts["fixed_vertices"] == 9 and model.fixed.sum() == 9
+    rng = np.random.default_rng(7)
+    q = q0 + 0.01 * rng.standard_normal(q0.size)
+    d = rng.standard_normal(q.size)
+    g = model.gradient(q)
+    h = model.hessian(q)
+    assert isinstance(h, scipy.sparse.csc_matrix) and h.shape == (270, 270)
+    assert abs(h - h.T).max() < 1e-9 * abs(h).max()
+    eps = 1e-6
+    fd = (model.energy(q + eps * d) - model.energy(q - eps * d)) / (2 * eps)
+    assert abs(fd - g @ d) < 1e-6 * max(1.0, abs(g @ d))
+    fd_h = (model.gradient(q + eps * d) - model.gradient(q - eps * d)) / (2 * eps)
+    assert np.linalg.norm(fd_h - h @ d) < 1e-6 * np.linalg.norm(h @ d)
+    # The projected Hessian is positive semi-definite.
+    hp = model.hessian(q, projected=True).toarray()
+    assert np.linalg.eigvalsh(hp).min() > -1e-8 * np.abs(hp).max()
+    # Lumped mass: diagonal, 3 entries per free vertex, the free vertices' masses.
+    m = model.mass()
+    free = ~model.fixed
+    np.testing.assert_allclose(m.diagonal(), np.repeat(model.vertex_masses[free], 3))
+    parts = model.energy_parts(q)
+    assert parts["total"] == pytest.approx(model.energy(q))
+    assert model.full_positions(q).shape == (99, 3)
+
+
+def symplectic_euler(model, q, v, t, dt):
+    a = model.acceleration(q, v)
+    v = v + dt * a
+    return q + dt * v, v
+
+
+def backward_euler(model, q, v, t, dt):
+    """Backward Euler by Newton with SciPy's sparse solver: the prototype a researcher writes."""
+    import scipy.sparse.linalg
+    m = model.mass()
+    x = q + dt * v
+    for _ in range(20):
+        r = m @ (x - q - dt * v) + dt * dt * model.gradient(x)
+        if np.linalg.norm(r) < 1e-10 * max(1.0, np.linalg.norm(m @ v)):
+            break
+        x = x - scipy.sparse.linalg.spsolve((m + dt * dt * model.hessian(x)).tocsc(), r)
+    return x, (x - q) / dt
+
+
+softbench.register_method("py-symplectic-euler", symplectic_euler, order=1,
+                          description="symplectic Euler in Python")
+softbench.register_method("py-backward-euler", backward_euler, order=1, explicit=False,
+                          description="backward Euler by Newton in Python")
+
+
+def test_a_python_method_reproduces_the_built_in_one(beam):
+    assert "py-symplectic-euler" in set(softbench.methods()["name"])
+    mine = softbench.simulate(beam, {"run.steps": 50, "integrator.method": "py-symplectic-euler"})
+    theirs = softbench.simulate(beam, {"run.steps": 50, "integrator.method": "symplectic-euler"})
+    assert mine.outcome == "completed"
+    np.testing.assert_array_equal(mine.final_positions, theirs.final_positions)
+    implicit = softbench.simulate(beam, {"run.steps": 10, "integrator.method": "py-backward-euler"})
+    built_in = softbench.simulate(beam, {"run.steps": 10, "integrator.method": "backward-euler"})
+    np.testing.assert_allclose(implicit.final_positions, built_in.final_positions, atol=1e-7)
+
+
+def test_a_study_runs_python_methods_by_name(beam, tmp_path):
+    study = tmp_path / "py.toml"
+    study.write_text(f'''name = "py"
+study = "trajectory"
+scenes = ["{beam.as_posix()}"]
+
+[grid]
+"integrator.method" = ["py-symplectic-euler", "symplectic-euler"]
+
+[set]
+"run.steps" = 30
+''')
+    runs = softbench.run_study(study, tmp_path / "results", jobs=2)
+    assert list(runs.columns) == (tmp_path / "results/py/runs.csv").read_text().splitlines()[0].split(",")
+    assert len(runs) == 2 and set(runs["outcome"]) == {"completed"}
+    assert runs.attrs["dir"] == tmp_path / "results" / "py"
+    by_method = runs.set_index("method")
+    for column in ["energy_drift_max", "energy_drift_final", "steps", "force_evaluations"]:
+        assert by_method.loc["py-symplectic-euler", column] == by_method.loc["symplectic-euler", column]
+
+
+def test_a_failing_python_step_ends_the_run_with_its_message(beam):
+    def broken(model, q, v, t, dt):
+        if t > 0.005:
+            raise ValueError("no convergence here")
+        return symplectic_euler(model, q, v, t, dt)
+
+    softbench.register_method("py-broken", broken, order=1)
+    run = softbench.simulate(beam, {"run.steps": 10, "integrator.method": "py-broken"})
+    assert run.outcome == "solver-failed"
+    outcome = run.summary["summary"]["outcome"]
+    assert "ValueError: no convergence here" in str(outcome)
+
+    softbench.register_method("py-short", lambda m, q, v, t, dt: (q[:-1], v), order=1)
+    run = softbench.simulate(beam, {"run.steps": 3, "integrator.method": "py-short"})
+    assert run.outcome == "solver-failed"
+    assert "269" in str(run.summary["summary"]["outcome"])
+
+
+def test_the_step_model_is_only_valid_inside_the_call(beam):
+    kept = []
+
+    def keeps(model, q, v, t, dt):
+        kept.append(model)
+        return symplectic_euler(model, q, v, t, dt)
+
+    softbench.register_method("py-keeps", keeps, order=1)
+    softbench.simulate(beam, {"run.steps": 1, "integrator.method": "py-keeps"})
+    with pytest.raises(RuntimeError, match="only valid inside the step"):
+        kept[0].energy(np.zeros(270))
+
+
+def test_bad_input_is_bad_input_error(beam, tmp_path):
+    with pytest.raises(softbench.BadInputError, match="run.dtt|dtt"):
+        softbench.simulate(beam, {"run.dtt": 1.0})
+    with pytest.raises(softbench.BadInputError, match="not-a-method"):
+        softbench.Model(beam, ["integrator.method=not-a-method"])
+    with pytest.raises(softbench.BadInputError):
+        softbench.load_mesh(tmp_path / "missing.mesh")
+    with pytest.raises(softbench.BadInputError):
+        softbench.run_study(tmp_path / "missing.toml", tmp_path)
+    with pytest.raises(softbench.SoftbenchError, match="already registered"):
+        softbench.register_method("rk4", symplectic_euler, order=1)
+    with pytest.raises(TypeError):
+        softbench.simulate(42)
+
+
+def test_the_example_compares_two_methods_and_plots(root, tmp_path):
+    pytest.importorskip("matplotlib")
+    example = root / "python" / "examples" / "compare_methods.py"
+    subprocess.run([sys.executable, example, tmp_path], check=True, capture_output=True,
+                   env={**__import__("os").environ, "MPLBACKEND": "Agg"})
+    assert (tmp_path / "compare_methods.png").stat().st_size > 10_000
+    table = pd.read_csv(tmp_path / "compare_methods.csv")
+    assert set(table["method"]) == {"py-backward-euler", "backward-euler"}
