@@ -104,7 +104,7 @@ const HEAD_COLUMNS: [&str; 5] = [
 ];
 
 /// `runs.csv`'s columns after the ladder's.
-const TAIL_COLUMNS: [&str; 14] = [
+const TAIL_COLUMNS: [&str; 15] = [
     "final_residual",
     "iterations_total",
     "seconds_total",
@@ -118,12 +118,13 @@ const TAIL_COLUMNS: [&str; 14] = [
     "driver_seconds",
     "tets",
     "free_dofs",
+    "fixed_dofs",
     "peak_rss_mib",
 ];
 
 /// [`HEAD_COLUMNS`], the ladder's columns in order, then [`TAIL_COLUMNS`].
-const ALL_COLUMNS: [&str; 5 + 35 + 14] = {
-    let mut out = [""; 5 + 35 + 14];
+const ALL_COLUMNS: [&str; 5 + 35 + 15] = {
+    let mut out = [""; 5 + 35 + 15];
     let mut i = 0;
     while i < HEAD_COLUMNS.len() {
         out[i] = HEAD_COLUMNS[i];
@@ -589,7 +590,9 @@ pub fn measure(
     m.set("driver_tolerance", cell(Some(s.driver_tolerance)));
     m.set("repeats", s.repeats.to_string());
     m.set("tets", scene.model.tets().len().to_string());
-    m.set("free_dofs", (3 * scene.model.dofs().num_free()).to_string());
+    let dofs = scene.model.dofs().counts();
+    m.set("free_dofs", dofs.free_dofs.to_string());
+    m.set("fixed_dofs", dofs.fixed_dofs.to_string());
     let failed = |mut m: Measured, kind: OutcomeKind, message: String| {
         m.outcome = kind.name().to_owned();
         m.message = message;
