@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{TempDir, run_study_ok, simulate};
+use common::{TempDir, run_study, run_study_ok, simulate};
 
 /// A 2 × 1 × 1-cell box (12 vertices) clamped at x = 0 (4 vertices): 24 free DOFs, 12 fixed.
 const BEAM: &str = r#"
@@ -25,6 +25,102 @@ steps = 5
 
 fn stderr(o: &std::process::Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Exit code 2 and every one of `expect` on stderr.
+#[track_caller]
+fn assert_bad_input(o: &std::process::Output, expect: &[&str]) {
+    let err = stderr(o);
+    assert_eq!(o.status.code(), Some(2), "stderr: {err}");
+    for e in expect {
+        assert!(err.contains(e), "expected `{e}` in: {err}");
+    }
+}
+
+/// `study` (the lines after `name`, `study` and `scenes = ["beam.toml"]`, with the kind
+/// `kind`) next to the beam: refused with exit code 2, `expect` on stderr, nothing written.
+#[track_caller]
+fn assert_study_refused(kind: &str, body: &str, expect: &[&str]) {
+    let tmp = TempDir::new("silent-study");
+    tmp.write("beam.toml", BEAM);
+    let path = tmp.write(
+        "study.toml",
+        &format!("name = \"s\"\nstudy = \"{kind}\"\nscenes = [\"beam.toml\"]\n{body}"),
+    );
+    let out = tmp.path().join("results");
+    let o = run_study(&path, &out, &[]);
+    assert_bad_input(&o, expect);
+    assert!(!out.exists(), "something was written for a refused study");
+}
+
+// 1. A body with every vertex fixed has nothing to integrate.
+
+#[test]
+fn a_scene_that_fixes_every_vertex_is_bad_input_naming_the_key_that_fixed_them() {
+    let tmp = TempDir::new("all-fixed");
+    let cases = [
+        // The rule alone: its tolerance reaches the far end.
+        (
+            BEAM.replace("tolerance = 1e-6", "tolerance = 10.0"),
+            vec![
+                "fixed.rule:",
+                "fixes all 12 vertices",
+                "fixed.rule fixes 12",
+                "0 free DOFs",
+            ],
+        ),
+        // A box around the whole body (the rule's 4 vertices are inside it too).
+        (
+            BEAM.replace(
+                "[fixed]\n",
+                "[fixed]\nbox = { min = [-1.0, -1.0, -1.0], max = [2.0, 2.0, 2.0] }\n",
+            ),
+            vec!["fixed.box:", "fixed.rule fixes 4, fixed.box fixes 12"],
+        ),
+        // Every index.
+        (
+            BEAM.replace(
+                "[fixed]\n",
+                "[fixed]\nindices = [0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11]\n",
+            ),
+            vec!["fixed.indices:", "fixed.indices fixes 12"],
+        ),
+        // No part alone, the union: the key is the table, each part is counted.
+        (
+            BEAM.replace(
+                "[fixed]\n",
+                "[fixed]\nbox = { min = [0.4, -1.0, -1.0], max = [2.0, 2.0, 2.0] }\n",
+            ),
+            vec![
+                "fixed:",
+                "fixes all 12 vertices",
+                "fixed.rule fixes 4, fixed.box fixes 8",
+            ],
+        ),
+    ];
+    for (i, (scene, expect)) in cases.iter().enumerate() {
+        let file = tmp.write(&format!("scene{i}.toml"), scene);
+        let out = tmp.path().join(format!("out{i}"));
+        let o = simulate(&file, &out, &[]);
+        assert_bad_input(&o, expect);
+        assert!(
+            stderr(&o).contains(&format!("scene{i}.toml")),
+            "{}",
+            stderr(&o)
+        );
+        assert!(!out.exists(), "case {i}: nothing may be written");
+    }
+    // The same through --set, and in a study, where it is found at load.
+    let file = tmp.write("beam.toml", BEAM);
+    let out = tmp.path().join("out-set");
+    let o = simulate(&file, &out, &["--set", "fixed.rule.tolerance=10"]);
+    assert_bad_input(&o, &["fixed.rule:", "0 free DOFs"]);
+    assert!(!out.exists());
+    assert_study_refused(
+        "trajectory",
+        "[set]\n\"fixed.rule.tolerance\" = 10.0\n[grid]\n\"integrator.method\" = [\"rk4\"]\n",
+        &["study.toml", "beam", "fixed.rule:", "0 free DOFs"],
+    );
 }
 
 // 2. The size of a run: free and fixed DOFs and vertices.

@@ -6,6 +6,7 @@
 
 mod budget;
 mod config;
+mod fixed;
 mod overrides;
 mod problem;
 mod springs;
@@ -25,9 +26,7 @@ use crate::data::{DataError, DataPaths};
 use crate::integrate::{Integrator, State};
 use crate::material::{LameParameters, MaterialError, MaterialKind, MaterialModel, NeoHookean};
 use crate::mesh::{MeshError, TetMesh, generate};
-use crate::model::{
-    AxisRule, FixedSelection, InvertedTets, MassKind, Model, ModelError, ModelSpec,
-};
+use crate::model::{InvertedTets, MassKind, Model, ModelError, ModelSpec};
 use crate::parallel::Parallelism;
 use nalgebra::Vector3;
 use std::path::{Path, PathBuf};
@@ -742,25 +741,7 @@ pub fn build(
         }
         None => (None, Vec::new(), Vec::new()),
     };
-    let fixed = FixedSelection {
-        indices: c.fixed.indices.clone(),
-        rules: c
-            .fixed
-            .rule
-            .iter()
-            .map(|r| AxisRule {
-                axis: r.axis.index(),
-                side: r.side,
-                tolerance: r.tolerance,
-            })
-            .collect(),
-        boxes: c
-            .fixed
-            .fixed_box
-            .iter()
-            .map(|b| (Vector3::from(b.min), Vector3::from(b.max)))
-            .collect(),
-    };
+    let fixed = fixed::selection(&c.fixed);
     let gravity = Vector3::from(c.forces.gravity);
     let spec = ModelSpec {
         mesh,
@@ -790,6 +771,11 @@ pub fn build(
     let mut model = Model::new(spec).map_err(|error| SceneError::Model {
         path: path.clone(),
         error,
+    })?;
+    fixed::check_some_free(&c.fixed, &model).map_err(|(key, message)| SceneError::Invalid {
+        path: path.clone(),
+        key,
+        message,
     })?;
     springs::add_drags(&mut model, &c.drag).map_err(|e| SceneError::Invalid {
         path: path.clone(),
