@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{TempDir, run_study, run_study_ok, simulate};
+use common::{TempDir, run_study, run_study_ok, simulate, softbench};
 
 /// A 2 × 1 × 1-cell box (12 vertices) clamped at x = 0 (4 vertices): 24 free DOFs, 12 fixed.
 const BEAM: &str = r#"
@@ -154,4 +154,55 @@ fn summary_json_and_runs_csv_count_the_free_and_fixed_dofs() {
     let row = &runs.rows[0];
     assert_eq!(runs.get(row, "free_dofs"), Some("24"));
     assert_eq!(runs.get(row, "fixed_dofs"), Some("12"));
+}
+
+// 5. A folder where a file is expected is called a folder, not "not found".
+
+#[test]
+fn a_folder_given_as_a_file_is_called_a_folder() {
+    let tmp = TempDir::new("folder-as-file");
+    std::fs::create_dir_all(tmp.path().join("meshes")).unwrap();
+    let scene = tmp.write(
+        "scene.toml",
+        &BEAM.replace(
+            "generate = { box = [2, 1, 1], size = [1.0, 0.5, 0.5] }",
+            "file = \"meshes\"",
+        ),
+    );
+    let out = tmp.path().join("out");
+    let o = simulate(&scene, &out, &[]);
+    assert_bad_input(
+        &o,
+        &[
+            "scene.toml",
+            "mesh.file",
+            "`meshes` is a folder (directory), not a data file",
+        ],
+    );
+    assert!(!stderr(&o).contains("not found"), "{}", stderr(&o));
+    assert!(!out.exists());
+
+    let folder = tmp.path().join("meshes");
+    let o = softbench(&["mesh-info", folder.to_str().unwrap()]);
+    assert_bad_input(&o, &["is a folder (directory)"]);
+    let e = softbench::mesh::read_tet_mesh(&folder)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("is a folder (directory), not a mesh file"),
+        "{e}"
+    );
+
+    // A folder as the scene or study file.
+    let o = simulate(&folder, &out, &[]);
+    assert_bad_input(
+        &o,
+        &["meshes", "folder (directory), not a scene or study file"],
+    );
+    let o = run_study(&folder, &out, &[]);
+    assert_bad_input(
+        &o,
+        &["meshes", "folder (directory), not a scene or study file"],
+    );
+    assert!(!out.exists());
 }

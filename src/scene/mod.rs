@@ -93,9 +93,18 @@ impl LoadedScene {
 /// `/dev/zero` or a mistaken multi-gigabyte file from being read whole.
 pub const MAX_CONFIG_BYTES: u64 = 16 << 20;
 
-/// Reads a scene or study file as UTF-8 text, refusing files over [`MAX_CONFIG_BYTES`].
+/// Reads a scene or study file as UTF-8 text, refusing folders and files over
+/// [`MAX_CONFIG_BYTES`].
 pub fn read_config_text(path: &Path) -> std::io::Result<String> {
     use std::io::Read;
+    // Opening a folder succeeds and reading it fails with an OS error ("Is a directory")
+    // that does not say a TOML file was expected.
+    if path.is_dir() {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "it is a folder (directory), not a scene or study file (a .toml file)",
+        ));
+    }
     let mut bytes = Vec::new();
     std::fs::File::open(path)?
         .take(MAX_CONFIG_BYTES + 1)
