@@ -206,3 +206,39 @@ fn a_folder_given_as_a_file_is_called_a_folder() {
     );
     assert!(!out.exists());
 }
+
+// 6. Grids that say less than they seem to.
+
+#[test]
+fn repeated_values_a_key_in_set_and_grid_and_a_one_value_sweep_are_refused() {
+    assert_study_refused(
+        "trajectory",
+        "[grid]\n\"integrator.method\" = [\"rk4\", \"backward-euler\", \"rk4\"]\n",
+        &[
+            "study.toml:5",
+            "grid.\"integrator.method\"",
+            "lists \"rk4\" more than once",
+        ],
+    );
+    assert_study_refused(
+        "trajectory",
+        "[[methods]]\nmethod = \"rk4\"\n\"run.dt\" = [0.01, 0.01]\n",
+        &["\"run.dt\"", "lists 0.01 more than once"],
+    );
+    assert_study_refused(
+        "trajectory",
+        "[set]\n\"run.dt\" = 0.01\n[grid]\n\"integrator.method\" = [\"rk4\"]\n\
+         \"run.dt\" = [0.01, 0.005]\n",
+        &[
+            "study.toml:8",
+            "grid.\"run.dt\"",
+            "[set] gives \"run.dt\" too",
+        ],
+    );
+    assert_study_refused(
+        "sweep",
+        "[grid]\n\"integrator.method\" = [\"rk4\"]\n\"material.youngs_modulus\" = [1e4]\n\
+         [sweep]\nkind = \"trajectory\"\nparameter = \"material.youngs_modulus\"\n",
+        &["sweep.parameter", "has 1 value", "at least two"],
+    );
+}

@@ -705,6 +705,39 @@ fn check_settings(file: &StudyFile, ctx: &Context) -> Result<&'static str, Study
                 ),
             });
         }
+        // A sweep plots its metrics against the parameter: one value is one point.
+        let mut values: Vec<&Value> = Vec::new();
+        let given = file
+            .grid
+            .get(&sweep.parameter)
+            .map(|v| v.get_ref())
+            .into_iter()
+            .chain(
+                file.methods
+                    .iter()
+                    .filter_map(|m| m.get_ref().get(&sweep.parameter)),
+            );
+        for v in given {
+            for v in v.as_array().map_or_else(|| vec![v], |a| a.iter().collect()) {
+                if !values.contains(&v) {
+                    values.push(v);
+                }
+            }
+        }
+        if values.len() < 2 {
+            return Err(StudyError::Invalid {
+                path: ctx.path.to_owned(),
+                line: ctx.line_of_key("parameter"),
+                key: "sweep.parameter".into(),
+                message: format!(
+                    "`{}` has {} value{} in the grid; a sweep plots its metrics against the \
+                     parameter, so give it at least two",
+                    sweep.parameter,
+                    values.len(),
+                    if values.len() == 1 { "" } else { "s" }
+                ),
+            });
+        }
         let columns = kind.columns();
         if let Some(metric) = sweep
             .metrics
