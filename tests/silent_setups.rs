@@ -6,6 +6,7 @@
 mod common;
 
 use common::{TempDir, run_study, run_study_ok, simulate, softbench};
+use softbench::data::DataPaths;
 
 /// A 2 × 1 × 1-cell box (12 vertices) clamped at x = 0 (4 vertices): 24 free DOFs, 12 fixed.
 const BEAM: &str = r#"
@@ -22,6 +23,12 @@ rule = { axis = "x", side = "min", tolerance = 1e-6 }
 dt = 0.01
 steps = 5
 "#;
+
+/// The stability table every stability study here uses.
+const STABILITY: &str = "[stability]\ndt_min = 1e-4\ndt_max = 0.005\nhorizon = 0.1\n";
+
+/// The work-precision table every work-precision study here uses.
+const WORK_PRECISION: &str = "[work-precision]\nhorizon = 0.04\nsamples = 2\n";
 
 fn stderr(o: &std::process::Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
@@ -154,6 +161,129 @@ fn summary_json_and_runs_csv_count_the_free_and_fixed_dofs() {
     let row = &runs.rows[0];
     assert_eq!(runs.get(row, "free_dofs"), Some("24"));
     assert_eq!(runs.get(row, "fixed_dofs"), Some("12"));
+}
+
+// 3. A grid over a key the study kind sets itself only repeats one run.
+
+#[test]
+fn a_grid_over_a_key_the_kind_sets_itself_is_refused_naming_the_key() {
+    // The case of the issue: a stability study's dt grid ran duplicates of one search.
+    assert_study_refused(
+        "stability",
+        &format!(
+            "[grid]\n\"integrator.method\" = [\"rk4\"]\n\"run.dt\" = [0.01, 0.005]\n{STABILITY}"
+        ),
+        &[
+            "study.toml:6",
+            "grid.\"run.dt\"",
+            "a stability study sets run.dt itself",
+            "the search chooses each trial's step",
+            "repeat the same run",
+        ],
+    );
+    // In a [[methods]] entry, a sub-key of the kind's key too.
+    assert_study_refused(
+        "stability",
+        &format!("[[methods]]\nmethod = \"rk4\"\n\"run.steps\" = [10, 20]\n{STABILITY}"),
+        &["methods[0].\"run.steps\"", "horizon / dt steps"],
+    );
+    assert_study_refused(
+        "work-precision",
+        &format!(
+            "[grid]\n\"integrator.method\" = [\"rk4\"]\n\"run.dt\" = [0.01]\n\
+             \"run.sample_every\" = [1, 2]\n{WORK_PRECISION}"
+        ),
+        &["grid.\"run.sample_every\"", "a work-precision study sets"],
+    );
+    // A solver study uses only the scene's run.dt.
+    assert_study_refused(
+        "solver",
+        "[grid]\n\"integrator.method\" = [\"backward-euler\"]\n\"run.steps\" = [5, 10]\n\
+         [solver]\nsteps = [1]\n",
+        &["grid.\"run.steps\"", "last of [solver] steps"],
+    );
+    // A sweep of stability runs over run.dt is the same mistake.
+    assert_study_refused(
+        "sweep",
+        &format!(
+            "[grid]\n\"integrator.method\" = [\"rk4\"]\n\"run.dt\" = [0.01, 0.005]\n\
+             [sweep]\nkind = \"stability\"\nparameter = \"run.dt\"\n{STABILITY}"
+        ),
+        &["grid.\"run.dt\"", "a stability study sets run.dt itself"],
+    );
+}
+
+// 4. A study's own `[set]` of a key its kind replaces is an error; a scene file's horizon the
+// kind replaces is a stated warning.
+
+#[test]
+fn set_of_a_key_the_kind_replaces_is_refused() {
+    assert_study_refused(
+        "work-precision",
+        &format!(
+            "[set]\n\"run.steps\" = 10\n[grid]\n\"integrator.method\" = [\"rk4\"]\n\
+             \"run.dt\" = [0.01]\n{WORK_PRECISION}"
+        ),
+        &[
+            "study.toml:5",
+            "set.\"run.steps\"",
+            "a work-precision study sets run.steps itself",
+            "would be replaced in every run",
+        ],
+    );
+    assert_study_refused(
+        "stability",
+        &format!(
+            "[grid]\n\"integrator.method\" = [\"rk4\"]\n{STABILITY}\
+             [quick]\nset = {{ \"run.energy_limit\" = 10.0 }}\n"
+        ),
+        &["quick.set.\"run.energy_limit\"", "energy_factor"],
+    );
+    // A solver study leaves run.steps unused, and a scene needs one: [set] may give it.
+    let tmp = TempDir::new("solver-set");
+    tmp.write("beam.toml", BEAM);
+    let path = tmp.write(
+        "study.toml",
+        "name = \"s\"\nstudy = \"solver\"\nscenes = [\"beam.toml\"]\n[set]\n\"run.steps\" = 2\n\
+         [grid]\n\"integrator.method\" = [\"backward-euler\"]\n[solver]\nsteps = [1]\n",
+    );
+    let study = softbench::study::load(&path, false, &DataPaths::new(None)).unwrap();
+    assert!(study.warnings.is_empty(), "{:?}", study.warnings);
+}
+
+#[test]
+fn a_scene_horizon_a_work_precision_study_replaces_is_a_stated_warning() {
+    let tmp = TempDir::new("wp-horizon");
+    tmp.write("beam.toml", BEAM);
+    let path = tmp.write(
+        "study.toml",
+        &format!(
+            "name = \"wp\"\nstudy = \"work-precision\"\nscenes = [\"beam.toml\"]\n\
+             [grid]\n\"integrator.method\" = [\"backward-euler\"]\n\"run.dt\" = [0.01]\n\
+             {WORK_PRECISION}reference = {{ method = \"rk4\" }}\n"
+        ),
+    );
+    let expected = "scene `beam`: run.steps = 5 of the scene (a horizon of 0.05 s at its \
+                    run.dt = 0.01 s) is replaced by horizon / dt steps of each run.dt of the dt \
+                    ladder, for [work-precision] horizon = 0.04 s";
+    let results = tmp.path().join("results");
+    let o = run_study_ok(&path, &results, &[]);
+    assert!(
+        stderr(&o).contains(&format!("warning: wp: {expected}")),
+        "{}",
+        stderr(&o)
+    );
+    let meta: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(results.join("wp/meta.json")).unwrap())
+            .unwrap();
+    assert_eq!(meta["study"]["warnings"], serde_json::json!([expected]));
+    let report = std::fs::read_to_string(results.join("wp/report.md")).unwrap();
+    assert!(report.contains(&format!("- {expected}")), "{report}");
+
+    // A scene whose horizon is the study's loses nothing: no warning.
+    tmp.write("beam.toml", &BEAM.replace("steps = 5", "steps = 4"));
+    let study = softbench::study::load(&path, false, &DataPaths::new(None)).unwrap();
+    assert!(study.warnings.is_empty(), "{:?}", study.warnings);
 }
 
 // 5. A folder where a file is expected is called a folder, not "not found".

@@ -57,6 +57,7 @@ pub fn load(path: &Path, quick: bool, data: &DataPaths) -> Result<Study, StudyEr
     let kind = check_settings(&file, &ctx)?;
     let measured_by = super::kinds::of(kind);
     measured_by.check_quick(&file, &ctx)?;
+    super::own_keys::check(&file, &ctx, measured_by)?;
     if quick {
         // Every kind's table as `[quick]` resolves it, whatever the study's kind (meta.json
         // records every table as resolved).
@@ -72,6 +73,11 @@ pub fn load(path: &Path, quick: bool, data: &DataPaths) -> Result<Study, StudyEr
     if scenes.is_empty() {
         return Err(ctx.invalid(0, "scenes", "no scene is left to run"));
     }
+    let warnings = super::own_keys::horizon_warnings(
+        measured_by,
+        &file,
+        scenes.iter().map(|s| (s.name.as_str(), &s.table)),
+    );
     let axes = grid_axes(&file, &ctx)?;
     let mut method_axes = method_entries(&file, &ctx, &axes, &measured_by.extra_methods(&file))?;
     if quick {
@@ -211,6 +217,7 @@ pub fn load(path: &Path, quick: bool, data: &DataPaths) -> Result<Study, StudyEr
         runs,
         levels,
         omitted,
+        warnings,
     };
     check_reference_steps(&study, &ctx)?;
     Ok(study)

@@ -19,7 +19,7 @@ use super::error::StudyError;
 use super::findings::{self, Better, Ranking};
 use super::format::cell;
 use super::grid::Axis;
-use super::kind::{Kind, RunInputs, parse_quick};
+use super::kind::{Kind, OwnKey, RunInputs, parse_quick};
 use super::measured::{Measured, build, peak_rss_mib, reset_peak_rss};
 use super::spec::{RunSpec, Study};
 use super::table::Table;
@@ -361,6 +361,33 @@ impl Kind for Solver {
             ));
         }
         Ok(())
+    }
+
+    /// A run drives the scene's trajectory to the last listed step and solves frozen steps:
+    /// only `run.dt` of the scene's `[run]` is used.
+    fn own_keys(&self) -> &'static [OwnKey] {
+        &[
+            OwnKey {
+                key: "run.steps",
+                why: "each run drives the trajectory to the last of [solver] steps",
+                replaced: false,
+            },
+            OwnKey {
+                key: "run.sample_every",
+                why: "a run solves frozen steps and samples no rows",
+                replaced: false,
+            },
+            OwnKey {
+                key: "run.energy_limit",
+                why: "a run solves frozen steps and judges no blow-up",
+                replaced: false,
+            },
+            OwnKey {
+                key: "run.budget",
+                why: "a run's solves are capped by [solver] max_iterations",
+                replaced: false,
+            },
+        ]
     }
 
     fn estimated_steps(&self, file: &StudyFile, _: &SceneConfig) -> f64 {
