@@ -340,7 +340,7 @@ fn a_folder_given_as_a_file_is_called_a_folder() {
 // 6. Grids that say less than they seem to.
 
 #[test]
-fn repeated_values_a_key_in_set_and_grid_and_a_one_value_sweep_are_refused() {
+fn repeated_values_a_key_in_set_and_grid_and_one_value_or_stray_sweeps_are_refused() {
     assert_study_refused(
         "trajectory",
         "[grid]\n\"integrator.method\" = [\"rk4\", \"backward-euler\", \"rk4\"]\n",
@@ -370,5 +370,12 @@ fn repeated_values_a_key_in_set_and_grid_and_a_one_value_sweep_are_refused() {
         "[grid]\n\"integrator.method\" = [\"rk4\"]\n\"material.youngs_modulus\" = [1e4]\n\
          [sweep]\nkind = \"trajectory\"\nparameter = \"material.youngs_modulus\"\n",
         &["sweep.parameter", "has 1 value", "at least two"],
+    );
+    // Only a sweep reads [sweep].
+    assert_study_refused(
+        "trajectory",
+        "[grid]\n\"integrator.method\" = [\"rk4\"]\n\"run.dt\" = [0.01, 0.005]\n\
+         [sweep]\nkind = \"trajectory\"\nparameter = \"run.dt\"\n",
+        &["study.toml:7", "sweep:", "read only by study = \"sweep\""],
     );
 }

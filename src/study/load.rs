@@ -764,7 +764,7 @@ fn check_settings(file: &StudyFile, ctx: &Context) -> Result<&'static str, Study
         }
         kind
     } else {
-        super::kinds::named(study).ok_or_else(|| {
+        let kind = super::kinds::named(study).ok_or_else(|| {
             let mut valid = names.clone();
             valid.push(SWEEP);
             unknown(
@@ -773,7 +773,25 @@ fn check_settings(file: &StudyFile, ctx: &Context) -> Result<&'static str, Study
                 study,
                 &valid,
             )
-        })?
+        })?;
+        // Only a sweep reads [sweep]: in another study its kind, parameter and metrics
+        // would be ignored.
+        if file.sweep.is_some() {
+            return Err(StudyError::Invalid {
+                path: ctx.path.to_owned(),
+                line: ctx
+                    .text
+                    .lines()
+                    .position(|l| l.trim() == "[sweep]")
+                    .map_or(1, |i| i + 1),
+                key: "sweep".into(),
+                message: format!(
+                    "a [sweep] table is read only by study = \"{SWEEP}\", and this study is \
+                     \"{study}\": remove it, or make the study a sweep of `{study}`"
+                ),
+            });
+        }
+        kind
     };
     let line = |key: &str| ctx.line_of_key(key);
     let bad = |key: &str, message: String| StudyError::Invalid {
