@@ -147,6 +147,13 @@ fn summary_json_and_runs_csv_count_the_free_and_fixed_dofs() {
             "vertices": 12, "fixed_vertices": 4, "free_dofs": 24, "fixed_dofs": 12
         })
     );
+    // The sentence simulate's last line can carry.
+    let counts: softbench::model::DofCounts =
+        serde_json::from_value(summary["dofs"].clone()).unwrap();
+    assert_eq!(
+        counts.to_string(),
+        "24 free and 12 fixed DOFs (4 of 12 vertices fixed)"
+    );
 
     let study = tmp.write(
         "study.toml",

@@ -110,7 +110,7 @@ impl std::fmt::Display for DofCounts {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "{} free DOFs, {} fixed ({} of {} vertices fixed)",
+            "{} free and {} fixed DOFs ({} of {} vertices fixed)",
             self.free_dofs, self.fixed_dofs, self.fixed_vertices, self.vertices
         )
     }
