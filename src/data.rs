@@ -41,9 +41,9 @@ impl fmt::Display for Place {
     }
 }
 
-/// A data file that is in none of the places looked.
+/// A data file that is in none of the places looked, or that names a folder there.
 #[derive(Debug, thiserror::Error)]
-#[error("{}", describe(.name, .tried, *.data_dir_set))]
+#[error("{}", describe(.name, .tried, *.data_dir_set, .folder.as_ref()))]
 pub struct DataError {
     /// The name asked for.
     pub name: PathBuf,
@@ -51,9 +51,24 @@ pub struct DataError {
     pub tried: Vec<(PathBuf, Place)>,
     /// Whether `SOFTBENCH_DATA` was set.
     pub data_dir_set: bool,
+    /// The first path tried that is a folder (directory), when no path is a file: the name is
+    /// there, but it is not a file, which "not found" would hide.
+    pub folder: Option<(PathBuf, Place)>,
 }
 
-fn describe(name: &Path, tried: &[(PathBuf, Place)], data_dir_set: bool) -> String {
+fn describe(
+    name: &Path,
+    tried: &[(PathBuf, Place)],
+    data_dir_set: bool,
+    folder: Option<&(PathBuf, Place)>,
+) -> String {
+    if let Some((path, place)) = folder {
+        return format!(
+            "`{}` is a folder (directory), not a data file: {} ({place}); name a file inside it",
+            name.display(),
+            path.display(),
+        );
+    }
     let mut s = format!("data file `{}` not found; looked in:", name.display());
     for (path, place) in tried {
         s += &format!("\n  {} ({place})", path.display());
@@ -92,7 +107,8 @@ impl DataPaths {
     }
 
     /// Finds `name`: as is if absolute; else in `config_dir` (when given), then in the data
-    /// folder. Returns the first existing file's path.
+    /// folder. Returns the first existing file's path; a name that is only a folder is an error
+    /// that says so.
     pub fn resolve(
         &self,
         name: impl AsRef<Path>,
@@ -126,10 +142,12 @@ impl DataPaths {
         if let Some((path, _)) = tried.iter().find(|(p, _)| p.is_file()) {
             return Ok(path.clone());
         }
+        let folder = tried.iter().find(|(p, _)| p.is_dir()).cloned();
         Err(DataError {
             name: name.to_path_buf(),
             tried,
             data_dir_set: self.data_dir.is_some(),
+            folder,
         })
     }
 }

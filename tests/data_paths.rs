@@ -75,15 +75,28 @@ fn missing_file_error_says_how_to_set_softbench_data_when_unset() {
     assert!(message.contains("export SOFTBENCH_DATA="), "{message}");
 }
 
+/// A folder with the name is not a file, and the error says it is a folder rather than
+/// "not found"; a file of that name further along the search path is still found.
 #[test]
 fn a_folder_with_the_name_is_not_a_file() {
     let config = TempDir::new("data-folder");
-    std::fs::create_dir(config.path().join("meshes")).unwrap();
+    let folder = config.path().join("meshes");
+    std::fs::create_dir(&folder).unwrap();
+    let err = DataPaths::new(None)
+        .resolve("meshes", Some(config.path()))
+        .unwrap_err();
+    assert_eq!(err.folder, Some((folder.clone(), Place::ConfigDir)));
+    let message = err.to_string();
     assert!(
-        DataPaths::new(None)
-            .resolve("meshes", Some(config.path()))
-            .is_err()
+        message.contains("is a folder (directory), not a data file")
+            && message.contains(&folder.display().to_string())
+            && !message.contains("not found"),
+        "{message}"
     );
+    let data = TempDir::new("data-folder-file");
+    let file = data.write("meshes", "");
+    let paths = DataPaths::new(Some(data.path().to_path_buf()));
+    assert_eq!(paths.resolve("meshes", Some(config.path())).unwrap(), file);
 }
 
 #[test]

@@ -115,6 +115,7 @@ fn a_scene_run_through_the_library_writes_what_simulate_writes() {
         scene: &done.name,
         scene_file: &scene_file,
         linear_solver: Some("cholesky".into()),
+        dofs: done.dofs,
         springs: &done.spring_counts,
         summary: &done.summary,
         config: &config,

@@ -24,6 +24,13 @@ use super::{AnyMesh, MeshError, SurfaceMesh, TetMesh, text};
 /// Reads a mesh of any registered format; returns the format it was read as.
 pub fn read_mesh(path: impl AsRef<Path>) -> Result<(MeshFormat, AnyMesh), MeshError> {
     let path = path.as_ref();
+    // Reading a folder fails with an OS error that does not say what was given.
+    if path.is_dir() {
+        return Err(MeshError::Invalid {
+            path: path.to_path_buf(),
+            message: "is a folder (directory), not a mesh file; name a mesh file inside it".into(),
+        });
+    }
     let ext = extension(path);
     let formats = MeshFormat::all();
     let claims = |f: &MeshFormat| ext.as_deref().is_some_and(|e| f.claims(e));

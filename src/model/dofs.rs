@@ -47,6 +47,21 @@ impl DofMap {
         3 * self.free_vertices.len()
     }
 
+    /// Number of fixed vertices.
+    pub fn num_fixed(&self) -> usize {
+        self.free_index.len() - self.free_vertices.len()
+    }
+
+    /// The vertex and DOF counts a run's size is reported by.
+    pub fn counts(&self) -> DofCounts {
+        DofCounts {
+            vertices: self.num_vertices(),
+            fixed_vertices: self.num_fixed(),
+            free_dofs: self.num_dofs(),
+            fixed_dofs: 3 * self.num_fixed(),
+        }
+    }
+
     /// Free index of vertex `v`, or [`FIXED`].
     #[inline]
     pub fn free_index(&self, v: usize) -> u32 {
@@ -75,6 +90,29 @@ impl DofMap {
         for (f, &v) in self.free_vertices.iter().enumerate() {
             positions[v] = Vector3::new(q[3 * f], q[3 * f + 1], q[3 * f + 2]);
         }
+    }
+}
+
+/// How many vertices a body has, how many are fixed, and the DOFs on either side: the size
+/// `summary.json`, `simulate`'s last line and a study's `runs.csv` report, so a run that
+/// fixed more (or less) than meant says so.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct DofCounts {
+    pub vertices: usize,
+    pub fixed_vertices: usize,
+    /// 3 per free vertex: the unknowns of every step.
+    pub free_dofs: usize,
+    /// 3 per fixed vertex.
+    pub fixed_dofs: usize,
+}
+
+impl std::fmt::Display for DofCounts {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} free and {} fixed DOFs ({} of {} vertices fixed)",
+            self.free_dofs, self.fixed_dofs, self.fixed_vertices, self.vertices
+        )
     }
 }
 

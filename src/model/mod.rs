@@ -28,7 +28,7 @@ mod vertex_potential;
 
 pub use contact_potential::{ContactPotential, OffPatternBlock};
 pub use damping::Damping;
-pub use dofs::{AxisRule, DofMap, FIXED, FixedSelection, Side};
+pub use dofs::{AxisRule, DofCounts, DofMap, FIXED, FixedSelection, Side};
 pub use drag::{Drag, DragPath, Waypoint};
 pub use error::ModelError;
 pub use local::ElasticElements;

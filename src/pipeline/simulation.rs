@@ -15,6 +15,7 @@ use super::summary::SummaryFile;
 use crate::data::DataPaths;
 use crate::export::{Display, DisplayError, ExportFormat, FrameContent};
 use crate::io::{AtomicFile, write_atomic};
+use crate::model::DofCounts;
 use crate::parallel::Parallelism;
 use crate::render::{self, Coloring, RenderError, RunPictures, Snapshots, Surface};
 use crate::run::{RunSummary, Sample};
@@ -101,6 +102,8 @@ pub struct Simulated {
     pub rows: usize,
     /// Frames written to [`Simulated::frames_dir`].
     pub frames: usize,
+    /// The body's vertices, how many are fixed, and its free and fixed DOFs.
+    pub dofs: DofCounts,
     /// Springs of a mass-spring body per kind.
     pub spring_counts: Vec<(&'static str, usize)>,
     pub trajectory: PathBuf,
@@ -254,6 +257,7 @@ impl Simulation {
         .map_err(write_error(&positions_path))?;
 
         let config = &scene.config;
+        let dofs = scene.model.dofs().counts();
         let summary_path = out.join("summary.json");
         let document = SummaryFile {
             softbench_version: env!("CARGO_PKG_VERSION"),
@@ -261,6 +265,7 @@ impl Simulation {
             scene_file: &loaded.path,
             linear_solver: (config.integrator.method.uses_linear_solver())
                 .then(|| config.integrator.linear_solver.to_string()),
+            dofs,
             springs: &scene.spring_counts,
             summary: &observed.summary,
             config,
@@ -271,6 +276,7 @@ impl Simulation {
             summary: observed.summary,
             rows,
             frames: observed.frames.len(),
+            dofs,
             spring_counts: scene.spring_counts,
             trajectory: trajectory_path,
             final_positions: positions_path,

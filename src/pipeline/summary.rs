@@ -5,6 +5,7 @@ use std::path::Path;
 
 use serde::{Serialize, Serializer};
 
+use crate::model::DofCounts;
 use crate::run::RunSummary;
 use crate::scene::SceneConfig;
 
@@ -19,6 +20,8 @@ pub struct SummaryFile<'a> {
     pub scene_file: &'a Path,
     /// The linear solver of a method that uses one (`null` otherwise).
     pub linear_solver: Option<String>,
+    /// The body's vertices, how many are fixed, and its free and fixed DOFs.
+    pub dofs: DofCounts,
     /// Springs of a mass-spring body per kind (an empty object for a FEM body).
     #[serde(serialize_with = "as_map")]
     pub springs: &'a [(&'static str, usize)],

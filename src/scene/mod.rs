@@ -6,6 +6,7 @@
 
 mod budget;
 mod config;
+mod fixed;
 mod overrides;
 mod problem;
 mod springs;
@@ -25,9 +26,7 @@ use crate::data::{DataError, DataPaths};
 use crate::integrate::{Integrator, State};
 use crate::material::{LameParameters, MaterialError, MaterialKind, MaterialModel, NeoHookean};
 use crate::mesh::{MeshError, TetMesh, generate};
-use crate::model::{
-    AxisRule, FixedSelection, InvertedTets, MassKind, Model, ModelError, ModelSpec,
-};
+use crate::model::{InvertedTets, MassKind, Model, ModelError, ModelSpec};
 use crate::parallel::Parallelism;
 use nalgebra::Vector3;
 use std::path::{Path, PathBuf};
@@ -94,9 +93,18 @@ impl LoadedScene {
 /// `/dev/zero` or a mistaken multi-gigabyte file from being read whole.
 pub const MAX_CONFIG_BYTES: u64 = 16 << 20;
 
-/// Reads a scene or study file as UTF-8 text, refusing files over [`MAX_CONFIG_BYTES`].
+/// Reads a scene or study file as UTF-8 text, refusing folders and files over
+/// [`MAX_CONFIG_BYTES`].
 pub fn read_config_text(path: &Path) -> std::io::Result<String> {
     use std::io::Read;
+    // Opening a folder succeeds and reading it fails with an OS error ("Is a directory")
+    // that does not say a TOML file was expected.
+    if path.is_dir() {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "it is a folder (directory), not a scene or study file (a .toml file)",
+        ));
+    }
     let mut bytes = Vec::new();
     std::fs::File::open(path)?
         .take(MAX_CONFIG_BYTES + 1)
@@ -742,25 +750,7 @@ pub fn build(
         }
         None => (None, Vec::new(), Vec::new()),
     };
-    let fixed = FixedSelection {
-        indices: c.fixed.indices.clone(),
-        rules: c
-            .fixed
-            .rule
-            .iter()
-            .map(|r| AxisRule {
-                axis: r.axis.index(),
-                side: r.side,
-                tolerance: r.tolerance,
-            })
-            .collect(),
-        boxes: c
-            .fixed
-            .fixed_box
-            .iter()
-            .map(|b| (Vector3::from(b.min), Vector3::from(b.max)))
-            .collect(),
-    };
+    let fixed = fixed::selection(&c.fixed);
     let gravity = Vector3::from(c.forces.gravity);
     let spec = ModelSpec {
         mesh,
@@ -790,6 +780,11 @@ pub fn build(
     let mut model = Model::new(spec).map_err(|error| SceneError::Model {
         path: path.clone(),
         error,
+    })?;
+    fixed::check_some_free(&c.fixed, &model).map_err(|(key, message)| SceneError::Invalid {
+        path: path.clone(),
+        key,
+        message,
     })?;
     springs::add_drags(&mut model, &c.drag).map_err(|e| SceneError::Invalid {
         path: path.clone(),

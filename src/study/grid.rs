@@ -19,6 +19,17 @@ pub(super) struct Axis {
 pub(super) fn grid_axes(file: &StudyFile, ctx: &Context) -> Result<Vec<Axis>, StudyError> {
     let mut axes = Vec::new();
     for (key, value) in &file.grid {
+        // Both apply to every run, so one would silently replace the other.
+        if let Some(set) = file.set.keys().find(|s| overlaps(s, key)) {
+            return Err(ctx.invalid(
+                value.span().start,
+                &format!("grid.\"{key}\""),
+                format!(
+                    "[set] gives \"{set}\" too, and the grid's values would replace it in every \
+                     run: give the key in one place ([set] for one value, [grid] for several)"
+                ),
+            ));
+        }
         axes.push(axis(key, value.get_ref(), value.span().start, ctx, true)?);
     }
     if axes.is_empty() && file.methods.is_empty() {
@@ -57,6 +68,19 @@ pub(super) fn axis(
             at,
             &format!("grid.\"{key}\""),
             "the list is empty: give at least one value",
+        ));
+    }
+    // A value listed twice is one run (same id, same configuration), so the grid would be
+    // smaller than written without a word.
+    if let Some(v) = values
+        .iter()
+        .enumerate()
+        .find_map(|(i, v)| values[..i].contains(v).then_some(v))
+    {
+        return Err(ctx.invalid(
+            at,
+            &format!("grid.\"{key}\""),
+            format!("lists {v} more than once: a repeated value is the same run; give each once"),
         ));
     }
     Ok(Axis {
@@ -123,6 +147,13 @@ pub(super) fn method_entries(
         entries.push(axes);
     }
     Ok(entries)
+}
+
+/// Whether two dotted keys set the same thing: equal, or one a table holding the other.
+pub(super) fn overlaps(a: &str, b: &str) -> bool {
+    let under =
+        |x: &str, y: &str| x.len() > y.len() && x.starts_with(y) && x[y.len()..].starts_with('.');
+    a == b || under(a, b) || under(b, a)
 }
 
 /// Every combination of the axes' values.

@@ -146,6 +146,19 @@ pub(super) trait Kind: Sync {
         Ok(())
     }
 
+    /// Scene keys the kind decides for every run itself (see [`OwnKey`]): loading refuses a
+    /// grid over one, and a `[set]` of one it replaces.
+    fn own_keys(&self) -> &'static [OwnKey] {
+        &[]
+    }
+
+    /// The horizon every run covers whatever the scene's `run.steps` says, with how its
+    /// steps follow from it (`"horizon / dt steps of each run.dt of the dt ladder"`): a scene
+    /// whose own horizon differs gets a warning saying so. `None`: the kind runs the scene's.
+    fn horizon(&self, _: &StudyFile) -> Option<(f64, &'static str)> {
+        None
+    }
+
     /// Roughly how many steps one run takes (its trials together, for a stability search):
     /// the cost estimate that balances `--shard` (only ratios between runs matter).
     fn estimated_steps(&self, _: &StudyFile, config: &SceneConfig) -> f64 {
@@ -345,6 +358,21 @@ pub(super) trait Kind: Sync {
     fn dt_columns(&self) -> &'static [&'static str] {
         &["dt"]
     }
+}
+
+/// A scene key a kind decides for its runs (see [`Kind::own_keys`]). A grid over it would
+/// only repeat one run under several ids; a value the study's `[set]` gives one the kind
+/// replaces would be dropped without a word.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct OwnKey {
+    /// The dotted scene key (`run.dt`); its sub-keys are covered too.
+    pub key: &'static str,
+    /// What decides it instead, for the message: "the search chooses each trial's step".
+    pub why: &'static str,
+    /// Whether the kind replaces the value (so `[set]` of it is refused too), rather than
+    /// leaving it unused (a scene needs `run.steps` even where the kind ignores it, so
+    /// `[set]` may give it).
+    pub replaced: bool,
 }
 
 /// What a sweep's chart of one metric adds (see [`Kind::sweep_line`]).

@@ -57,6 +57,7 @@ pub fn load(path: &Path, quick: bool, data: &DataPaths) -> Result<Study, StudyEr
     let kind = check_settings(&file, &ctx)?;
     let measured_by = super::kinds::of(kind);
     measured_by.check_quick(&file, &ctx)?;
+    super::own_keys::check(&file, &ctx, measured_by)?;
     if quick {
         // Every kind's table as `[quick]` resolves it, whatever the study's kind (meta.json
         // records every table as resolved).
@@ -72,6 +73,11 @@ pub fn load(path: &Path, quick: bool, data: &DataPaths) -> Result<Study, StudyEr
     if scenes.is_empty() {
         return Err(ctx.invalid(0, "scenes", "no scene is left to run"));
     }
+    let warnings = super::own_keys::horizon_warnings(
+        measured_by,
+        &file,
+        scenes.iter().map(|s| (s.name.as_str(), &s.table)),
+    );
     let axes = grid_axes(&file, &ctx)?;
     let mut method_axes = method_entries(&file, &ctx, &axes, &measured_by.extra_methods(&file))?;
     if quick {
@@ -211,6 +217,7 @@ pub fn load(path: &Path, quick: bool, data: &DataPaths) -> Result<Study, StudyEr
         runs,
         levels,
         omitted,
+        warnings,
     };
     check_reference_steps(&study, &ctx)?;
     Ok(study)
@@ -705,6 +712,39 @@ fn check_settings(file: &StudyFile, ctx: &Context) -> Result<&'static str, Study
                 ),
             });
         }
+        // A sweep plots its metrics against the parameter: one value is one point.
+        let mut values: Vec<&Value> = Vec::new();
+        let given = file
+            .grid
+            .get(&sweep.parameter)
+            .map(|v| v.get_ref())
+            .into_iter()
+            .chain(
+                file.methods
+                    .iter()
+                    .filter_map(|m| m.get_ref().get(&sweep.parameter)),
+            );
+        for v in given {
+            for v in v.as_array().map_or_else(|| vec![v], |a| a.iter().collect()) {
+                if !values.contains(&v) {
+                    values.push(v);
+                }
+            }
+        }
+        if values.len() < 2 {
+            return Err(StudyError::Invalid {
+                path: ctx.path.to_owned(),
+                line: ctx.line_of_key("parameter"),
+                key: "sweep.parameter".into(),
+                message: format!(
+                    "`{}` has {} value{} in the grid; a sweep plots its metrics against the \
+                     parameter, so give it at least two",
+                    sweep.parameter,
+                    values.len(),
+                    if values.len() == 1 { "" } else { "s" }
+                ),
+            });
+        }
         let columns = kind.columns();
         if let Some(metric) = sweep
             .metrics
@@ -724,7 +764,7 @@ fn check_settings(file: &StudyFile, ctx: &Context) -> Result<&'static str, Study
         }
         kind
     } else {
-        super::kinds::named(study).ok_or_else(|| {
+        let kind = super::kinds::named(study).ok_or_else(|| {
             let mut valid = names.clone();
             valid.push(SWEEP);
             unknown(
@@ -733,7 +773,25 @@ fn check_settings(file: &StudyFile, ctx: &Context) -> Result<&'static str, Study
                 study,
                 &valid,
             )
-        })?
+        })?;
+        // Only a sweep reads [sweep]: in another study its kind, parameter and metrics
+        // would be ignored.
+        if file.sweep.is_some() {
+            return Err(StudyError::Invalid {
+                path: ctx.path.to_owned(),
+                line: ctx
+                    .text
+                    .lines()
+                    .position(|l| l.trim() == "[sweep]")
+                    .map_or(1, |i| i + 1),
+                key: "sweep".into(),
+                message: format!(
+                    "a [sweep] table is read only by study = \"{SWEEP}\", and this study is \
+                     \"{study}\": remove it, or make the study a sweep of `{study}`"
+                ),
+            });
+        }
+        kind
     };
     let line = |key: &str| ctx.line_of_key(key);
     let bad = |key: &str, message: String| StudyError::Invalid {

@@ -52,6 +52,9 @@ pub struct StudyMeta {
     /// What the study left out, with why (see `Study::omitted`).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub omitted: Vec<super::spec::Omission>,
+    /// What loading warned about (see `Study::warnings`); report.md's findings list them.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
 }
 
 impl Meta {
@@ -112,6 +115,7 @@ impl Meta {
                     .collect(),
                 levels: study.levels.clone(),
                 omitted: study.omitted.clone(),
+                warnings: study.warnings.clone(),
             },
             machine: machine.clone(),
             started: started.to_owned(),

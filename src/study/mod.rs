@@ -24,6 +24,7 @@ mod machine;
 mod measured;
 mod merge;
 mod meta;
+mod own_keys;
 pub mod pictures;
 pub mod plots;
 pub mod profiles;

@@ -74,7 +74,10 @@ fn render(
     let damped = damped_scenes(study);
     super::findings::write(
         &mut out,
-        &compute_findings(&s.kind, runs, &s.parameters, &damped).unwrap_or_default(),
+        &with_load_warnings(
+            compute_findings(&s.kind, runs, &s.parameters, &damped).unwrap_or_default(),
+            s,
+        ),
     );
     let m = &meta.machine;
     let _ = writeln!(
@@ -397,8 +400,11 @@ pub fn refresh_findings(dir: &Path, meta: &Meta, runs: &Table) -> std::io::Resul
     let mut findings = String::new();
     super::findings::write(
         &mut findings,
-        &compute_findings(&meta.study.kind, runs, &meta.study.parameters, &damped)
-            .unwrap_or_default(),
+        &with_load_warnings(
+            compute_findings(&meta.study.kind, runs, &meta.study.parameters, &damped)
+                .unwrap_or_default(),
+            &meta.study,
+        ),
     );
     let updated = replace_findings(&text, &findings);
     write_atomic(&path, |w| w.write_all(updated.as_bytes()))?;
@@ -627,6 +633,13 @@ pub fn compute_findings(
         f.warnings.extend(summarized(items, what));
     }
     Some(f)
+}
+
+/// The findings with what loading the study warned about first (see `Study::warnings`):
+/// they are about the set-up every number below comes from.
+fn with_load_warnings(mut f: Findings, study: &super::meta::StudyMeta) -> Findings {
+    f.warnings.splice(0..0, study.warnings.iter().cloned());
+    f
 }
 
 /// Runs listed one warning each, or, past [`WARNINGS_LISTED`] of one kind, one warning that

@@ -36,7 +36,8 @@ pub struct RunOptions {
     pub jobs: usize,
     /// Redo runs even when a finished run with the same resolved config exists.
     pub force: bool,
-    /// Show a progress bar (on a terminal) or a line per run (otherwise).
+    /// Show a progress bar (on a terminal) or a line per run (otherwise), after the warnings
+    /// loading the study found ([`Study::warnings`]).
     pub progress: bool,
     /// When another process holds the folder's lock: wait for it (else stop with an error
     /// naming it).
@@ -121,6 +122,12 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
     };
     std::fs::create_dir_all(&lock_dir).map_err(io(&lock_dir))?;
     let _lock = FolderLock::acquire(&lock_dir, &purpose, wait, on_wait(&lock_dir))?;
+    // What loading warned about, said once before the runs (meta.json and report.md keep it).
+    if options.progress {
+        for w in &study.warnings {
+            crate::console::err(&format!("warning: {}: {w}", study.file.name));
+        }
+    }
     let started = now_utc();
     let started_epoch = epoch_seconds();
     let clock = std::time::Instant::now();

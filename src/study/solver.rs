@@ -19,7 +19,7 @@ use super::error::StudyError;
 use super::findings::{self, Better, Ranking};
 use super::format::cell;
 use super::grid::Axis;
-use super::kind::{Kind, RunInputs, parse_quick};
+use super::kind::{Kind, OwnKey, RunInputs, parse_quick};
 use super::measured::{Measured, build, peak_rss_mib, reset_peak_rss};
 use super::spec::{RunSpec, Study};
 use super::table::Table;
@@ -104,7 +104,7 @@ const HEAD_COLUMNS: [&str; 5] = [
 ];
 
 /// `runs.csv`'s columns after the ladder's.
-const TAIL_COLUMNS: [&str; 14] = [
+const TAIL_COLUMNS: [&str; 15] = [
     "final_residual",
     "iterations_total",
     "seconds_total",
@@ -118,12 +118,13 @@ const TAIL_COLUMNS: [&str; 14] = [
     "driver_seconds",
     "tets",
     "free_dofs",
+    "fixed_dofs",
     "peak_rss_mib",
 ];
 
 /// [`HEAD_COLUMNS`], the ladder's columns in order, then [`TAIL_COLUMNS`].
-const ALL_COLUMNS: [&str; 5 + 35 + 14] = {
-    let mut out = [""; 5 + 35 + 14];
+const ALL_COLUMNS: [&str; 5 + 35 + 15] = {
+    let mut out = [""; 5 + 35 + 15];
     let mut i = 0;
     while i < HEAD_COLUMNS.len() {
         out[i] = HEAD_COLUMNS[i];
@@ -362,6 +363,33 @@ impl Kind for Solver {
         Ok(())
     }
 
+    /// A run drives the scene's trajectory to the last listed step and solves frozen steps:
+    /// only `run.dt` of the scene's `[run]` is used.
+    fn own_keys(&self) -> &'static [OwnKey] {
+        &[
+            OwnKey {
+                key: "run.steps",
+                why: "each run drives the trajectory to the last of [solver] steps",
+                replaced: false,
+            },
+            OwnKey {
+                key: "run.sample_every",
+                why: "a run solves frozen steps and samples no rows",
+                replaced: false,
+            },
+            OwnKey {
+                key: "run.energy_limit",
+                why: "a run solves frozen steps and judges no blow-up",
+                replaced: false,
+            },
+            OwnKey {
+                key: "run.budget",
+                why: "a run's solves are capped by [solver] max_iterations",
+                replaced: false,
+            },
+        ]
+    }
+
     fn estimated_steps(&self, file: &StudyFile, _: &SceneConfig) -> f64 {
         settings(file).map_or(1.0, |s| {
             let last = s.steps.iter().copied().max().unwrap_or(1) as f64;
@@ -589,7 +617,9 @@ pub fn measure(
     m.set("driver_tolerance", cell(Some(s.driver_tolerance)));
     m.set("repeats", s.repeats.to_string());
     m.set("tets", scene.model.tets().len().to_string());
-    m.set("free_dofs", (3 * scene.model.dofs().num_free()).to_string());
+    let dofs = scene.model.dofs().counts();
+    m.set("free_dofs", dofs.free_dofs.to_string());
+    m.set("fixed_dofs", dofs.fixed_dofs.to_string());
     let failed = |mut m: Measured, kind: OutcomeKind, message: String| {
         m.outcome = kind.name().to_owned();
         m.message = message;

@@ -32,6 +32,9 @@ pub struct Study {
     pub omitted: Vec<Omission>,
     /// The kind's cut-off levels, loosest first (a suite's; empty for other kinds).
     pub levels: Vec<String>,
+    /// What loading found worth saying that is not an error (a scene's `run.steps` the kind
+    /// replaces): printed when the study runs, kept in meta.json and report.md.
+    pub warnings: Vec<String>,
 }
 
 /// A run, or a whole scene, that the study leaves out.

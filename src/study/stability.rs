@@ -28,7 +28,7 @@ use super::error::StudyError;
 use super::findings::{self, Better, Ranking};
 use super::format::{cell, short};
 use super::grid::Axis;
-use super::kind::{Kind, RunInputs, SweepLine, Verdict, number, parse_quick};
+use super::kind::{Kind, OwnKey, RunInputs, SweepLine, Verdict, number, parse_quick};
 use super::measured::{
     Measured, build, cap_cells, outcome_of, picture_surface, run_observed, summary_cells,
 };
@@ -314,6 +314,35 @@ impl Kind for Stability {
             config.integrator.newton.require_convergence = true;
         }
         Ok(())
+    }
+
+    fn own_keys(&self) -> &'static [OwnKey] {
+        &[
+            OwnKey {
+                key: "run.dt",
+                why: "the search chooses each trial's step, starting at [stability] dt_max",
+                replaced: true,
+            },
+            OwnKey {
+                key: "run.steps",
+                why: "every trial covers [stability] horizon, in horizon / dt steps",
+                replaced: true,
+            },
+            OwnKey {
+                key: "run.sample_every",
+                why: "a trial keeps about 200 rows whatever its steps",
+                replaced: true,
+            },
+            OwnKey {
+                key: "run.energy_limit",
+                why: "a trial's blow-up level is [stability] energy_factor",
+                replaced: true,
+            },
+        ]
+    }
+
+    fn horizon(&self, file: &StudyFile) -> Option<(f64, &'static str)> {
+        settings(file).map(|s| (s.horizon, "horizon / dt steps of each dt the search tries"))
     }
 
     /// About a dozen trials (widening, bisection, probes), each covering the horizon at a

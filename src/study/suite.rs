@@ -18,7 +18,7 @@ use super::config::{METHOD_KEY, StudyFile};
 use super::context::Context;
 use super::error::StudyError;
 use super::format::{cell, short};
-use super::kind::{Kind, RunInputs, Verdict, number, parse_quick};
+use super::kind::{Kind, OwnKey, RunInputs, Verdict, number, parse_quick};
 use super::measured::Measured;
 use super::meta::StudyMeta;
 use super::reference::{ReferenceSettings, ScoringSettings};
@@ -340,6 +340,14 @@ impl Kind for Suite {
         // runs.
         config.run.sample_every = config.run.steps / problem.samples;
         Ok(())
+    }
+
+    fn own_keys(&self) -> &'static [OwnKey] {
+        &[OwnKey {
+            key: "run.sample_every",
+            why: "a suite keeps rows at each problem's sample times ([problem] samples)",
+            replaced: true,
+        }]
     }
 
     fn reference_settings(&self, file: &StudyFile, spec: &RunSpec) -> Option<ScoringSettings> {

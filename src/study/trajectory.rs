@@ -68,6 +68,7 @@ pub const COLUMNS: &[&str] = &[
     "adaptive_max_substeps",
     "tets",
     "free_dofs",
+    "fixed_dofs",
     "linear_solver_used",
     "ordering",
     "factor_nnz",
@@ -255,7 +256,9 @@ pub fn measure_with_state(
     m.set("dt", cell(Some(run.dt)));
     m.set("peak_rss_mib", cell(super::measured::peak_rss_mib()));
     m.set("tets", scene.model.tets().len().to_string());
-    m.set("free_dofs", (3 * scene.model.dofs().num_free()).to_string());
+    let dofs = scene.model.dofs().counts();
+    m.set("free_dofs", dofs.free_dofs.to_string());
+    m.set("fixed_dofs", dofs.fixed_dofs.to_string());
     let conserved = Conservation::of(&scene);
     let (p, l) = momentum_drift(&rows, &conserved);
     m.set("momentum_drift", cell(p));

@@ -17,7 +17,7 @@ use super::findings::{self, Better, ORDER_EXCESS, Ranking};
 use super::format::{cell, short};
 use super::grid::Axis;
 use super::identity::float;
-use super::kind::{Kind, RunInputs, number, parse_quick};
+use super::kind::{Kind, OwnKey, RunInputs, number, parse_quick};
 use super::measured::{Measured, build, cap_cells, outcome_of, picture_surface, summary_cells};
 use super::pictures::PictureRows;
 use super::reference::{Reference, ScoringSettings, errors, sampled_run, stride};
@@ -245,6 +245,32 @@ impl Kind for WorkPrecision {
         quick: bool,
     ) -> Result<(), StudyError> {
         configure(ctx, file, config, axes, quick)
+    }
+
+    fn own_keys(&self) -> &'static [OwnKey] {
+        &[
+            OwnKey {
+                key: "run.steps",
+                why: "every run covers [work-precision] horizon, in horizon / dt steps of its \
+                      run.dt from the dt ladder",
+                replaced: true,
+            },
+            OwnKey {
+                key: "run.sample_every",
+                why: "rows are kept at every sample time and in between as densely as 500 rows \
+                      allow",
+                replaced: true,
+            },
+        ]
+    }
+
+    fn horizon(&self, file: &StudyFile) -> Option<(f64, &'static str)> {
+        settings(file).map(|w| {
+            (
+                w.horizon,
+                "horizon / dt steps of each run.dt of the dt ladder",
+            )
+        })
     }
 
     fn needs_omega(&self, file: &StudyFile) -> bool {
