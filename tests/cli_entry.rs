@@ -218,3 +218,23 @@ fn an_out_that_is_a_file_is_bad_input_and_nothing_is_written() {
     }
     assert_eq!(std::fs::read_to_string(&file).unwrap(), "keep me");
 }
+
+#[test]
+fn simulate_says_how_many_dofs_are_free_and_fixed() {
+    let dir = TempDir::new("cli-entry-dofs");
+    let scene = manifest_dir().join("experiments/scenes/soft_beam.toml");
+    let run = softbench(&[
+        "simulate",
+        scene.to_str().unwrap(),
+        "--out",
+        dir.path().to_str().unwrap(),
+        "--set",
+        "run.steps=2",
+    ]);
+    assert!(run.status.success());
+    let out = String::from_utf8_lossy(&run.stdout);
+    assert!(
+        out.contains("270 free and 27 fixed DOFs (9 of 99 vertices fixed)"),
+        "{out}"
+    );
+}

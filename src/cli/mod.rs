@@ -338,12 +338,13 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
                 )
             });
             console::out(&format!(
-                "{}: completed {} steps of {} with dt = {:e} s in {:.3} s{unconverged}{internal_note}; wrote {}{frames_note}{springs_note}",
+                "{}: completed {} steps of {} with dt = {:e} s in {:.3} s{unconverged}{internal_note}; {}; wrote {}{frames_note}{springs_note}",
                 done.name,
                 summary.steps_completed,
                 summary.method,
                 summary.dt,
                 summary.totals.times.total,
+                done.dofs,
                 args.out.display()
             ));
             Ok(ExitCode::SUCCESS)
@@ -368,8 +369,8 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
         }
         _ => {
             console::err(&format!(
-                "error: {} with {} ended {} at step {} (t = {:e} s): {}: {}; the {rows} rows \
-                 written before it are in {}",
+                "error: {} with {} ended {} at step {} (t = {:e} s): {}: {}; {}; the {rows} \
+                 rows written before it are in {}",
                 done.name,
                 summary.method,
                 outcome.status,
@@ -377,6 +378,7 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
                 outcome.t.unwrap_or(0.0),
                 outcome.cause,
                 outcome.message,
+                done.dofs,
                 done.trajectory.display()
             ));
             Ok(ExitCode::FAILURE)
