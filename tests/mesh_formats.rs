@@ -348,17 +348,18 @@ fn bad_files_of_each_format_give_file_and_line_errors_without_panicking() {
         9,
         "repeats",
     );
+    // An appended array whose offset points past the appended data.
     error_at(
         &dir,
         "appended.vtu",
-        vtu(good_points, "0 1 2 3")
+        vtu("appended\" offset=\"1000\">", "0 1 2 3")
             .replace(
                 "</VTKFile>",
-                "<AppendedData encoding=\"raw\">_</AppendedData></VTKFile>",
+                "<AppendedData encoding=\"raw\">_\u{4}\0\0\0</AppendedData></VTKFile>",
             )
             .as_bytes(),
-        15,
-        "appended",
+        6,
+        "offset 1000 is beyond the appended data's",
     );
 }
 
