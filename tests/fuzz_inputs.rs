@@ -604,8 +604,7 @@ fn mesh_targets(n: u64) {
             ],
             mutate: mutate_text,
             check: |f: &[Vec<u8>]| {
-                let text = utf8(&f[0], "fuzz.vtk")?;
-                let m = named(vtk::parse_legacy(text, Path::new("fuzz.vtk")), "fuzz.vtk")?;
+                let m = named(vtk::parse_legacy(&f[0], Path::new("fuzz.vtk")), "fuzz.vtk")?;
                 MeshReport::for_tet_mesh(&m);
                 Ok(())
             },

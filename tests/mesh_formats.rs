@@ -255,8 +255,8 @@ fn bad_files_of_each_format_give_file_and_line_errors_without_panicking() {
         &dir,
         "binary.vtk",
         vtk("ASCII", "BINARY").as_bytes(),
-        3,
-        "only ASCII",
+        6,
+        "POINTS announces 12 values of 8 bytes, but only 60 bytes are left",
     );
     error_at(
         &dir,
