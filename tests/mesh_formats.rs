@@ -1,5 +1,5 @@
-//! Gmsh `.msh` (2.2 and 4.1, ASCII and binary) and VTK (`.vtu`, legacy `.vtk`) input: files
-//! written by an independent writer (Python's meshio) read back with the same counts,
+//! Gmsh `.msh` (2.2 and 4.1, ASCII and binary) and VTK (`.vtu`, legacy `.vtk` ASCII and
+//! binary) input: files written by an independent writer (Python's meshio) read back with the same counts,
 //! coordinates and tets; bad files give `file:line` errors and no panic; a run restarted from
 //! an exported VTU frame (`[initial] from`) continues exactly as the uninterrupted run.
 
@@ -82,6 +82,7 @@ fn files_written_by_meshio_read_back_with_the_same_points_and_tets() {
         ("raw.vtu", "vtu", "binary=True, compression=None"),
         ("zlib.vtu", "vtu", "binary=True"),
         ("legacy.vtk", "vtk", "binary=False"),
+        ("legacy_binary.vtk", "vtk", "binary=True"),
     ];
     let mut script = format!(
         "import warnings\nwarnings.simplefilter('ignore')\n\
