@@ -99,7 +99,8 @@ impl<'a> Base64Stream<'a> {
         while (self.out.len() as u64) < n {
             let Some(&ch) = self.text.get(self.pos) else {
                 return Err(format!(
-                    "the base64 data ends inside {what}: {n} bytes needed, {} there",
+                    "the base64 data ends inside {what}: the array needs {n} bytes from its \
+                     start, {} are there",
                     self.out.len()
                 ));
             };
@@ -130,7 +131,9 @@ mod tests {
         assert_eq!(s.prefix(6, "data").unwrap(), [1, 0, 0, 0, 0x78, 0x5e]);
         let err = s.prefix(7, "a block").unwrap_err();
         assert!(
-            err.contains("ends inside a block: 7 bytes needed, 6 there"),
+            err.contains(
+                "ends inside a block: the array needs 7 bytes from its start, 6 are there"
+            ),
             "{err}"
         );
     }

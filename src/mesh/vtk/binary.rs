@@ -32,7 +32,8 @@ impl Payload for Bytes<'_> {
         match usize::try_from(n).ok().and_then(|n| self.0.get(..n)) {
             Some(b) => Ok(b),
             None => Err(format!(
-                "the data ends inside {what}: {n} bytes needed, {} there",
+                "the data ends inside {what}: the array needs {n} bytes from its start, {} are \
+                 there",
                 self.0.len()
             )),
         }
