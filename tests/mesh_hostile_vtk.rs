@@ -19,6 +19,16 @@ use fuzz_seeds::{
 const TETS: [[usize; 4]; 2] = [[0, 1, 2, 3], [1, 2, 3, 4]];
 const ZLIB: &str = " compressor=\"vtkZLibDataCompressor\"";
 
+/// `file` with the first `from` replaced by `to`, byte for byte (binary data is not UTF-8).
+#[track_caller]
+fn replace(file: &[u8], from: &str, to: &str) -> Vec<u8> {
+    let at = file
+        .windows(from.len())
+        .position(|w| w == from.as_bytes())
+        .unwrap_or_else(|| panic!("no `{from}`"));
+    [&file[..at], to.as_bytes(), &file[at + from.len()..]].concat()
+}
+
 /// Packs array `i` with `pack`, the others with `others`.
 fn with(
     i: usize,
@@ -404,38 +414,114 @@ fn data_array_children_are_read_past_and_must_nest() {
     );
 }
 
+#[test]
+fn cells_of_every_integer_type_and_either_byte_order_read() {
+    let ascii = |conn: &str, offsets: &str, types: &str| {
+        format!(
+            "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\">\n\
+             <UnstructuredGrid>\n<Piece NumberOfPoints=\"4\" NumberOfCells=\"1\">\n<Points>\n\
+             <DataArray type=\"Float32\" NumberOfComponents=\"3\" format=\"ascii\">\
+             0 0 0 1 0 0 0 1 0 0 0 1</DataArray>\n</Points>\n<Cells>\n\
+             <DataArray type=\"{conn}\" Name=\"connectivity\" format=\"ascii\">0 1 2 3\
+             </DataArray>\n<DataArray type=\"{offsets}\" Name=\"offsets\" format=\"ascii\">4\
+             </DataArray>\n<DataArray type=\"{types}\" Name=\"types\" format=\"ascii\">10\
+             </DataArray>\n</Cells>\n</Piece>\n</UnstructuredGrid>\n</VTKFile>\n"
+        )
+    };
+    for (conn, offsets, types) in [
+        ("Int8", "Int16", "Int32"),
+        ("UInt8", "UInt16", "UInt32"),
+        ("UInt64", "Int64", "UInt8"),
+        ("UInt32", "UInt64", "Int8"),
+    ] {
+        let text = ascii(conn, offsets, types);
+        assert_eq!(
+            accepted("ints.vtu", text.as_bytes()).tets,
+            vec![[0, 1, 2, 3]],
+            "{conn} {offsets} {types}"
+        );
+    }
+    // Big-endian appended raw arrays with UInt32 connectivity and UInt16 offsets.
+    let be = |data: &[u8], width: usize| -> Vec<u8> {
+        let mut out = (data.len() as u32).to_be_bytes().to_vec();
+        for v in data.chunks(width) {
+            out.extend(v.iter().rev());
+        }
+        out
+    };
+    let [points, _, _, types] = mesh_arrays();
+    let conn: Vec<u8> = TETS
+        .iter()
+        .flatten()
+        .flat_map(|&v| (v as u32).to_le_bytes())
+        .collect();
+    let offsets: Vec<u8> = [4u16, 8].iter().flat_map(|v| v.to_le_bytes()).collect();
+    let arrays = [points, conn, offsets, types];
+    let widths = [8, 4, 2, 1];
+    let file = vtu_appended("", (5, 2), false, &|i, _| be(&arrays[i], widths[i]));
+    let file = replace(&file, "LittleEndian", "BigEndian");
+    let file = replace(
+        &file,
+        "\"Int64\" Name=\"connectivity\"",
+        "\"UInt32\" Name=\"connectivity\"",
+    );
+    let file = replace(
+        &file,
+        "\"Int64\" Name=\"offsets\"",
+        "\"UInt16\" Name=\"offsets\"",
+    );
+    let mesh = accepted("big_endian.vtu", &file);
+    assert_eq!(mesh.tets, TETS);
+    assert_eq!(mesh.positions[4].x, 1.0);
+}
+
+#[test]
+fn other_grids_and_pieces_are_refused_saying_what_is_read() {
+    let file = String::from_utf8(vtu_appended("", (5, 2), true, &pack_raw)).unwrap();
+    for (kind, name) in [("PUnstructuredGrid", "grid.pvtu"), ("PolyData", "poly.vtp")] {
+        refused(
+            name,
+            file.replace("\"UnstructuredGrid\"", &format!("\"{kind}\""))
+                .as_bytes(),
+            Some(2),
+            &format!("VTK file type `{kind}` is not supported; expected `UnstructuredGrid`"),
+        );
+    }
+    let twice = file.replace(
+        "</Piece>",
+        "</Piece>\n<Piece NumberOfPoints=\"5\" NumberOfCells=\"2\">\n</Piece>",
+    );
+    refused(
+        "pieces.vtu",
+        twice.as_bytes(),
+        Some(14),
+        "a second `Piece`: only single-piece grids are supported",
+    );
+}
+
 // --- legacy binary ---
 
 #[test]
 fn binary_legacy_counts_larger_than_the_file_are_refused_before_reserving() {
     let file = legacy_binary("5.1");
-    let swap = |from: &str, to: &str| {
-        let text = String::from_utf8_lossy(&file).into_owned();
-        assert!(text.contains(from), "{from}");
-        // Replace in the bytes, not the lossy text (binary data is not UTF-8).
-        let at = file
-            .windows(from.len())
-            .position(|w| w == from.as_bytes())
-            .unwrap();
-        [&file[..at], to.as_bytes(), &file[at + from.len()..]].concat()
-    };
+    let swap = |from: &str, to: &str| replace(&file, from, to);
     let message = refused(
         "points.vtk",
         &swap("POINTS 5 double", "POINTS 10000000 double"),
-        Some(12),
+        Some(14),
         "POINTS announces 30000000 values of 8 bytes, but only",
     );
     assert!(message.contains("bytes are left"), "{message}");
     refused(
         "offsets.vtk",
         &swap("CELLS 3 8", "CELLS 5000000 8"),
-        Some(20),
+        Some(22),
         "OFFSETS announces 5000000 values of 8 bytes",
     );
     refused(
         "types.vtk",
         &swap("CELL_TYPES 2", "CELL_TYPES 9000000"),
-        Some(24),
+        Some(26),
         "CELL_TYPES announces 9000000 values of 4 bytes",
     );
     refused(
@@ -447,7 +533,7 @@ fn binary_legacy_counts_larger_than_the_file_are_refused_before_reserving() {
     refused(
         "budget.vtk",
         &swap("POINTS 5 double", "POINTS 99999999999 double"),
-        Some(11),
+        Some(13),
         "the header announces 99999999999 the number of points",
     );
     // A string whose length (8-byte form) runs past the file.
@@ -464,7 +550,7 @@ fn binary_legacy_counts_larger_than_the_file_are_refused_before_reserving() {
     refused(
         "text.vtk",
         &swap("POINTS 5 double\n", "POINTS 5 double 7\n"),
-        Some(11),
+        Some(13),
         "unexpected text before the binary data of POINTS",
     );
     // Cut inside the cell types.
@@ -472,14 +558,14 @@ fn binary_legacy_counts_larger_than_the_file_are_refused_before_reserving() {
     refused(
         "cut.vtk",
         cut,
-        Some(24),
+        Some(26),
         "CELL_TYPES announces 2 values of 4 bytes, but only 3 bytes are left",
     );
     // A type no legacy reader knows, and one that cannot be read past.
     refused(
         "type.vtk",
         &swap("POINTS 5 double", "POINTS 5 quad"),
-        Some(11),
+        Some(13),
         "`quad` is not a legacy VTK data type",
     );
     refused(
@@ -493,8 +579,8 @@ fn binary_legacy_counts_larger_than_the_file_are_refused_before_reserving() {
 #[test]
 fn metadata_and_field_data_are_read_past_in_ascii_files() {
     let text = "# vtk DataFile Version 5.1\nvtk output\nASCII\nDATASET UNSTRUCTURED_GRID\n\
-        FIELD FieldData 3\nTimeValue 1 1 double\n0.5 \nNULL_ARRAY\nnote 1 2 string\n\
-        first%20note\nsecond\n\
+        FIELD FieldData 4\nTimeValue 1 1 double\n0.5 \nNULL_ARRAY\nnote 1 2 string\n\
+        first%20note\nsecond\nflags 1 3 bit\n1 0 1\n\
         METADATA\nINFORMATION 1\nNAME UNITS_LABEL LOCATION vtkDataArray\nDATA s\n\n\
         POINTS 4 float\n0 0 0 1 0 0 0 1 0 0 0 1 \nMETADATA\nINFORMATION 1\n\
         NAME L2_NORM_RANGE LOCATION vtkDataArray\nDATA 2 0 1 \n\n\
@@ -510,7 +596,7 @@ fn metadata_and_field_data_are_read_past_in_ascii_files() {
     refused(
         "open.vtk",
         open.as_bytes(),
-        Some(30),
+        Some(32),
         "unexpected `CONNECTIVITY`",
     );
 }

@@ -336,18 +336,20 @@ pub fn vtu_appended(
 
 /// A binary legacy VTK file of the seed mesh, in the 4.2 (`CELLS n size`) or 5.1
 /// (`OFFSETS`/`CONNECTIVITY`) layout, as VTK writes it after a round trip: dataset `FIELD` data
-/// (a double and a string) before `POINTS`, a `METADATA` block after them, point data after
+/// (a double, a string and bits) before `POINTS`, a `METADATA` block after them, point data after
 /// the cells.
 pub fn legacy_binary(version: &str) -> Vec<u8> {
     let mut b = format!(
         "# vtk DataFile Version {version}\nfuzz\nBINARY\nDATASET UNSTRUCTURED_GRID\n\
-         FIELD FieldData 2\nTimeValue 1 1 double\n"
+         FIELD FieldData 3\nTimeValue 1 1 double\n"
     )
     .into_bytes();
     b.extend(0.5f64.to_be_bytes());
     b.extend(b"\nnote 1 1 string\n");
     b.push(0xc0 | 5);
-    b.extend(b"hello\n\nPOINTS 5 double\n");
+    b.extend(b"hello\nflags 1 9 bit\n");
+    b.extend([0b1010_1010, 0b1000_0000]);
+    b.extend(b"\n\nPOINTS 5 double\n");
     POINTS
         .iter()
         .flatten()

@@ -344,3 +344,35 @@ impl<'a> Reader<'a> {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::Scalar;
+
+    #[test]
+    fn every_legacy_type_name_reads_its_big_endian_values() {
+        for (name, bytes, value) in [
+            ("char", vec![0xfe], -2.0),
+            ("signed_char", vec![0x7f], 127.0),
+            ("unsigned_char", vec![0xfe], 254.0),
+            ("short", vec![0xff, 0xfe], -2.0),
+            ("unsigned_short", vec![0x01, 0x02], 258.0),
+            ("int", vec![0xff, 0xff, 0xff, 0xfe], -2.0),
+            ("vtkIdType", vec![0, 0, 1, 0], 256.0),
+            ("unsigned_int", vec![0xff, 0xff, 0xff, 0xfe], 4294967294.0),
+            ("long", (-3i64).to_be_bytes().to_vec(), -3.0),
+            ("vtktypeint64", (-3i64).to_be_bytes().to_vec(), -3.0),
+            ("unsigned_long", 5u64.to_be_bytes().to_vec(), 5.0),
+            ("vtktypeuint64", 5u64.to_be_bytes().to_vec(), 5.0),
+            ("float", 0.1f32.to_be_bytes().to_vec(), f64::from(0.1f32)),
+            ("DOUBLE", 0.1f64.to_be_bytes().to_vec(), 0.1),
+        ] {
+            let ty = Scalar::parse(name).unwrap();
+            assert_eq!(ty.width(), bytes.len(), "{name}");
+            assert_eq!(ty.value(&bytes), value, "{name}");
+        }
+        assert_eq!(Scalar::parse("bit"), Some(Scalar::Bit));
+        assert_eq!(Scalar::parse("utf8_string"), Some(Scalar::Str));
+        assert_eq!(Scalar::parse("variant"), None);
+    }
+}
