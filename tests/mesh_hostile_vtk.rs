@@ -408,7 +408,7 @@ fn data_array_children_are_read_past_and_must_nest() {
     let cut = whole.find("</DataArray>\n</Points>").unwrap();
     refused(
         "open.vtu",
-        whole[..cut].as_bytes(),
+        &whole.as_bytes()[..cut],
         Some(6),
         "`DataArray` has no `</DataArray>`",
     );

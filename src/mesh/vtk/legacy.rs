@@ -87,7 +87,7 @@ pub fn parse_legacy(bytes: &[u8], path: &Path) -> Result<TetMesh, MeshError> {
         ));
     }
     let mut points = None;
-    let mut cell_data: Option<(Vec<f64>, Vec<f64>, [usize; 2])> = None;
+    let mut cell_data: Option<CellList> = None;
     let mut types = None;
     while let Some((at, keyword)) = r.next_word()? {
         let line = r.c.line_at(at);
@@ -159,6 +159,10 @@ pub fn parse_legacy(bytes: &[u8], path: &Path) -> Result<TetMesh, MeshError> {
     })
 }
 
+/// A `CELLS` section as XML lists cells: the connectivity, each cell's end in it, and the
+/// lines of the connectivity and of the ends (offsets or counts).
+type CellList = (Vec<f64>, Vec<f64>, [usize; 2]);
+
 /// Connectivity, cell ends and their lines from a 5.x `CELLS a b` section (`a` offsets
 /// starting at 0, `b` connectivity entries, each an array with a type).
 fn cells_51(
@@ -167,7 +171,7 @@ fn cells_51(
     line: usize,
     a: usize,
     b: usize,
-) -> Result<(Vec<f64>, Vec<f64>, [usize; 2]), MeshError> {
+) -> Result<CellList, MeshError> {
     r.keyword("OFFSETS")?;
     let ty = r.scalar("the offsets' data type")?;
     let (ol, offsets) = r.values(ty, a, "OFFSETS", "an offset")?;
@@ -208,7 +212,7 @@ fn cells_42(
     line: usize,
     a: usize,
     b: usize,
-) -> Result<(Vec<f64>, Vec<f64>, [usize; 2]), MeshError> {
+) -> Result<CellList, MeshError> {
     let (cl, list) = r.values(Scalar::I32, b, "CELLS", "a cell entry")?;
     let (mut conn, mut ends) = (Vec::new(), Vec::with_capacity(a.min(list.len())));
     let mut i = 0usize;

@@ -530,7 +530,7 @@ fn to_values(
     data: &[u8],
     little: bool,
 ) -> Result<Vec<f64>, MeshError> {
-    if data.len() % width != 0 {
+    if !data.len().is_multiple_of(width) {
         return Err(c.error_at(
             at,
             format!(
