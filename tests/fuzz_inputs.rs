@@ -1,13 +1,14 @@
 //! A seeded mutation fuzzer over every input softbench parses: every mesh reader (MEDIT
 //! `.mesh`, TetGen `.node`/`.ele`, plain v/t `.mesh`, OBJ, Gmsh 2.2 and 4.1 ASCII and binary,
-//! VTU ascii, base64 and zlib, legacy VTK 4.2 and 5.1 ASCII — legacy binary is refused by the
-//! reader, and the fuzzer inserts `BINARY` among its tokens), scene files (parsed, validated and
-//! built) and study files of every kind (loaded: grid expanded, every scene checked and built).
+//! VTU ascii, inline base64 and zlib, appended raw (uncompressed, zlib, LZ4, LZMA) and base64,
+//! legacy VTK 4.2 and 5.1 ASCII (with `METADATA` and `FIELD` data) and binary), scene files
+//! (parsed, validated and built) and study files of every kind (loaded: grid expanded, every
+//! scene checked and built).
 //!
 //! Each case takes a valid seed file, applies a few random mutations (tokens replaced by
 //! hostile ones such as `18446744073709551615`, `nan`, `1e308` or `-1`, lines duplicated,
 //! dropped or cut; for binary files, hostile 4- and 8-byte words written over the data and, in
-//! a `.vtu`, the base64 payloads decoded, mutated and encoded again) and asserts: no panic
+//! a `.vtu`, the base64 payloads, inline or appended, decoded, mutated and encoded again) and asserts: no panic
 //! (`catch_unwind`), an error that names the file, and bounded time and memory — by size
 //! budgets lowered for the run (see `softbench::limits`), a watchdog that fails the test when a
 //! case is still running after [`CASE_CAP`] (naming the target, seed, case and input, while the
@@ -113,6 +114,13 @@ const HOSTILE: &[&str] = &[
     "<Points>",
     "</Cells>",
     "<DataArray format=\"binary\">",
+    "METADATA",
+    "FIELD",
+    "NULL_ARRAY",
+    "</DataArray>",
+    "<InformationKey>",
+    "format=\"appended\" offset=\"0\"",
+    "_",
 ];
 
 /// The cases per target asked for with `SOFTBENCH_FUZZ_CASES` (the long mode), if any.
@@ -574,22 +582,56 @@ fn mesh_targets(n: u64) {
             n,
         );
     }
+    let legacy_check = |f: &[Vec<u8>]| {
+        let m = named(vtk::parse_legacy(&f[0], Path::new("fuzz.vtk")), "fuzz.vtk")?;
+        MeshReport::for_tet_mesh(&m);
+        Ok(())
+    };
     let vtu_check = |f: &[Vec<u8>]| {
         let frame = named(vtk::parse_vtu(&f[0], Path::new("fuzz.vtu")), "fuzz.vtu")?;
         MeshReport::for_tet_mesh(&frame.mesh);
         Ok(())
     };
-    let vtu_targets: [(&str, Vec<u8>); 3] = [
-        ("vtu-ascii", fuzz_seeds::VTU_ASCII.into()),
-        ("vtu-base64", fuzz_seeds::vtu_base64()),
-        ("vtu-zlib", fuzz_seeds::vtu_zlib()),
+    use fuzz_seeds::{pack_lz4, pack_lzma, pack_raw, pack_zlib, vtu_appended};
+    const ZLIB: &str = " compressor=\"vtkZLibDataCompressor\"";
+    const LZ4: &str = " compressor=\"vtkLZ4DataCompressor\"";
+    const LZMA: &str = " compressor=\"vtkLZMADataCompressor\"";
+    let vtu_targets: [(&str, Vec<Files>, Mutator); 5] = [
+        ("vtu-ascii", text_seed(fuzz_seeds::VTU_ASCII), mutate_vtu),
+        (
+            "vtu-base64",
+            vec![vec![fuzz_seeds::vtu_base64()]],
+            mutate_vtu,
+        ),
+        ("vtu-zlib", vec![vec![fuzz_seeds::vtu_zlib()]], mutate_vtu),
+        // Raw appended data: byte mutations reach the block tables and blocks directly.
+        (
+            "vtu-appended",
+            vec![
+                vec![vtu_appended("", (5, 2), false, &pack_raw)],
+                vec![vtu_appended(ZLIB, (5, 2), false, &pack_zlib)],
+                vec![vtu_appended(LZ4, (5, 2), false, &pack_lz4)],
+                vec![vtu_appended(LZMA, (5, 2), false, &pack_lzma)],
+            ],
+            fuzz_seeds::mutate_bytes,
+        ),
+        // Appended base64: the text, or the decoded appended data, mutated.
+        (
+            "vtu-appended-base64",
+            vec![
+                vec![vtu_appended("", (5, 2), true, &pack_raw)],
+                vec![vtu_appended(ZLIB, (5, 2), true, &pack_zlib)],
+                vec![vtu_appended(LZMA, (5, 2), true, &pack_lzma)],
+            ],
+            mutate_vtu,
+        ),
     ];
-    for (name, seed) in vtu_targets {
+    for (name, seeds, mutate) in vtu_targets {
         run(
             Target {
                 name,
-                seeds: vec![vec![seed]],
-                mutate: mutate_vtu,
+                seeds,
+                mutate,
                 check: vtu_check,
             },
             n,
@@ -601,14 +643,22 @@ fn mesh_targets(n: u64) {
             seeds: vec![
                 vec![fuzz_seeds::VTK42.into()],
                 vec![fuzz_seeds::VTK51.into()],
+                vec![fuzz_seeds::VTK51_METADATA.into()],
             ],
             mutate: mutate_text,
-            check: |f: &[Vec<u8>]| {
-                let text = utf8(&f[0], "fuzz.vtk")?;
-                let m = named(vtk::parse_legacy(text, Path::new("fuzz.vtk")), "fuzz.vtk")?;
-                MeshReport::for_tet_mesh(&m);
-                Ok(())
-            },
+            check: legacy_check,
+        },
+        n,
+    );
+    run(
+        Target {
+            name: "legacy-vtk-binary",
+            seeds: vec![
+                vec![fuzz_seeds::legacy_binary("4.2")],
+                vec![fuzz_seeds::legacy_binary("5.1")],
+            ],
+            mutate: fuzz_seeds::mutate_bytes,
+            check: legacy_check,
         },
         n,
     );

@@ -1,5 +1,5 @@
-//! Gmsh `.msh` (2.2 and 4.1, ASCII and binary) and VTK (`.vtu`, legacy `.vtk`) input: files
-//! written by an independent writer (Python's meshio) read back with the same counts,
+//! Gmsh `.msh` (2.2 and 4.1, ASCII and binary) and VTK (`.vtu`, legacy `.vtk` ASCII and
+//! binary) input: files written by an independent writer (Python's meshio) read back with the same counts,
 //! coordinates and tets; bad files give `file:line` errors and no panic; a run restarted from
 //! an exported VTU frame (`[initial] from`) continues exactly as the uninterrupted run.
 
@@ -82,6 +82,7 @@ fn files_written_by_meshio_read_back_with_the_same_points_and_tets() {
         ("raw.vtu", "vtu", "binary=True, compression=None"),
         ("zlib.vtu", "vtu", "binary=True"),
         ("legacy.vtk", "vtk", "binary=False"),
+        ("legacy_binary.vtk", "vtk", "binary=True"),
     ];
     let mut script = format!(
         "import warnings\nwarnings.simplefilter('ignore')\n\
@@ -255,8 +256,8 @@ fn bad_files_of_each_format_give_file_and_line_errors_without_panicking() {
         &dir,
         "binary.vtk",
         vtk("ASCII", "BINARY").as_bytes(),
-        3,
-        "only ASCII",
+        6,
+        "POINTS announces 12 values of 8 bytes, but only 60 bytes are left",
     );
     error_at(
         &dir,
@@ -348,17 +349,18 @@ fn bad_files_of_each_format_give_file_and_line_errors_without_panicking() {
         9,
         "repeats",
     );
+    // An appended array whose offset points past the appended data.
     error_at(
         &dir,
         "appended.vtu",
-        vtu(good_points, "0 1 2 3")
+        vtu("appended\" offset=\"1000\">", "0 1 2 3")
             .replace(
                 "</VTKFile>",
-                "<AppendedData encoding=\"raw\">_</AppendedData></VTKFile>",
+                "<AppendedData encoding=\"raw\">_\u{4}\0\0\0</AppendedData></VTKFile>",
             )
             .as_bytes(),
-        15,
-        "appended",
+        6,
+        "offset 1000 is beyond the appended data's",
     );
 }
 

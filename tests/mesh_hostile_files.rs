@@ -9,43 +9,8 @@ use std::path::Path;
 use std::process::Command;
 
 use common::TempDir;
+use common::hostile::{accepted, refused};
 use softbench::mesh::{MeshError, read_tet_mesh};
-
-/// Reads `content` written as `name` and checks the error is a parse error at `line` (if
-/// given) that names the file and says `needle`.
-#[track_caller]
-fn refused(name: &str, content: &[u8], line: Option<usize>, needle: &str) -> String {
-    let dir = TempDir::new("hostile");
-    let path = dir.path().join(name);
-    std::fs::write(&path, content).unwrap();
-    let err = match std::panic::catch_unwind(|| read_tet_mesh(&path)) {
-        Err(_) => panic!("{name}: the reader panicked"),
-        Ok(Ok(mesh)) => panic!("{name}: accepted, with {} tets", mesh.num_tets()),
-        Ok(Err(e)) => e,
-    };
-    let message = err.to_string();
-    let MeshError::Parse { line: at, .. } = err else {
-        panic!("{name}: not a parse error with a line: {message}")
-    };
-    if let Some(line) = line {
-        assert_eq!(at, line, "{name}: {message}");
-    }
-    let prefix = format!("{}:{at}: ", path.display());
-    assert!(message.starts_with(&prefix), "{name}: {message}");
-    assert!(
-        message.contains(needle),
-        "{name}: expected `{needle}` in: {message}"
-    );
-    message
-}
-
-#[track_caller]
-fn accepted(name: &str, content: &[u8]) -> softbench::mesh::TetMesh {
-    let dir = TempDir::new("hostile-ok");
-    let path = dir.path().join(name);
-    std::fs::write(&path, content).unwrap();
-    read_tet_mesh(&path).unwrap_or_else(|e| panic!("{name}: {e}"))
-}
 
 // --- legacy VTK ---
 

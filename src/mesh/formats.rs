@@ -161,7 +161,7 @@ static BUILTIN: &[MeshFormatEntry] = &[
         reader: Reader::Bytes(|b, p| {
             vtk::xml::parse_vtu(b, p).map(|frame| AnyMesh::Tet(frame.mesh))
         }),
-        description: "VTK XML unstructured grid .vtu (inline ascii or base64, zlib), linear tets",
+        description: "VTK XML unstructured grid .vtu (ascii, base64 or appended; zlib, LZ4 or LZMA), linear tets",
     },
     MeshFormatEntry {
         name: "vtk",
@@ -169,8 +169,8 @@ static BUILTIN: &[MeshFormatEntry] = &[
         extensions: &["vtk"],
         starts_with: "`# vtk DataFile`",
         sniff: |b| Sniff::sure_if(vtk::legacy::looks_like_legacy(b)),
-        reader: Reader::Text(|t, p| vtk::legacy::parse_legacy(t, p).map(AnyMesh::Tet)),
-        description: "legacy ASCII VTK .vtk unstructured grid (versions to 4.2 and 5.1), linear tets",
+        reader: Reader::Bytes(|b, p| vtk::legacy::parse_legacy(b, p).map(AnyMesh::Tet)),
+        description: "legacy VTK .vtk unstructured grid (versions to 4.2 and 5.1, ASCII or binary), linear tets",
     },
 ];
 

@@ -4,7 +4,8 @@
 //! - Readers, one module per format: [`medit`] (MEDIT `.mesh`, 1-based), [`plain`] (Brown
 //!   `v`/`t` `.mesh`, 0-based), [`tetgen`] (`.node` + `.ele`, base from the first id), [`obj`]
 //!   (OBJ surfaces, 1-based), [`gmsh`] (`.msh` 2.2 and 4.1, ASCII and binary), [`vtk::xml`]
-//!   (`.vtu` XML) and [`vtk::legacy`] (legacy ASCII `.vtk`) unstructured grids. [`formats`] is the table of them (name,
+//!   (`.vtu` XML, every data mode and compressor VTK writes) and [`vtk::legacy`] (legacy
+//!   `.vtk`, ASCII and binary) unstructured grids. [`formats`] is the table of them (name,
 //!   extensions, content sniffer, reader, description; adding a format is one file plus one
 //!   line there); [`read_mesh`], [`read_tet_mesh`] and [`read_surface_mesh`] pick one from it
 //!   by content and extension. In memory every index is 0-based.

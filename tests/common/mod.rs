@@ -2,6 +2,8 @@
 //! into a private temporary folder.
 #![allow(dead_code)] // each test binary uses a different subset
 
+pub mod hostile;
+
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};

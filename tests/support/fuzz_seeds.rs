@@ -1,5 +1,6 @@
-//! Seed files and byte-level mutations for `tests/fuzz_inputs.rs`: the Gmsh, VTU and legacy
-//! VTK seeds (ASCII and binary, each built here) and the mutators for binary data — hostile
+//! Seed files and byte-level mutations for `tests/fuzz_inputs.rs` (and the hostile files of
+//! `tests/mesh_hostile_vtk.rs`): the Gmsh, VTU and legacy VTK seeds (ASCII and binary, inline
+//! and appended, each compressor; each built here) and the mutators for binary data — hostile
 //! words written over a binary block, and the base64 payloads of a `.vtu` decoded, mutated and
 //! encoded again so the damage reaches the block headers and the compressed data instead of
 //! stopping at the base64 decoder.
@@ -103,6 +104,18 @@ pub const VTK51: &str = "# vtk DataFile Version 5.1\nfuzz\nASCII\nDATASET UNSTRU
 POINTS 5 float\n0 0 0 1 0 0 0 1 0\n0 0 1 1 1 1\nCELLS 4 9\nOFFSETS vtktypeint64\n0 4 8 9\n\
 CONNECTIVITY vtktypeint64\n0 1 2 3\n1 2 3 4\n4\nCELL_TYPES 3\n10\n10\n1\n";
 
+/// Legacy VTK 5.1 as VTK writes it after a round trip: dataset `FIELD` data (with a
+/// `NULL_ARRAY` and strings) before `POINTS`, `METADATA` blocks after arrays, cell data after
+/// the cells.
+pub const VTK51_METADATA: &str = "# vtk DataFile Version 5.1\nvtk output\nASCII\n\
+DATASET UNSTRUCTURED_GRID\nFIELD FieldData 3\nTimeValue 1 1 double\n0.5 \nNULL_ARRAY\n\
+note 1 2 string\nfirst%20note\nsecond\nMETADATA\nINFORMATION 1\n\
+NAME UNITS_LABEL LOCATION vtkDataArray\nDATA s\n\nPOINTS 5 float\n0 0 0 1 0 0 0 1 0 0 0 1 1 1 1 \n\
+METADATA\nINFORMATION 1\nNAME L2_NORM_RANGE LOCATION vtkDataArray\nDATA 2 0 1.73205 \n\n\
+CELLS 3 8\nOFFSETS vtktypeint64\n0 4 8 \nMETADATA\nCOMPONENT_NAMES\nfirst\n\n\
+CONNECTIVITY vtktypeint64\n0 1 2 3 1 2 3 4 \nCELL_TYPES 2\n10\n10\n\nCELL_DATA 2\n\
+FIELD FieldData 1\nregion 1 2 int\n0 1 \nMETADATA\nINFORMATION 0\n\n";
+
 /// A `.vtu` with inline ascii arrays, point and cell data and a time.
 pub const VTU_ASCII: &str = "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" \
 version=\"1.0\" byte_order=\"LittleEndian\">\n<UnstructuredGrid>\n<FieldData>\n<DataArray \
@@ -191,6 +204,181 @@ pub fn vtu_zlib() -> Vec<u8> {
         zlib_array("UInt8", "types", 1, &[10, 10], 64),
     )
     .into_bytes()
+}
+
+/// The seed mesh's four mesh arrays as a `.vtu` stores them: points (Float64), connectivity
+/// and offsets (Int64), types (UInt8), little-endian.
+pub fn mesh_arrays() -> [Vec<u8>; 4] {
+    [
+        POINTS
+            .iter()
+            .flatten()
+            .flat_map(|x| x.to_le_bytes())
+            .collect(),
+        TETS.iter()
+            .flatten()
+            .flat_map(|&v| (v as i64).to_le_bytes())
+            .collect(),
+        [4i64, 8].iter().flat_map(|v| v.to_le_bytes()).collect(),
+        vec![10, 10],
+    ]
+}
+
+/// An uncompressed binary array: its byte count (UInt32), then its bytes.
+pub fn pack_raw(_: usize, data: &[u8]) -> Vec<u8> {
+    let mut out = (data.len() as u32).to_le_bytes().to_vec();
+    out.extend(data);
+    out
+}
+
+/// A compressed array of one block: the block table (UInt32: 1 block, its size twice, the
+/// compressed size), then the block.
+pub fn one_block(data: &[u8], block: Vec<u8>) -> Vec<u8> {
+    let mut out = Vec::new();
+    for v in [1, data.len(), data.len(), block.len()] {
+        out.extend((v as u32).to_le_bytes());
+    }
+    out.extend(block);
+    out
+}
+
+pub fn pack_zlib(_: usize, data: &[u8]) -> Vec<u8> {
+    let mut e = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::default());
+    e.write_all(data).unwrap();
+    one_block(data, e.finish().unwrap())
+}
+
+pub fn pack_lz4(_: usize, data: &[u8]) -> Vec<u8> {
+    one_block(data, lz4_flex::block::compress(data))
+}
+
+/// xz streams of [`mesh_arrays`] (CRC64 check, preset 5: what vtkLZMADataCompressor writes
+/// at VTK's default level), made with Python's `lzma` module.
+const XZ: [&str; 4] = [
+    "fd377a585a000004e6d6b4460200210116000000742fe5a3e00077000d5d00006e1537c41921d82fb8a84c00\
+     0000000085a36b2fd4cf228900012978ced31e3a1fb6f37d010000000004595a",
+    "fd377a585a000004e6d6b4460200210116000000742fe5a3e0003f00105d00006a7ebb146f1b410e01725139\
+     ccace50082fd11ffa640127f00012c40159f6b6f1fb6f37d010000000004595a",
+    "fd377a585a000004e6d6b4460200210116000000742fe5a3e0000f00095d00020037e1ce2af9680000000000\
+     ed75900dcf22f1d300012510a875c2d51fb6f37d010000000004595a",
+    "fd377a585a000004e6d6b4460200210116000000742fe5a30100010a0a000000470f20a80332c5f800011a02\
+     dc2ea57e1fb6f37d010000000004595a",
+];
+
+/// The LZMA-compressed `i`th of [`mesh_arrays`] (`data`).
+pub fn pack_lzma(i: usize, data: &[u8]) -> Vec<u8> {
+    let hex = XZ[i];
+    let block = (0..hex.len())
+        .step_by(2)
+        .map(|k| u8::from_str_radix(&hex[k..k + 2], 16).unwrap())
+        .collect();
+    one_block(data, block)
+}
+
+/// A `.vtu` whose mesh arrays ([`mesh_arrays`], each `pack`ed with its index) are appended,
+/// raw or base64 (each array encoded apart), for a `Piece` of `piece` points and cells;
+/// `attributes` are added to `VTKFile` (a compressor, a header type). The connectivity array
+/// carries an `<InformationKey>` child as VTK writes. Line 6 holds the points' `DataArray`,
+/// 9 to 11 the cells', 16 the start of the appended data.
+pub fn vtu_appended(
+    attributes: &str,
+    piece: (usize, usize),
+    base64: bool,
+    pack: &dyn Fn(usize, &[u8]) -> Vec<u8>,
+) -> Vec<u8> {
+    let packed: Vec<Vec<u8>> = mesh_arrays()
+        .iter()
+        .enumerate()
+        .map(|(i, d)| pack(i, d))
+        .collect();
+    let stored: Vec<Vec<u8>> = if base64 {
+        packed
+            .iter()
+            .map(|p| base64::encode(p).into_bytes())
+            .collect()
+    } else {
+        packed
+    };
+    let mut offsets = [0usize; 4];
+    for i in 1..4 {
+        offsets[i] = offsets[i - 1] + stored[i - 1].len();
+    }
+    let array = |kind: &str, name: &str, i: usize| {
+        format!(
+            "<DataArray type=\"{kind}\" Name=\"{name}\" format=\"appended\" offset=\"{}\"/>\n",
+            offsets[i]
+        )
+    };
+    let mut out = format!(
+        "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" \
+         byte_order=\"LittleEndian\"{attributes}>\n<UnstructuredGrid>\n\
+         <Piece NumberOfPoints=\"{}\" NumberOfCells=\"{}\">\n<Points>\n\
+         <DataArray type=\"Float64\" Name=\"Points\" NumberOfComponents=\"3\" \
+         format=\"appended\" offset=\"0\"/>\n</Points>\n<Cells>\n\
+         <DataArray type=\"Int64\" Name=\"connectivity\" format=\"appended\" offset=\"{}\">\
+         <InformationKey name=\"L2_NORM_RANGE\" location=\"vtkDataArray\" length=\"2\">\
+         <Value index=\"0\">0</Value><Value index=\"1\">4</Value></InformationKey></DataArray>\n\
+         {}{}</Cells>\n</Piece>\n</UnstructuredGrid>\n<AppendedData encoding=\"{}\">\n   _",
+        piece.0,
+        piece.1,
+        offsets[1],
+        array("Int64", "offsets", 2),
+        array("UInt8", "types", 3),
+        if base64 { "base64" } else { "raw" },
+    )
+    .into_bytes();
+    for s in stored {
+        out.extend(s);
+    }
+    out.extend(b"\n</AppendedData>\n</VTKFile>\n");
+    out
+}
+
+/// A binary legacy VTK file of the seed mesh, in the 4.2 (`CELLS n size`) or 5.1
+/// (`OFFSETS`/`CONNECTIVITY`) layout, as VTK writes it after a round trip: dataset `FIELD` data
+/// (a double, a string and bits) before `POINTS`, a `METADATA` block after them, point data after
+/// the cells.
+pub fn legacy_binary(version: &str) -> Vec<u8> {
+    let mut b = format!(
+        "# vtk DataFile Version {version}\nfuzz\nBINARY\nDATASET UNSTRUCTURED_GRID\n\
+         FIELD FieldData 3\nTimeValue 1 1 double\n"
+    )
+    .into_bytes();
+    b.extend(0.5f64.to_be_bytes());
+    b.extend(b"\nnote 1 1 string\n");
+    b.push(0xc0 | 5);
+    b.extend(b"hello\nflags 1 9 bit\n");
+    b.extend([0b1010_1010, 0b1000_0000]);
+    b.extend(b"\n\nPOINTS 5 double\n");
+    POINTS
+        .iter()
+        .flatten()
+        .for_each(|x| b.extend(x.to_be_bytes()));
+    b.extend(
+        b"\nMETADATA\nINFORMATION 1\nNAME L2_NORM_RANGE LOCATION vtkDataArray\n\
+          DATA 2 0 1.73205 \n\n",
+    );
+    if version == "5.1" {
+        b.extend(b"CELLS 3 8\nOFFSETS vtktypeint64\n");
+        [0i64, 4, 8].iter().for_each(|v| b.extend(v.to_be_bytes()));
+        b.extend(b"\nCONNECTIVITY vtktypeint64\n");
+        TETS.iter()
+            .flatten()
+            .for_each(|&v| b.extend((v as i64).to_be_bytes()));
+    } else {
+        b.extend(b"CELLS 2 10\n");
+        for t in TETS {
+            b.extend(4i32.to_be_bytes());
+            t.iter().for_each(|&v| b.extend((v as i32).to_be_bytes()));
+        }
+    }
+    b.extend(b"\nCELL_TYPES 2\n");
+    b.extend(10i32.to_be_bytes());
+    b.extend(10i32.to_be_bytes());
+    b.extend(b"\n\nPOINT_DATA 5\nSCALARS s double 1\nLOOKUP_TABLE default\n");
+    (0..5).for_each(|i| b.extend(f64::from(i).to_be_bytes()));
+    b.extend(b"\n");
+    b
 }
 
 /// Integers that have broken binary readers: zero, one, signs, the edges of each width, and
@@ -296,15 +484,23 @@ fn decode(text: &[u8]) -> Option<Vec<u8>> {
 }
 
 /// A `.vtu` mutation that reaches its binary arrays: the payload of one `format="binary"`
-/// array is decoded, mutated with [`mutate_bytes`] (block tables, sizes, compressed bytes) and
+/// array, or the appended base64 data, is decoded, mutated with [`mutate_bytes`] (block tables, sizes, compressed bytes) and
 /// encoded again; or, half the time, the file's text is mutated by `text`.
 pub fn mutate_vtu(rng: &mut Rng, data: &[u8], text: fn(&mut Rng, &[u8]) -> Vec<u8>) -> Vec<u8> {
     const OPEN: &[u8] = b"format=\"binary\">";
-    let starts: Vec<usize> = data
-        .windows(OPEN.len())
-        .enumerate()
-        .filter(|(_, w)| *w == OPEN)
-        .map(|(i, _)| i + OPEN.len())
+    const APPENDED: &[u8] = b"encoding=\"base64\">";
+    let after = |marker: &'static [u8]| {
+        data.windows(marker.len())
+            .enumerate()
+            .filter(move |(_, w)| *w == marker)
+            .map(move |(i, _)| i + marker.len())
+    };
+    // Inline payloads, and the appended base64 text after its `_`.
+    let starts: Vec<usize> = after(OPEN)
+        .chain(after(APPENDED).filter_map(|i| {
+            let underscore = data[i..].iter().position(|&b| b == b'_')?;
+            Some(i + underscore + 1)
+        }))
         .collect();
     if starts.is_empty() || below(rng, 2) == 0 {
         return text(rng, data);

@@ -1,18 +1,19 @@
-//! VTK XML unstructured grids (`.vtu`) of linear tets: one `Piece`; `DataArray`s inline as
-//! `ascii` or base64 `binary`, uncompressed or zlib-compressed, `UInt32` or `UInt64` headers,
-//! either byte order (softbench's own frames and meshio's files). Appended data is refused
-//! with a message saying so.
+//! VTK XML unstructured grids (`.vtu`) of linear tets, as VTK 9, ParaView, meshio and
+//! softbench write them: one `Piece`; `DataArray`s `ascii`, inline base64 `binary` or
+//! `appended` (raw or base64, `appended.rs`); uncompressed or compressed with zlib, LZ4 or
+//! LZMA (`compressors.rs`); `UInt32` or `UInt64` headers; either byte order (`binary.rs`).
+//! Child elements of a `DataArray` (VTK's `<InformationKey>`) are read past (`tags.rs`).
 //!
 //! Sizes are checked before work: the `Piece` counts against the mesh budget, then every
-//! array's declared size (a zlib block table included, and what its compressed bytes can
-//! inflate to) against what `NumberOfPoints` and `NumberOfCells` allow, before it is
-//! inflated or converted to f64. Arrays softbench does not use are read past undecoded; a
-//! second `<Points>`, `<Cells>` or mesh array is refused.
+//! array's declared size (a block table included, and what its compressed bytes can inflate
+//! to) against what `NumberOfPoints` and `NumberOfCells` allow, before it is inflated or
+//! converted to f64. Arrays softbench does not use are read past undecoded; a second
+//! `<Points>`, `<Cells>` or mesh array is refused. Appended arrays are decoded once the
+//! `<AppendedData>` section is reached, at the end of the file.
 //!
 //! Point data with three components (softbench writes `velocity` and `displacement`) and the
 //! field `TimeValue` are kept by [`read_vtu_frame`], so a run can start from an exported frame.
 
-use std::io::Read;
 use std::path::Path;
 
 use nalgebra::Vector3;
@@ -20,7 +21,12 @@ use nalgebra::Vector3;
 use super::super::bytes::{Cursor, bad_coordinate, clip};
 use super::super::text::{self, parse_error};
 use super::super::{MeshError, TetMesh};
+use super::appended::Appended;
+use super::base64;
+use super::binary::{self, Bytes, Encoding};
 use super::cells::cells;
+use super::compressors::{self, Compressor};
+use super::tags::{Tag, array_content, next_tag};
 
 /// A `.vtu` grid with the point data and time it carries.
 #[derive(Clone, Debug, PartialEq)]
@@ -64,106 +70,22 @@ pub fn read_vtu_frame(path: impl AsRef<Path>) -> Result<VtuFrame, MeshError> {
     parse_vtu(&bytes, path)
 }
 
-/// One XML tag: its name, attributes, offset, and whether it closes (`</x>`) or is empty
-/// (`<x/>`).
-struct Tag<'a> {
+/// A mesh array found while scanning: where it is and how it is stored, decoded once the
+/// appended data (if any) has been reached.
+struct Found<'a> {
+    /// Offset of its `DataArray` tag and the line there.
     at: usize,
-    name: &'a str,
-    attributes: Vec<(&'a str, &'a str)>,
-    closing: bool,
-    empty: bool,
+    line: usize,
+    role: Role,
+    /// The VTK type (`Float64`, `Int32`, ...).
+    kind: &'a str,
+    data: ArrayData,
 }
 
-impl Tag<'_> {
-    fn get(&self, key: &str) -> Option<&str> {
-        self.attributes
-            .iter()
-            .find(|(k, _)| *k == key)
-            .map(|&(_, v)| v)
-    }
-}
-
-/// The next tag at or after the cursor, skipping comments, declarations and text.
-fn next_tag<'a>(c: &mut Cursor<'a>) -> Result<Option<Tag<'a>>, MeshError> {
-    loop {
-        let rest = &c.bytes[c.pos..];
-        let Some(i) = rest.iter().position(|&b| b == b'<') else {
-            c.pos = c.bytes.len();
-            return Ok(None);
-        };
-        let at = c.pos + i;
-        let rest = &c.bytes[at..];
-        let skip_to = |end: &[u8]| rest.windows(end.len()).position(|w| w == end);
-        if rest.starts_with(b"<!--") || rest.starts_with(b"<?") || rest.starts_with(b"<!") {
-            let end: &[u8] = if rest.starts_with(b"<!--") {
-                b"-->"
-            } else if rest.starts_with(b"<?") {
-                b"?>"
-            } else {
-                b">"
-            };
-            match skip_to(end) {
-                Some(j) => {
-                    c.pos = at + j + end.len();
-                    continue;
-                }
-                None => return Err(c.error_at(at, "unterminated XML comment or declaration")),
-            }
-        }
-        let Some(close) = rest.iter().position(|&b| b == b'>') else {
-            return Err(c.error_at(at, "unterminated XML tag"));
-        };
-        c.pos = at + close + 1;
-        let Ok(inner) = std::str::from_utf8(&rest[1..close]) else {
-            return Err(c.error_at(at, "XML tag is not UTF-8 text"));
-        };
-        let closing = inner.starts_with('/');
-        let empty = inner.ends_with('/');
-        let inner = inner.trim_start_matches('/').trim_end_matches('/');
-        let (name, mut attrs) = inner
-            .split_once(|ch: char| ch.is_ascii_whitespace())
-            .unwrap_or((inner, ""));
-        let mut attributes = Vec::new();
-        loop {
-            attrs = attrs.trim_start();
-            if attrs.is_empty() {
-                break;
-            }
-            let Some((key, after)) = attrs.split_once('=') else {
-                return Err(c.error_at(
-                    at,
-                    format!("malformed XML attributes in `<{}>`", clip(name)),
-                ));
-            };
-            let after = after.trim_start();
-            let quote = after.chars().next().filter(|q| *q == '"' || *q == '\'');
-            let Some(q) = quote else {
-                return Err(c.error_at(at, format!("unquoted attribute `{}`", clip(key.trim()))));
-            };
-            let Some((value, rest)) = after[1..].split_once(q) else {
-                return Err(
-                    c.error_at(at, format!("unterminated attribute `{}`", clip(key.trim())))
-                );
-            };
-            attributes.push((key.trim(), value));
-            attrs = rest;
-        }
-        return Ok(Some(Tag {
-            at,
-            name,
-            attributes,
-            closing,
-            empty,
-        }));
-    }
-}
-
-/// How binary arrays are encoded, from the `VTKFile` tag.
-#[derive(Clone, Copy)]
-struct Encoding {
-    little: bool,
-    header64: bool,
-    zlib: bool,
+/// An array's values, or where they are in the appended data.
+enum ArrayData {
+    Values(Vec<f64>),
+    Appended(u64),
 }
 
 /// Parses `.vtu` bytes; `path` is used only in error messages.
@@ -173,10 +95,11 @@ pub fn parse_vtu(bytes: &[u8], path: &Path) -> Result<VtuFrame, MeshError> {
     let mut piece: Option<(usize, usize, usize)> = None;
     let mut section = "";
     let mut sections_seen = std::collections::HashSet::new();
-    let mut points: Option<(usize, Vec<f64>)> = None;
+    let mut points: Option<Found> = None;
     let (mut connectivity, mut offsets, mut types) = (None, None, None);
-    let mut point_arrays: Vec<(String, usize, Vec<f64>)> = Vec::new();
-    let mut time = None;
+    let mut point_arrays: Vec<(String, Found)> = Vec::new();
+    let mut time: Option<Found> = None;
+    let mut appended = None;
     while let Some(tag) = next_tag(&mut c)? {
         match (tag.name, tag.closing) {
             ("VTKFile", false) => {
@@ -189,20 +112,17 @@ pub fn parse_vtu(bytes: &[u8], path: &Path) -> Result<VtuFrame, MeshError> {
                         ),
                     ));
                 }
-                let zlib = match tag.get("compressor") {
-                    None | Some("") => false,
-                    Some("vtkZLibDataCompressor") => true,
-                    Some(other) => {
-                        return Err(c.error_at(
+                let compressor =
+                    Compressor::from_attribute(tag.get("compressor")).map_err(|other| {
+                        c.error_at(
                             tag.at,
                             format!(
-                                "compressor `{}` is not supported (uncompressed and \
-                                 vtkZLibDataCompressor are)",
-                                clip(other)
+                                "compressor `{}` is not supported ({})",
+                                clip(other),
+                                compressors::SUPPORTED
                             ),
-                        ));
-                    }
-                };
+                        )
+                    })?;
                 let header64 = match tag.get("header_type") {
                     None | Some("UInt32") => false,
                     Some("UInt64") => true,
@@ -213,10 +133,23 @@ pub fn parse_vtu(bytes: &[u8], path: &Path) -> Result<VtuFrame, MeshError> {
                         ));
                     }
                 };
+                let little = match tag.get("byte_order") {
+                    None | Some("LittleEndian") => true,
+                    Some("BigEndian") => false,
+                    Some(other) => {
+                        return Err(c.error_at(
+                            tag.at,
+                            format!(
+                                "byte_order `{}` is neither LittleEndian nor BigEndian",
+                                clip(other)
+                            ),
+                        ));
+                    }
+                };
                 encoding = Some(Encoding {
-                    little: tag.get("byte_order") != Some("BigEndian"),
+                    little,
                     header64,
-                    zlib,
+                    compressor,
                 });
             }
             ("Piece", false) => {
@@ -262,13 +195,11 @@ pub fn parse_vtu(bytes: &[u8], path: &Path) -> Result<VtuFrame, MeshError> {
             }
             ("Points" | "Cells" | "PointData" | "CellData" | "FieldData", true) => section = "",
             ("AppendedData", false) => {
-                return Err(c.error_at(
-                    tag.at,
-                    "appended data is not supported; write the arrays inline (ParaView: \
-                     Data Mode Binary or Ascii)",
-                ));
+                // Its raw bytes are not XML: no tag is looked for after it.
+                appended = Some(Appended::open(&mut c, &tag)?);
+                break;
             }
-            ("DataArray", false) if !tag.empty => {
+            ("DataArray", false) => {
                 let Some(enc) = encoding else {
                     return Err(c.error_at(tag.at, "`DataArray` outside a `VTKFile`"));
                 };
@@ -302,18 +233,26 @@ pub fn parse_vtu(bytes: &[u8], path: &Path) -> Result<VtuFrame, MeshError> {
                 }
                 let (n, m) = counts.unwrap_or((0, 0));
                 let limit = role.max_values(n, m);
-                let values = data_array(&mut c, &tag, enc, limit, role.what())?;
+                let kind = tag.get("type").unwrap_or("");
+                let data = data_array(&mut c, &tag, enc, limit, role.what())?;
+                let found = Found {
+                    at: tag.at,
+                    line,
+                    role,
+                    kind,
+                    data,
+                };
                 let slot = match role {
                     Role::Points => &mut points,
                     Role::Connectivity => &mut connectivity,
                     Role::Offsets => &mut offsets,
                     Role::Types => &mut types,
                     Role::PointVector => {
-                        point_arrays.push((name, line, values));
+                        point_arrays.push((name, found));
                         continue;
                     }
                     Role::Time => {
-                        time = values.first().copied();
+                        time = Some(found);
                         continue;
                     }
                 };
@@ -327,7 +266,7 @@ pub fn parse_vtu(bytes: &[u8], path: &Path) -> Result<VtuFrame, MeshError> {
                         ),
                     ));
                 }
-                *slot = Some((line, values));
+                *slot = Some(found);
             }
             _ => {}
         }
@@ -336,6 +275,26 @@ pub fn parse_vtu(bytes: &[u8], path: &Path) -> Result<VtuFrame, MeshError> {
     let Some((piece_at, n, m)) = piece else {
         return Err(text::empty_mesh(path, end, "no `Piece`"));
     };
+    // Arrays in the appended data are decoded now that it has been found.
+    // Without a `VTKFile` tag no array was found, and the encoding is not used.
+    let enc = encoding.unwrap_or(Encoding {
+        little: true,
+        header64: false,
+        compressor: None,
+    });
+    let counts = (n, m);
+    let mut values = |found: Found| -> Result<(usize, Vec<f64>), MeshError> {
+        resolve(&mut c, found, enc, appended.as_ref(), counts)
+    };
+    let points = points.map(&mut values).transpose()?;
+    let connectivity = connectivity.map(&mut values).transpose()?;
+    let offsets = offsets.map(&mut values).transpose()?;
+    let types = types.map(&mut values).transpose()?;
+    let time = time.map(&mut values).transpose()?;
+    let point_arrays = point_arrays
+        .into_iter()
+        .map(|(name, found)| Ok((name, values(found)?)))
+        .collect::<Result<Vec<_>, MeshError>>()?;
     let piece_line = c.line_at(piece_at);
     let (_, points) = points.ok_or_else(|| text::empty_mesh(path, end, "no `Points` array"))?;
     if points.len() != 3 * n {
@@ -375,7 +334,7 @@ pub fn parse_vtu(bytes: &[u8], path: &Path) -> Result<VtuFrame, MeshError> {
     }
     let tets = cells(path, &connectivity, &offsets, &types, lines, n)?;
     let mut point_vectors = Vec::new();
-    for (name, line, values) in point_arrays {
+    for (name, (line, values)) in point_arrays {
         if values.len() != 3 * n {
             return Err(parse_error(
                 path,
@@ -397,8 +356,43 @@ pub fn parse_vtu(bytes: &[u8], path: &Path) -> Result<VtuFrame, MeshError> {
     Ok(VtuFrame {
         mesh: TetMesh { positions, tets },
         point_vectors,
-        time,
+        time: time.and_then(|(_, t)| t.first().copied()),
     })
+}
+
+/// A found array's values with its line: decoded already, or decoded now from the appended
+/// data at its offset.
+fn resolve(
+    c: &mut Cursor,
+    found: Found,
+    enc: Encoding,
+    appended: Option<&Appended>,
+    (n, m): (usize, usize),
+) -> Result<(usize, Vec<f64>), MeshError> {
+    let offset = match found.data {
+        ArrayData::Values(values) => return Ok((found.line, values)),
+        ArrayData::Appended(offset) => offset,
+    };
+    let Some(appended) = appended else {
+        return Err(c.error_at(
+            found.at,
+            "an appended `DataArray`, but the file has no `<AppendedData>` section",
+        ));
+    };
+    let what = found.role.what();
+    let limit = found.role.max_values(n, m);
+    // The type was checked when the array was found.
+    let width = binary::width(found.kind).unwrap_or(1);
+    let data = appended
+        .array(offset, enc, limit.saturating_mul(width) as u64)
+        .map_err(|m| {
+            c.error_at(
+                found.at,
+                format!("the {what} array (appended data at offset {offset}): {m}"),
+            )
+        })?;
+    let values = to_values(c, found.at, found.kind, width, &data, enc.little)?;
+    Ok((found.line, values))
 }
 
 /// What a decoded `DataArray` is for; every other array is read past undecoded.
@@ -445,45 +439,35 @@ impl Role {
     }
 }
 
-/// The content of one `DataArray` (the cursor is just past its opening tag); moves past
-/// `</DataArray>`.
-fn array_content<'a>(c: &mut Cursor<'a>, tag: &Tag) -> Result<(usize, &'a [u8]), MeshError> {
-    let start = c.pos;
-    let rest = &c.bytes[start..];
-    let close = b"</DataArray>";
-    let Some(len) = rest.windows(close.len()).position(|w| w == close) else {
-        return Err(c.error_at(tag.at, "`DataArray` has no `</DataArray>`"));
-    };
-    c.pos = start + len + close.len();
-    Ok((start, &rest[..len]))
-}
-
-/// Decodes one `DataArray`'s content (the cursor is just past its opening tag) to at most
-/// `limit` f64 values, and moves past `</DataArray>`. The sizes a binary array declares are
-/// checked against `limit` before it is inflated, and its values counted before they are
-/// converted; an ascii array stops at the first value past `limit`.
+/// Reads one `DataArray` (the cursor is just past its opening tag) up to its `</DataArray>`:
+/// an inline array decoded to at most `limit` f64 values, an appended one as its offset. The
+/// sizes a binary array declares are checked against `limit` before it is inflated, and its
+/// values counted before they are converted; an ascii array stops at the first value past
+/// `limit`.
 fn data_array(
     c: &mut Cursor,
     tag: &Tag,
     enc: Encoding,
     limit: usize,
     what: &str,
-) -> Result<Vec<f64>, MeshError> {
-    let (start, content) = array_content(c, tag)?;
+) -> Result<ArrayData, MeshError> {
     let kind = tag.get("type").unwrap_or("");
-    let width = match kind {
-        "Int8" | "UInt8" => 1,
-        "Int16" | "UInt16" => 2,
-        "Int32" | "UInt32" | "Float32" => 4,
-        "Int64" | "UInt64" | "Float64" => 8,
-        other => {
-            return Err(c.error_at(tag.at, format!("unknown DataArray type `{}`", clip(other))));
-        }
+    let Some(width) = binary::width(kind) else {
+        return Err(c.error_at(
+            tag.at,
+            format!(
+                "DataArray type `{}` is not supported (Int8 to Int64, UInt8 to UInt64, Float32 \
+                 and Float64 are)",
+                clip(kind)
+            ),
+        ));
     };
+    let format = tag.get("format").unwrap_or("ascii");
+    let (start, content) = array_content(c, tag)?;
     let too_many = |found: String| {
         format!("the {what} array holds {found}, more than the {limit} values the grid allows")
     };
-    match tag.get("format").unwrap_or("ascii") {
+    match format {
         "ascii" => {
             let Ok(text) = std::str::from_utf8(content) else {
                 return Err(c.error_at(start, "ascii DataArray is not text"));
@@ -503,222 +487,60 @@ fn data_array(
                     }
                 }
             }
-            Ok(values)
+            Ok(ArrayData::Values(values))
         }
         "binary" => {
-            let raw = decode_base64(content)
+            let raw = base64::decode(content)
                 .map_err(|i| c.error_at(start + i, "DataArray is not valid base64"))?;
             let max_bytes = limit.saturating_mul(width) as u64;
-            let data = unpack(&raw, enc, max_bytes)
+            let data = binary::unpack(&mut Bytes(&raw), enc, max_bytes)
                 .map_err(|m| c.error_at(start, format!("the {what} array: {m}")))?;
-            if data.len() % width != 0 {
-                return Err(c.error_at(
-                    start,
-                    format!(
-                        "{} bytes is not a whole number of {kind} values",
-                        data.len()
-                    ),
-                ));
-            }
-            Ok(data
-                .chunks_exact(width)
-                .map(|b| number(kind, b, enc.little))
-                .collect())
+            let values = to_values(c, start, kind, width, &data, enc.little)?;
+            Ok(ArrayData::Values(values))
         }
-        "appended" => Err(c.error_at(
-            tag.at,
-            "appended data is not supported; write the arrays inline",
-        )),
+        "appended" => {
+            let offset = tag.get("offset").unwrap_or("");
+            let offset = offset.parse().map_err(|_| {
+                c.error_at(
+                    tag.at,
+                    format!(
+                        "an appended DataArray needs an `offset`, found `{}`",
+                        clip(offset)
+                    ),
+                )
+            })?;
+            Ok(ArrayData::Appended(offset))
+        }
         other => Err(c.error_at(
             tag.at,
             format!(
-                "DataArray format `{}` is not ascii, binary or appended",
+                "DataArray format `{}` is not supported (ascii, binary and appended are)",
                 clip(other)
             ),
         )),
     }
 }
 
-/// One value of a binary array as f64 (exact for every float and for integers up to 2^53).
-fn number(kind: &str, b: &[u8], little: bool) -> f64 {
-    let mut a = [0u8; 8];
-    a[..b.len()].copy_from_slice(b);
-    if !little {
-        a[..b.len()].reverse();
-    }
-    let u = u64::from_le_bytes(a);
-    match kind {
-        "Int8" => f64::from(u as u8 as i8),
-        "Int16" => f64::from(u as u16 as i16),
-        "Int32" => f64::from(u as u32 as i32),
-        "Int64" => u as i64 as f64,
-        "Float32" => f64::from(f32::from_bits(u as u32)),
-        "Float64" => f64::from_bits(u),
-        _ => u as f64,
-    }
-}
-
-/// Most bytes a zlib stream can inflate to per compressed byte (deflate's limit: a 258-byte
-/// match in two bits), plus a constant for the stream's own framing.
-const MAX_ZLIB_RATIO: u64 = 1032;
-const ZLIB_SLACK: u64 = 4096;
-
-/// The array bytes of a decoded binary block: a byte count then the data, or (zlib) a
-/// block table then the compressed blocks. Every size the header declares is checked —
-/// against `max_bytes` (what the grid's counts allow), the mesh budget and what the
-/// compressed blocks can inflate to — before anything is allocated or inflated.
-fn unpack(raw: &[u8], enc: Encoding, max_bytes: u64) -> Result<Vec<u8>, String> {
-    let hs = if enc.header64 { 8 } else { 4 };
-    let header = |i: usize| -> Result<u64, String> {
-        let b = raw
-            .get(i * hs..(i + 1) * hs)
-            .ok_or("binary DataArray ends inside its header")?;
-        Ok(number(
-            if enc.header64 { "UInt64" } else { "UInt32" },
-            b,
-            enc.little,
-        ) as u64)
-    };
-    let over = |n: u64| {
-        format!("it declares {n} bytes, more than the {max_bytes} bytes the grid's counts allow")
-    };
-    if !enc.zlib {
-        let n = header(0)?;
-        let data = &raw[hs..];
-        if n > max_bytes {
-            return Err(over(n));
-        }
-        if (data.len() as u64) < n {
-            return Err(format!(
-                "binary DataArray announces {n} bytes but holds {}",
+/// The values of a binary array's bytes; `at` locates errors.
+fn to_values(
+    c: &mut Cursor,
+    at: usize,
+    kind: &str,
+    width: usize,
+    data: &[u8],
+    little: bool,
+) -> Result<Vec<f64>, MeshError> {
+    if !data.len().is_multiple_of(width) {
+        return Err(c.error_at(
+            at,
+            format!(
+                "{} bytes is not a whole number of {kind} values",
                 data.len()
-            ));
-        }
-        return Ok(data[..n as usize].to_vec());
-    }
-    let blocks = header(0)?;
-    let block_size = header(1)?;
-    // VTK writes 0 here when the last block is full.
-    let last_size = match header(2)? {
-        0 => block_size,
-        partial => partial,
-    };
-    let table_end = 3u64
-        .checked_add(blocks)
-        .and_then(|k| k.checked_mul(hs as u64))
-        .filter(|&e| e <= raw.len() as u64)
-        .ok_or("compressed DataArray's block table is longer than the array")?;
-    if blocks > 0 && last_size > block_size {
-        return Err(format!(
-            "its last block of {last_size} bytes is larger than the block size {block_size}"
+            ),
         ));
     }
-    let total = blocks
-        .saturating_sub(1)
-        .saturating_mul(block_size)
-        .saturating_add(if blocks > 0 { last_size } else { 0 });
-    if total > max_bytes {
-        return Err(over(total));
-    }
-    // Every entry of a point or cell array of a budget-sized mesh, nine 8-byte components.
-    let budget = crate::limits::MESH.limit().saturating_mul(9 * 8);
-    if total > budget {
-        return Err(format!(
-            "it declares {total} bytes, more than an array of a mesh within the mesh budget \
-             can hold"
-        ));
-    }
-    // Each block's declared size against what its compressed bytes can inflate to, and the
-    // blocks against the array's length, before any is inflated.
-    let mut at = table_end;
-    for b in 0..blocks as usize {
-        let size = header(3 + b)?;
-        let expect = if b + 1 == blocks as usize {
-            last_size
-        } else {
-            block_size
-        };
-        at = at
-            .checked_add(size)
-            .filter(|&e| e <= raw.len() as u64)
-            .ok_or("compressed DataArray ends inside a block")?;
-        if expect
-            > size
-                .saturating_mul(MAX_ZLIB_RATIO)
-                .saturating_add(ZLIB_SLACK)
-        {
-            return Err(format!(
-                "block {b} declares {expect} bytes from {size} compressed bytes, more than \
-                 zlib can inflate them to"
-            ));
-        }
-    }
-    let mut out = Vec::with_capacity((total as usize).min(raw.len().saturating_mul(4)));
-    let mut at = table_end as usize;
-    for b in 0..blocks as usize {
-        let size = header(3 + b)? as usize;
-        let chunk = &raw[at..at + size];
-        at += size;
-        let expect = if b + 1 == blocks as usize {
-            last_size
-        } else {
-            block_size
-        };
-        let before = out.len();
-        flate2::read::ZlibDecoder::new(chunk)
-            .take(expect)
-            .read_to_end(&mut out)
-            .map_err(|e| format!("cannot decompress a block: {e}"))?;
-        if (out.len() - before) as u64 != expect {
-            return Err("a compressed block is shorter than its header says".into());
-        }
-    }
-    Ok(out)
-}
-
-/// Standard base64 with `=` padding, ignoring whitespace; padding may end one encoded run
-/// and another follow (VTK encodes a compressed array's header and data separately). On
-/// error, the offset of the bad character.
-fn decode_base64(text: &[u8]) -> Result<Vec<u8>, usize> {
-    let mut out = Vec::with_capacity(text.len() / 4 * 3);
-    let mut group = [0u8; 4];
-    let mut n = 0;
-    let mut pad = 0;
-    for (i, &ch) in text.iter().enumerate() {
-        let v = match ch {
-            b'A'..=b'Z' => ch - b'A',
-            b'a'..=b'z' => ch - b'a' + 26,
-            b'0'..=b'9' => ch - b'0' + 52,
-            b'+' => 62,
-            b'/' => 63,
-            b'=' => {
-                if n < 2 {
-                    return Err(i);
-                }
-                pad += 1;
-                0
-            }
-            c if c.is_ascii_whitespace() => continue,
-            _ => return Err(i),
-        };
-        if pad > 0 && ch != b'=' {
-            return Err(i);
-        }
-        group[n] = v;
-        n += 1;
-        if n == 4 {
-            let x = u32::from(group[0]) << 18
-                | u32::from(group[1]) << 12
-                | u32::from(group[2]) << 6
-                | u32::from(group[3]);
-            let bytes = [(x >> 16) as u8, (x >> 8) as u8, x as u8];
-            out.extend_from_slice(&bytes[..3 - pad]);
-            n = 0;
-            pad = 0;
-        }
-    }
-    if n != 0 {
-        return Err(text.len());
-    }
-    Ok(out)
+    Ok(data
+        .chunks_exact(width)
+        .map(|b| binary::number(kind, b, little))
+        .collect())
 }
