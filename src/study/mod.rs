@@ -13,6 +13,7 @@ pub mod config;
 mod contact;
 mod context;
 mod error;
+mod eta;
 pub mod findings;
 pub mod format;
 mod grid;

@@ -1,0 +1,561 @@
+//! The time a study has left, estimated from what its finished runs cost.
+//!
+//! Runs differ by orders of magnitude (steps × DOFs × the method's cost per step), so counting
+//! runs, or extrapolating a rate of finished runs per second, says little: that rate decays
+//! while a long run is in flight and its ETA balloons. Instead every run gets a size known
+//! before it starts (planned steps × a per-step weight), finished runs give a cost per unit
+//! of size (per group of runs of one scene, method and linear solver, else pooled over all
+//! runs), and the runs left — the queued ones whole, the running ones from where their step
+//! count says they are — are laid out on the jobs as the runner hands them out.
+//!
+//! [`Eta`] is pure: the runner feeds it events with times in seconds from any fixed origin,
+//! and it never reads a clock, so tests replay synthetic schedules.
+
+/// A run as planned, before it starts.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Planned {
+    /// Runs of one group are expected to cost the same per unit of size (the runner uses one
+    /// per scene, method and linear solver); small integers, indexes into a table.
+    pub group: usize,
+    /// The steps the run is expected to take (0 for a run with nothing to do).
+    pub steps: f64,
+    /// The cost of one of its steps relative to other runs' (free DOFs × the method's
+    /// weight, as the shard balance estimates it).
+    pub step_weight: f64,
+}
+
+impl Planned {
+    fn size(&self) -> f64 {
+        self.steps.max(0.0) * self.step_weight.max(0.0)
+    }
+}
+
+/// The fraction of a run's planned steps that must be done before its running rate stands in
+/// for a rate when no run has finished yet.
+pub(super) const ENOUGH_OF_A_RUN: f64 = 0.1;
+
+/// Where a run is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Phase {
+    Queued,
+    /// Already complete before this invocation: neither work done now nor work left.
+    Skipped,
+    /// Running since `started`; `steps` done as of `moved` (when the count last changed).
+    Running {
+        started: f64,
+        steps: f64,
+        moved: f64,
+    },
+    Finished,
+}
+
+/// Seconds spent and size done: a cost per unit of size once `size` is positive.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct Evidence {
+    seconds: f64,
+    size: f64,
+}
+
+impl Evidence {
+    fn add(&mut self, seconds: f64, size: f64) {
+        self.seconds += seconds.max(0.0);
+        self.size += size;
+    }
+
+    /// Seconds per unit of size (ratio of sums: big runs weigh most, and a run cut short after
+    /// a few steps cannot swing it far).
+    fn rate(&self) -> Option<f64> {
+        (self.size > 0.0).then(|| self.seconds / self.size)
+    }
+}
+
+/// The estimator: the plan, the runs' events, and the evidence of the finished runs.
+#[derive(Clone, Debug)]
+pub(super) struct Eta {
+    plan: Vec<Planned>,
+    phase: Vec<Phase>,
+    jobs: usize,
+    /// Finished runs' evidence per group (indexed by [`Planned::group`]).
+    groups: Vec<Evidence>,
+    /// Finished runs' evidence over every group.
+    pooled: Evidence,
+    /// Scratch for the schedule: when each job is free (allocated once).
+    free_at: Vec<f64>,
+}
+
+impl Eta {
+    /// An estimator for `plan`, in the order the runs are handed out, run `jobs` at a time.
+    pub(super) fn new(plan: Vec<Planned>, jobs: usize) -> Self {
+        let jobs = jobs.max(1);
+        let groups = plan.iter().map(|p| p.group + 1).max().unwrap_or(0);
+        Self {
+            phase: vec![Phase::Queued; plan.len()],
+            plan,
+            jobs,
+            groups: vec![Evidence::default(); groups],
+            pooled: Evidence::default(),
+            free_at: Vec::with_capacity(jobs),
+        }
+    }
+
+    /// Run `run` was complete already and is not run now.
+    pub(super) fn skip(&mut self, run: usize) {
+        self.phase[run] = Phase::Skipped;
+    }
+
+    /// Run `run` started at `now`.
+    pub(super) fn start(&mut self, run: usize, now: f64) {
+        self.phase[run] = Phase::Running {
+            started: now,
+            steps: 0.0,
+            moved: now,
+        };
+    }
+
+    /// Run `run` has done `steps` steps as of `now` (calls that do not change the count change
+    /// nothing).
+    pub(super) fn progress(&mut self, run: usize, steps: f64, now: f64) {
+        if let Phase::Running {
+            steps: done, moved, ..
+        } = &mut self.phase[run]
+            && steps != *done
+        {
+            *done = steps;
+            *moved = now;
+        }
+    }
+
+    /// Run `run` finished at `now` having done `steps` steps (`None`: its kind counts none, so
+    /// it did what was planned). A run that stopped early (a blow-up) is evidence for the
+    /// steps it did; one that took more steps than planned counts as planned, the rate per
+    /// planned step carrying the difference to the runs like it.
+    pub(super) fn finish(&mut self, run: usize, steps: Option<f64>, now: f64) {
+        let Phase::Running { started, .. } = self.phase[run] else {
+            return;
+        };
+        self.phase[run] = Phase::Finished;
+        let planned = self.plan[run];
+        let done = steps.map_or(planned.steps, |s| s.clamp(0.0, planned.steps.max(0.0)));
+        let size = done * planned.step_weight.max(0.0);
+        if size > 0.0 {
+            self.groups[planned.group].add(now - started, size);
+            self.pooled.add(now - started, size);
+        }
+    }
+
+    /// Seconds per unit of size when a group has no finished run: every finished run's, else
+    /// (no run finished yet) that of the running runs past [`ENOUGH_OF_A_RUN`].
+    fn fallback_rate(&self) -> Option<f64> {
+        if let Some(rate) = self.pooled.rate() {
+            return Some(rate);
+        }
+        let mut running = Evidence::default();
+        for (planned, phase) in self.plan.iter().zip(&self.phase) {
+            if let Phase::Running {
+                started,
+                steps,
+                moved,
+            } = *phase
+                && steps >= ENOUGH_OF_A_RUN * planned.steps
+            {
+                running.add(
+                    moved - started,
+                    steps.min(planned.steps) * planned.step_weight,
+                );
+            }
+        }
+        running.rate()
+    }
+
+    /// The estimated seconds until every run has finished, as of `now`; `None` until some
+    /// run has finished, or enough of one has run, to estimate from.
+    pub(super) fn remaining(&mut self, now: f64) -> Option<f64> {
+        let fallback = self.fallback_rate();
+        let groups = &self.groups;
+        // Seconds per unit of size for runs of a group: its finished runs', else the fallback.
+        let rate = |group: usize| groups[group].rate().or(fallback);
+        self.free_at.clear();
+        let mut any_left = false;
+        for run in 0..self.plan.len() {
+            let planned = self.plan[run];
+            if let Phase::Running { steps, moved, .. } = self.phase[run] {
+                any_left = true;
+                let rate = rate(planned.group)?;
+                let left = (planned.steps - steps).max(0.0) * planned.step_weight.max(0.0) * rate;
+                // Between step counts, count down within the current step only: a run slower
+                // than its rate then holds its estimate instead of reaching zero.
+                let within = (now - moved).clamp(0.0, planned.step_weight.max(0.0) * rate);
+                self.free_at.push((left - within).max(0.0));
+            }
+        }
+        while self.free_at.len() < self.jobs {
+            self.free_at.push(0.0);
+        }
+        // The queued runs, in order, each to the job free first: as the runner hands them out.
+        for run in 0..self.plan.len() {
+            if self.phase[run] != Phase::Queued {
+                continue;
+            }
+            any_left = true;
+            let planned = self.plan[run];
+            let seconds = planned.size() * rate(planned.group)?;
+            let first = self
+                .free_at
+                .iter_mut()
+                .min_by(|a, b| a.total_cmp(b))
+                .expect("at least one job");
+            *first += seconds;
+        }
+        if !any_left {
+            return Some(0.0);
+        }
+        Some(self.free_at.iter().copied().fold(0.0, f64::max))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A consistent cost model: a run of group g takes `cost[g]` seconds per unit of size.
+    struct Model {
+        cost: Vec<f64>,
+    }
+
+    impl Model {
+        fn seconds(&self, p: &Planned) -> f64 {
+            p.size() * self.cost[p.group]
+        }
+    }
+
+    fn run(group: usize, steps: f64, step_weight: f64) -> Planned {
+        Planned {
+            group,
+            steps,
+            step_weight,
+        }
+    }
+
+    /// Replays `plan` on `jobs` jobs as the runner does (each run to the job free first, in
+    /// order), runs taking the model's time (or `stops[i]` steps of it, for a run that stops
+    /// early), feeding `eta` every step. Calls `look(eta, now, next, true_remaining,
+    /// finished)` after every event, `next` the time of the next one.
+    fn replay(
+        eta: &mut Eta,
+        plan: &[Planned],
+        order: &[usize],
+        jobs: usize,
+        model: &Model,
+        stops: &[Option<f64>],
+        mut look: impl FnMut(&mut Eta, f64, f64, f64, bool),
+    ) -> f64 {
+        // Schedule: start and end of every run (the truth).
+        let mut free = vec![0.0f64; jobs];
+        let mut span = vec![(0.0, 0.0); plan.len()];
+        for &i in order {
+            let (job, _) = free
+                .iter()
+                .enumerate()
+                .min_by(|a, b| a.1.total_cmp(b.1))
+                .unwrap();
+            let steps = stops[i].unwrap_or(plan[i].steps);
+            let per_step = plan[i].step_weight * model.cost[plan[i].group];
+            let end = free[job] + steps * per_step;
+            span[i] = (free[job], end);
+            free[job] = end;
+        }
+        let finish = free.iter().copied().fold(0.0, f64::max);
+        // Events in time order: starts, step counts, finishes.
+        let mut events: Vec<(f64, usize, u8, f64)> = Vec::new();
+        for &i in order {
+            let (start, end) = span[i];
+            let steps = stops[i].unwrap_or(plan[i].steps);
+            events.push((start, i, 0, 0.0));
+            let n = steps as usize;
+            for k in 1..n {
+                let t = start + (end - start) * k as f64 / steps;
+                events.push((t, i, 1, k as f64));
+            }
+            events.push((end, i, 2, steps));
+        }
+        // Stable: at equal times, in the order pushed (a run's start before its finish, and
+        // a run's finish before the start of the run that waited for its job).
+        events.sort_by(|a, b| a.0.total_cmp(&b.0));
+        for (k, &(t, i, what, steps)) in events.iter().enumerate() {
+            match what {
+                0 => eta.start(i, t),
+                1 => eta.progress(i, steps, t),
+                _ => eta.finish(i, Some(steps), t),
+            }
+            let next = events.get(k + 1).map_or(t, |e| e.0);
+            look(eta, t, next, finish - t, what == 2);
+        }
+        finish
+    }
+
+    fn mixed_plan() -> Vec<Planned> {
+        vec![
+            run(0, 20.0, 1.0),
+            run(1, 100.0, 30.0),
+            run(0, 400.0, 1.0),
+            run(1, 10.0, 30.0),
+            run(2, 0.0, 5.0),
+            run(0, 50.0, 8.0),
+            run(1, 200.0, 30.0),
+            run(0, 5.0, 1.0),
+        ]
+    }
+
+    fn model() -> Model {
+        // Per unit of size, group 1 costs twice group 0; group 2 runs have no size.
+        Model {
+            cost: vec![0.01, 0.02, 0.03],
+        }
+    }
+
+    #[test]
+    fn no_estimate_before_a_run_finishes_or_enough_of_one_has_run() {
+        let mut eta = Eta::new(vec![run(0, 100.0, 1.0), run(0, 100.0, 1.0)], 1);
+        assert_eq!(eta.remaining(0.0), None);
+        eta.start(0, 0.0);
+        eta.progress(0, 5.0, 5.0);
+        assert_eq!(eta.remaining(5.0), None, "5% of a run is not enough");
+        eta.progress(0, 10.0, 10.0);
+        // 1 s a step: 90 s left of this run, 100 s of the next.
+        assert_eq!(eta.remaining(10.0), Some(190.0));
+    }
+
+    #[test]
+    fn after_every_finished_run_the_estimate_is_within_a_factor_of_the_truth() {
+        let plan = mixed_plan();
+        let order: Vec<usize> = (0..plan.len()).collect();
+        let stops = vec![None; plan.len()];
+        let model = model();
+        for jobs in [1, 2, 3] {
+            let mut eta = Eta::new(plan.clone(), jobs);
+            let mut seen_groups = [false; 3];
+            replay(
+                &mut eta,
+                &plan,
+                &order,
+                jobs,
+                &model,
+                &stops,
+                |eta, now, _, truth, finished| {
+                    if !finished {
+                        return;
+                    }
+                    for g in 0..3 {
+                        seen_groups[g] |= eta.groups[g].size > 0.0;
+                    }
+                    let estimate = eta.remaining(now).expect("a run has finished");
+                    // The groups' costs differ by 2x, so before a group's first run has
+                    // finished the pooled rate is off by at most that, give or take the
+                    // countdown within a running step (at most one step, 0.6 s here); once
+                    // every group with work left has finished runs it is exact.
+                    let (factor, slack) = if seen_groups[0] && seen_groups[1] {
+                        (1.0, 1e-9)
+                    } else {
+                        (2.0, 0.6)
+                    };
+                    assert!(
+                        estimate <= factor * (truth + slack)
+                            && truth <= factor * (estimate + slack),
+                        "{jobs} jobs at {now}: estimate {estimate}, truth {truth}"
+                    );
+                },
+            );
+        }
+    }
+
+    #[test]
+    fn the_estimate_never_grows_when_runs_cost_what_the_finished_ones_did() {
+        // One small run first sets each group's rate; then nothing surprises.
+        let plan = vec![
+            run(0, 10.0, 1.0),
+            run(1, 10.0, 3.0),
+            run(0, 300.0, 1.0),
+            run(1, 80.0, 3.0),
+            run(0, 1000.0, 1.0),
+            run(1, 5.0, 3.0),
+        ];
+        let order: Vec<usize> = (0..plan.len()).collect();
+        let model = Model {
+            cost: vec![0.01, 0.05],
+        };
+        for jobs in [1, 2] {
+            let mut eta = Eta::new(plan.clone(), jobs);
+            let mut last: Option<f64> = None;
+            let mut both_known = false;
+            let stops = vec![None; plan.len()];
+            replay(
+                &mut eta,
+                &plan,
+                &order,
+                jobs,
+                &model,
+                &stops,
+                |eta, now, next, truth, _| {
+                    both_known |= eta.groups[0].size > 0.0 && eta.groups[1].size > 0.0;
+                    if !both_known {
+                        return;
+                    }
+                    // Halfway to the next event too: the countdown within a step.
+                    for at in [now, 0.5 * (now + next)] {
+                        let estimate = eta.remaining(at).unwrap();
+                        if let Some(last) = last {
+                            assert!(
+                                estimate <= last + 1e-9,
+                                "{jobs} jobs at {now}: {estimate} after {last}"
+                            );
+                        }
+                        last = Some(estimate);
+                    }
+                    let estimate = eta.remaining(now).unwrap();
+                    assert!((estimate - truth).abs() <= 1e-6 * truth.max(1.0));
+                },
+            );
+        }
+    }
+
+    #[test]
+    fn parallel_jobs_share_the_work_left() {
+        // Four equal runs, one finished: three left, of 10 s each.
+        let plan = vec![run(0, 10.0, 1.0); 4];
+        for (jobs, expected) in [(1, 30.0), (2, 20.0), (3, 10.0), (8, 10.0)] {
+            let mut eta = Eta::new(plan.clone(), jobs);
+            eta.start(0, 0.0);
+            eta.finish(0, Some(10.0), 10.0);
+            assert_eq!(eta.remaining(10.0), Some(expected), "{jobs} jobs");
+        }
+        // One long run in flight keeps one job busy while the other takes the short ones.
+        let plan = vec![
+            run(0, 10.0, 1.0),
+            run(0, 100.0, 1.0),
+            run(0, 10.0, 1.0),
+            run(0, 10.0, 1.0),
+        ];
+        let mut eta = Eta::new(plan, 2);
+        eta.start(0, 0.0);
+        eta.start(1, 0.0);
+        eta.finish(0, Some(10.0), 10.0);
+        eta.start(2, 10.0);
+        eta.progress(1, 10.0, 10.0);
+        // Run 1 has 90 s left; runs 2 and 3 take 20 s on the other job.
+        assert_eq!(eta.remaining(10.0), Some(90.0));
+    }
+
+    #[test]
+    fn runs_already_complete_do_not_count_as_work_done_now() {
+        let plan = mixed_plan();
+        let model = model();
+        let skipped = [1, 2, 5];
+        let order: Vec<usize> = (0..plan.len()).filter(|i| !skipped.contains(i)).collect();
+        let stops = vec![None; plan.len()];
+        // The same study resumed with three runs complete, and a fresh study of the other
+        // runs only: the same estimates at every event.
+        let mut resumed = Eta::new(plan.clone(), 2);
+        for &i in &skipped {
+            resumed.skip(i);
+        }
+        let left: Vec<Planned> = order.iter().map(|&i| plan[i]).collect();
+        let mut fresh = Eta::new(left.clone(), 2);
+        let mut resumed_estimates = Vec::new();
+        replay(
+            &mut resumed,
+            &plan,
+            &order,
+            2,
+            &model,
+            &stops,
+            |eta, now, _, truth, _| resumed_estimates.push((eta.remaining(now), truth)),
+        );
+        let mut fresh_estimates = Vec::new();
+        let fresh_order: Vec<usize> = (0..left.len()).collect();
+        replay(
+            &mut fresh,
+            &left,
+            &fresh_order,
+            2,
+            &model,
+            &vec![None; left.len()],
+            |eta, now, _, truth, _| fresh_estimates.push((eta.remaining(now), truth)),
+        );
+        assert_eq!(resumed_estimates, fresh_estimates);
+        // Skipped runs are neither evidence nor work left.
+        assert_eq!(resumed.pooled, fresh.pooled);
+        assert_eq!(resumed.remaining(1e9), Some(0.0));
+    }
+
+    #[test]
+    fn zero_size_runs_take_no_time_and_are_no_evidence() {
+        let plan = vec![run(0, 0.0, 5.0), run(0, 10.0, 0.0), run(0, 10.0, 1.0)];
+        let mut eta = Eta::new(plan, 1);
+        eta.start(0, 0.0);
+        // It spent 2 s on nothing: no rate from it.
+        eta.finish(0, Some(0.0), 2.0);
+        assert_eq!(eta.remaining(2.0), None);
+        eta.start(1, 2.0);
+        eta.finish(1, Some(10.0), 3.0);
+        assert_eq!(eta.remaining(3.0), None);
+        eta.start(2, 3.0);
+        eta.progress(2, 5.0, 8.0);
+        assert_eq!(eta.remaining(8.0), Some(5.0));
+        eta.finish(2, Some(10.0), 13.0);
+        assert_eq!(eta.remaining(13.0), Some(0.0));
+        // Nothing but zero-size runs left: they take no time once a rate is known.
+        let mut eta = Eta::new(vec![run(0, 10.0, 1.0), run(0, 0.0, 1.0)], 1);
+        eta.start(0, 0.0);
+        eta.finish(0, None, 10.0);
+        assert_eq!(eta.remaining(10.0), Some(0.0));
+    }
+
+    #[test]
+    fn a_first_run_that_stops_early_counts_the_steps_it_did() {
+        // Run 0 blows up after 4 of its 1000 steps, in 4 s: 1 s a step. Counting its planned
+        // steps would say 1 ms a step and the rest would look 1000x shorter than it is.
+        let plan = vec![run(0, 1000.0, 1.0), run(0, 100.0, 1.0), run(0, 100.0, 1.0)];
+        let model = Model { cost: vec![1.0] };
+        let mut stops = vec![None; plan.len()];
+        stops[0] = Some(4.0);
+        let mut eta = Eta::new(plan.clone(), 1);
+        let mut checked = false;
+        replay(
+            &mut eta,
+            &plan,
+            &[0, 1, 2],
+            1,
+            &model,
+            &stops,
+            |eta, now, _, truth, finished| {
+                if finished && !checked {
+                    checked = true;
+                    assert_eq!(now, 4.0);
+                    assert_eq!(eta.remaining(now), Some(truth));
+                    assert_eq!(truth, 200.0);
+                }
+            },
+        );
+        assert!(checked);
+        // A kind that counts no steps finishes as planned.
+        let mut eta = Eta::new(plan, 1);
+        eta.start(0, 0.0);
+        eta.finish(0, None, 1000.0);
+        assert_eq!(eta.remaining(1000.0), Some(200.0));
+    }
+
+    #[test]
+    fn a_run_slower_than_its_rate_holds_its_estimate_instead_of_reaching_zero() {
+        let plan = vec![run(0, 10.0, 1.0), run(0, 10.0, 1.0)];
+        let mut eta = Eta::new(plan, 1);
+        eta.start(0, 0.0);
+        eta.finish(0, Some(10.0), 10.0);
+        eta.start(1, 10.0);
+        // Its first step is late: the estimate counts down one step (1 s) and waits.
+        assert_eq!(eta.remaining(10.5), Some(9.5));
+        assert_eq!(eta.remaining(11.0), Some(9.0));
+        assert_eq!(eta.remaining(60.0), Some(9.0));
+        eta.progress(1, 5.0, 60.0);
+        assert_eq!(eta.remaining(60.0), Some(5.0));
+    }
+}
