@@ -25,6 +25,7 @@ mod machine;
 mod measured;
 mod merge;
 mod meta;
+mod meter;
 pub mod pictures;
 pub mod plots;
 pub mod profiles;
