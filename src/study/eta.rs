@@ -4,18 +4,27 @@
 //! runs, or extrapolating a rate of finished runs per second, says little: that rate decays
 //! while a long run is in flight and its ETA balloons. Instead every run gets a size known
 //! before it starts (planned steps × a per-step weight), finished runs give a cost per unit
-//! of size (per group of runs of one scene, method and linear solver, else pooled over all
-//! runs), and the runs left — the queued ones whole, the running ones from where their step
-//! count says they are — are laid out on the jobs as the runner hands them out.
+//! of size (per group of runs of one scene, method and linear solver; else per scene, since
+//! scenes differ in what a DOF costs, contact or springs; else pooled over all runs), and
+//! the runs left — the queued ones whole, the running ones from where their step
+//! count says they are — are laid out on the jobs as the runner hands them out. A run's
+//! setup before its first step and teardown after its last are timed apart from its steps,
+//! so a run that blows up after a few steps does not make every step look as dear as them.
 //!
 //! [`Eta`] is pure: the runner feeds it events with times in seconds from any fixed origin,
 //! and it never reads a clock, so tests replay synthetic schedules.
 
+use super::spec::RunSpec;
+use std::collections::HashMap;
+
 /// A run as planned, before it starts.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Planned {
-    /// Runs of one group are expected to cost the same per unit of size (the runner uses one
-    /// per scene, method and linear solver); small integers, indexes into a table.
+    /// Runs of one scene are expected to cost about the same per unit of size; a small
+    /// integer, an index into a table.
+    pub scene: usize,
+    /// Runs of one group, within a scene, are expected to cost the same per unit of size
+    /// (the runner uses one per scene, method and linear solver); an index too.
     pub group: usize,
     /// The steps the run is expected to take (0 for a run with nothing to do).
     pub steps: f64,
@@ -30,6 +39,30 @@ impl Planned {
     }
 }
 
+/// The plan of `runs`, in order: each run's scene and group (one per scene, method and
+/// linear solver), the steps its kind expects it to take, and the shard balance's cost of one
+/// of its steps.
+pub(super) fn plan(runs: &[&RunSpec]) -> Vec<Planned> {
+    let mut scenes: HashMap<&str, usize> = HashMap::new();
+    let mut groups: HashMap<(&str, &str, &str), usize> = HashMap::new();
+    runs.iter()
+        .map(|r| {
+            let key = (
+                r.scene.as_str(),
+                r.method.name(),
+                r.linear_solver.as_ref().map_or("", |s| s.name()),
+            );
+            let (next_scene, next_group) = (scenes.len(), groups.len());
+            Planned {
+                scene: *scenes.entry(&r.scene).or_insert(next_scene),
+                group: *groups.entry(key).or_insert(next_group),
+                steps: r.estimated_steps,
+                step_weight: super::shard::step_weight(r),
+            }
+        })
+        .collect()
+}
+
 /// The fraction of a run's planned steps that must be done before its running rate stands in
 /// for a rate when no run has finished yet.
 pub(super) const ENOUGH_OF_A_RUN: f64 = 0.1;
@@ -40,16 +73,18 @@ enum Phase {
     Queued,
     /// Already complete before this invocation: neither work done now nor work left.
     Skipped,
-    /// Running since `started`; `steps` done as of `moved` (when the count last changed).
+    /// Running since `started`, stepping since `stepping` (its setup done); `steps` done,
+    /// the last at `moved` (`stepping` before the first).
     Running {
         started: f64,
+        stepping: Option<f64>,
         steps: f64,
         moved: f64,
     },
     Finished,
 }
 
-/// Seconds spent and size done: a cost per unit of size once `size` is positive.
+/// Seconds spent stepping and size done: a cost per unit of size once `size` is positive.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 struct Evidence {
     seconds: f64,
@@ -62,23 +97,55 @@ impl Evidence {
         self.size += size;
     }
 
-    /// Seconds per unit of size (ratio of sums: big runs weigh most, and a run cut short after
-    /// a few steps cannot swing it far).
+    /// Seconds per unit of size (ratio of sums: big runs weigh most).
     fn rate(&self) -> Option<f64> {
         (self.size > 0.0).then(|| self.seconds / self.size)
     }
 }
 
-/// The estimator: the plan, the runs' events, and the evidence of the finished runs.
+/// A mean of seconds.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct Mean {
+    sum: f64,
+    count: f64,
+}
+
+impl Mean {
+    fn add(&mut self, seconds: f64) {
+        self.sum += seconds.max(0.0);
+        self.count += 1.0;
+    }
+
+    fn get(&self) -> Option<f64> {
+        (self.count > 0.0).then(|| self.sum / self.count)
+    }
+}
+
+/// What runs spend besides their steps: the setup before the first (building the scene and
+/// the pictures' surface) and the teardown after the last (the outcome, the pictures' last
+/// frames, the cells). A run that blows up after a few steps is mostly these, and its few
+/// steps must not carry them.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct Overhead {
+    setup: Mean,
+    teardown: Mean,
+}
+
+/// The estimator: the plan, the runs' events, and what the runs so far cost.
 #[derive(Clone, Debug)]
 pub(super) struct Eta {
     plan: Vec<Planned>,
     phase: Vec<Phase>,
     jobs: usize,
-    /// Finished runs' evidence per group (indexed by [`Planned::group`]).
+    /// Finished runs' stepping per group (indexed by [`Planned::group`]).
     groups: Vec<Evidence>,
-    /// Finished runs' evidence over every group.
+    /// Finished runs' stepping per scene (indexed by [`Planned::scene`]).
+    scenes: Vec<Evidence>,
+    /// Finished runs' stepping over every run.
     pooled: Evidence,
+    /// Overheads per scene, and over every run.
+    scene_overheads: Vec<Overhead>,
+    pooled_overhead: Overhead,
     /// Scratch for the schedule: when each job is free (allocated once).
     free_at: Vec<f64>,
 }
@@ -88,12 +155,16 @@ impl Eta {
     pub(super) fn new(plan: Vec<Planned>, jobs: usize) -> Self {
         let jobs = jobs.max(1);
         let groups = plan.iter().map(|p| p.group + 1).max().unwrap_or(0);
+        let scenes = plan.iter().map(|p| p.scene + 1).max().unwrap_or(0);
         Self {
             phase: vec![Phase::Queued; plan.len()],
             plan,
             jobs,
             groups: vec![Evidence::default(); groups],
+            scenes: vec![Evidence::default(); scenes],
             pooled: Evidence::default(),
+            scene_overheads: vec![Overhead::default(); scenes],
+            pooled_overhead: Overhead::default(),
             free_at: Vec::with_capacity(jobs),
         }
     }
@@ -107,44 +178,80 @@ impl Eta {
     pub(super) fn start(&mut self, run: usize, now: f64) {
         self.phase[run] = Phase::Running {
             started: now,
+            stepping: None,
             steps: 0.0,
             moved: now,
         };
     }
 
-    /// Run `run` has done `steps` steps as of `now` (calls that do not change the count change
-    /// nothing).
-    pub(super) fn progress(&mut self, run: usize, steps: f64, now: f64) {
+    /// Run `run` finished its setup and began stepping at `at` (later calls change nothing).
+    pub(super) fn stepping(&mut self, run: usize, at: f64) {
+        if let Phase::Running {
+            started,
+            stepping: stepping @ None,
+            moved,
+            ..
+        } = &mut self.phase[run]
+        {
+            *stepping = Some(at);
+            *moved = at;
+            let setup = at - *started;
+            self.scene_overheads[self.plan[run].scene].setup.add(setup);
+            self.pooled_overhead.setup.add(setup);
+        }
+    }
+
+    /// Run `run` has done `steps` steps, the last at `at` (calls that do not change the count
+    /// change nothing).
+    pub(super) fn progress(&mut self, run: usize, steps: f64, at: f64) {
         if let Phase::Running {
             steps: done, moved, ..
         } = &mut self.phase[run]
             && steps != *done
         {
             *done = steps;
-            *moved = now;
+            *moved = at;
         }
     }
 
     /// Run `run` finished at `now` having done `steps` steps (`None`: its kind counts none, so
-    /// it did what was planned). A run that stopped early (a blow-up) is evidence for the
-    /// steps it did; one that took more steps than planned counts as planned, the rate per
-    /// planned step carrying the difference to the runs like it.
+    /// it did what was planned, and all its time counts as stepping). A run that stopped
+    /// early (a blow-up) is evidence for the steps it did; one that took more steps than
+    /// planned counts as planned, the rate per planned step carrying the difference to the
+    /// runs like it. Feed its last [`Eta::progress`] first.
     pub(super) fn finish(&mut self, run: usize, steps: Option<f64>, now: f64) {
-        let Phase::Running { started, .. } = self.phase[run] else {
+        let Phase::Running {
+            started,
+            stepping,
+            moved,
+            ..
+        } = self.phase[run]
+        else {
             return;
         };
         self.phase[run] = Phase::Finished;
         let planned = self.plan[run];
+        let seconds = match (stepping, steps) {
+            (Some(stepping), Some(_)) => {
+                let teardown = now - moved;
+                self.scene_overheads[planned.scene].teardown.add(teardown);
+                self.pooled_overhead.teardown.add(teardown);
+                moved - stepping
+            }
+            _ => now - started,
+        };
         let done = steps.map_or(planned.steps, |s| s.clamp(0.0, planned.steps.max(0.0)));
         let size = done * planned.step_weight.max(0.0);
         if size > 0.0 {
-            self.groups[planned.group].add(now - started, size);
-            self.pooled.add(now - started, size);
+            self.groups[planned.group].add(seconds, size);
+            self.scenes[planned.scene].add(seconds, size);
+            self.pooled.add(seconds, size);
         }
     }
 
-    /// Seconds per unit of size when a group has no finished run: every finished run's, else
-    /// (no run finished yet) that of the running runs past [`ENOUGH_OF_A_RUN`].
+    /// Seconds per unit of size when neither a run's group nor its scene has a finished run:
+    /// every finished run's, else (no run finished yet) that of the running runs past
+    /// [`ENOUGH_OF_A_RUN`].
     fn fallback_rate(&self) -> Option<f64> {
         if let Some(rate) = self.pooled.rate() {
             return Some(rate);
@@ -152,14 +259,16 @@ impl Eta {
         let mut running = Evidence::default();
         for (planned, phase) in self.plan.iter().zip(&self.phase) {
             if let Phase::Running {
-                started,
+                stepping: Some(stepping),
                 steps,
                 moved,
+                ..
             } = *phase
+                && steps > 0.0
                 && steps >= ENOUGH_OF_A_RUN * planned.steps
             {
                 running.add(
-                    moved - started,
+                    moved - stepping,
                     steps.min(planned.steps) * planned.step_weight,
                 );
             }
@@ -171,22 +280,59 @@ impl Eta {
     /// run has finished, or enough of one has run, to estimate from.
     pub(super) fn remaining(&mut self, now: f64) -> Option<f64> {
         let fallback = self.fallback_rate();
-        let groups = &self.groups;
-        // Seconds per unit of size for runs of a group: its finished runs', else the fallback.
-        let rate = |group: usize| groups[group].rate().or(fallback);
+        let (groups, scenes) = (&self.groups, &self.scenes);
+        let (overheads, pooled_overhead) = (&self.scene_overheads, &self.pooled_overhead);
+        // Seconds per unit of size for a run: its group's finished runs', else its scene's,
+        // else the fallback.
+        let rate = |p: &Planned| {
+            groups[p.group]
+                .rate()
+                .or_else(|| scenes[p.scene].rate())
+                .or(fallback)
+        };
+        // A run's setup and teardown: its scene's means, else every scene's, else none.
+        let overhead = |p: &Planned, part: fn(&Overhead) -> Mean| {
+            part(&overheads[p.scene])
+                .get()
+                .or_else(|| part(pooled_overhead).get())
+                .unwrap_or(0.0)
+        };
+        let setup = |p: &Planned| overhead(p, |o| o.setup);
+        let teardown = |p: &Planned| overhead(p, |o| o.teardown);
         self.free_at.clear();
         let mut any_left = false;
         for run in 0..self.plan.len() {
             let planned = self.plan[run];
-            if let Phase::Running { steps, moved, .. } = self.phase[run] {
-                any_left = true;
-                let rate = rate(planned.group)?;
-                let left = (planned.steps - steps).max(0.0) * planned.step_weight.max(0.0) * rate;
+            let Phase::Running {
+                started,
+                stepping,
+                steps,
+                moved,
+            } = self.phase[run]
+            else {
+                continue;
+            };
+            any_left = true;
+            let rate = rate(&planned)?;
+            let step = planned.step_weight.max(0.0) * rate;
+            let since = now - moved;
+            let steps_left = (planned.steps - steps).max(0.0);
+            let left = match stepping {
+                // Still setting up: the rest of a setup like its scene's, then the rest.
+                None => {
+                    (setup(&planned) - (now - started)).max(0.0)
+                        + planned.size() * rate
+                        + teardown(&planned)
+                }
                 // Between step counts, count down within the current step only: a run slower
                 // than its rate then holds its estimate instead of reaching zero.
-                let within = (now - moved).clamp(0.0, planned.step_weight.max(0.0) * rate);
-                self.free_at.push((left - within).max(0.0));
-            }
+                Some(_) if steps_left > 0.0 => {
+                    steps_left * step - since.clamp(0.0, step) + teardown(&planned)
+                }
+                // Past its planned steps: the rest of a teardown like its scene's.
+                Some(_) => (teardown(&planned) - since).max(0.0),
+            };
+            self.free_at.push(left.max(0.0));
         }
         while self.free_at.len() < self.jobs {
             self.free_at.push(0.0);
@@ -198,7 +344,7 @@ impl Eta {
             }
             any_left = true;
             let planned = self.plan[run];
-            let seconds = planned.size() * rate(planned.group)?;
+            let seconds = setup(&planned) + planned.size() * rate(&planned)? + teardown(&planned);
             let first = self
                 .free_at
                 .iter_mut()
@@ -217,19 +363,18 @@ impl Eta {
 mod tests {
     use super::*;
 
-    /// A consistent cost model: a run of group g takes `cost[g]` seconds per unit of size.
+    /// A consistent cost model: a run of scene s sets up in `setup[s]` seconds, then takes
+    /// `cost[g]` seconds per unit of size for group g, then `teardown[s]` seconds.
     struct Model {
+        setup: Vec<f64>,
         cost: Vec<f64>,
+        teardown: Vec<f64>,
     }
 
-    impl Model {
-        fn seconds(&self, p: &Planned) -> f64 {
-            p.size() * self.cost[p.group]
-        }
-    }
-
+    /// A run of `group`, each group its own scene.
     fn run(group: usize, steps: f64, step_weight: f64) -> Planned {
         Planned {
+            scene: group,
             group,
             steps,
             step_weight,
@@ -238,7 +383,7 @@ mod tests {
 
     /// Replays `plan` on `jobs` jobs as the runner does (each run to the job free first, in
     /// order), runs taking the model's time (or `stops[i]` steps of it, for a run that stops
-    /// early), feeding `eta` every step. Calls `look(eta, now, next, true_remaining,
+    /// early), feeding `eta` its setup's end, every step and its end. Calls `look(eta, now, next, true_remaining,
     /// finished)` after every event, `next` the time of the next one.
     fn replay(
         eta: &mut Eta,
@@ -260,20 +405,24 @@ mod tests {
                 .unwrap();
             let steps = stops[i].unwrap_or(plan[i].steps);
             let per_step = plan[i].step_weight * model.cost[plan[i].group];
-            let end = free[job] + steps * per_step;
+            let scene = plan[i].scene;
+            let end = free[job] + model.setup[scene] + steps * per_step + model.teardown[scene];
             span[i] = (free[job], end);
             free[job] = end;
         }
         let finish = free.iter().copied().fold(0.0, f64::max);
-        // Events in time order: starts, step counts, finishes.
+        // Events in time order: starts, setups' ends, step counts, finishes.
         let mut events: Vec<(f64, usize, u8, f64)> = Vec::new();
         for &i in order {
             let (start, end) = span[i];
+            let stepping = start + model.setup[plan[i].scene];
+            let stepped = end - model.teardown[plan[i].scene];
             let steps = stops[i].unwrap_or(plan[i].steps);
             events.push((start, i, 0, 0.0));
+            events.push((stepping, i, 3, 0.0));
             let n = steps as usize;
-            for k in 1..n {
-                let t = start + (end - start) * k as f64 / steps;
+            for k in 1..=n {
+                let t = stepping + (stepped - stepping) * k as f64 / steps;
                 events.push((t, i, 1, k as f64));
             }
             events.push((end, i, 2, steps));
@@ -285,7 +434,8 @@ mod tests {
             match what {
                 0 => eta.start(i, t),
                 1 => eta.progress(i, steps, t),
-                _ => eta.finish(i, Some(steps), t),
+                2 => eta.finish(i, Some(steps), t),
+                _ => eta.stepping(i, t),
             }
             let next = events.get(k + 1).map_or(t, |e| e.0);
             look(eta, t, next, finish - t, what == 2);
@@ -307,9 +457,12 @@ mod tests {
     }
 
     fn model() -> Model {
-        // Per unit of size, group 1 costs twice group 0; group 2 runs have no size.
+        // Per unit of size, group 1 costs twice group 0; group 2 runs have no size. Setups
+        // differ by at most 2x too.
         Model {
+            setup: vec![0.5, 1.0, 0.75],
             cost: vec![0.01, 0.02, 0.03],
+            teardown: vec![0.2, 0.1, 0.15],
         }
     }
 
@@ -318,6 +471,7 @@ mod tests {
         let mut eta = Eta::new(vec![run(0, 100.0, 1.0), run(0, 100.0, 1.0)], 1);
         assert_eq!(eta.remaining(0.0), None);
         eta.start(0, 0.0);
+        eta.stepping(0, 0.0);
         eta.progress(0, 5.0, 5.0);
         assert_eq!(eta.remaining(5.0), None, "5% of a run is not enough");
         eta.progress(0, 10.0, 10.0);
@@ -333,7 +487,6 @@ mod tests {
         let model = model();
         for jobs in [1, 2, 3] {
             let mut eta = Eta::new(plan.clone(), jobs);
-            let mut seen_groups = [false; 3];
             replay(
                 &mut eta,
                 &plan,
@@ -345,19 +498,20 @@ mod tests {
                     if !finished {
                         return;
                     }
-                    for g in 0..3 {
-                        seen_groups[g] |= eta.groups[g].size > 0.0;
-                    }
+                    // Whether the runs left are all of groups whose rate and overheads
+                    // finished runs have told (each group its own scene here).
+                    let told = (0..plan.len()).all(|i| {
+                        let p = &plan[i];
+                        matches!(eta.phase[i], Phase::Finished)
+                            || (eta.scene_overheads[p.scene].teardown.count > 0.0
+                                && (p.size() == 0.0 || eta.groups[p.group].size > 0.0))
+                    });
                     let estimate = eta.remaining(now).expect("a run has finished");
-                    // The groups' costs differ by 2x, so before a group's first run has
-                    // finished the pooled rate is off by at most that, give or take the
-                    // countdown within a running step (at most one step, 0.6 s here); once
-                    // every group with work left has finished runs it is exact.
-                    let (factor, slack) = if seen_groups[0] && seen_groups[1] {
-                        (1.0, 1e-9)
-                    } else {
-                        (2.0, 0.6)
-                    };
+                    // The groups' costs and setups differ by 2x, so before a group's first
+                    // run has finished the pooled rate is off by at most that, give or take
+                    // the countdown within a running step (at most one step, 0.6 s here);
+                    // once the groups of every run left are told it is exact.
+                    let (factor, slack) = if told { (1.0, 1e-9) } else { (2.0, 0.6) };
                     assert!(
                         estimate <= factor * (truth + slack)
                             && truth <= factor * (estimate + slack),
@@ -381,7 +535,9 @@ mod tests {
         ];
         let order: Vec<usize> = (0..plan.len()).collect();
         let model = Model {
+            setup: vec![0.3, 0.1],
             cost: vec![0.01, 0.05],
+            teardown: vec![0.05, 0.2],
         };
         for jobs in [1, 2] {
             let mut eta = Eta::new(plan.clone(), jobs);
@@ -419,6 +575,27 @@ mod tests {
     }
 
     #[test]
+    fn a_group_with_no_finished_run_takes_its_scenes_rate_before_the_pooled_one() {
+        // Scene 0 costs 1 s per unit, scene 1 costs 10; method groups 0 and 1 on scene 0,
+        // 2 and 3 on scene 1.
+        let on = |scene, group| Planned {
+            scene,
+            group,
+            steps: 10.0,
+            step_weight: 1.0,
+        };
+        let plan = vec![on(0, 0), on(1, 2), on(0, 1), on(1, 3)];
+        let mut eta = Eta::new(plan, 1);
+        eta.start(0, 0.0);
+        eta.finish(0, None, 10.0);
+        eta.start(1, 10.0);
+        eta.finish(1, None, 110.0);
+        // Group 1 (10 s at scene 0's rate) and group 3 (100 s at scene 1's); the pooled rate
+        // (5.5 s a unit) would say 55 s each.
+        assert_eq!(eta.remaining(110.0), Some(110.0));
+    }
+
+    #[test]
     fn parallel_jobs_share_the_work_left() {
         // Four equal runs, one finished: three left, of 10 s each.
         let plan = vec![run(0, 10.0, 1.0); 4];
@@ -438,6 +615,7 @@ mod tests {
         let mut eta = Eta::new(plan, 2);
         eta.start(0, 0.0);
         eta.start(1, 0.0);
+        eta.stepping(1, 0.0);
         eta.finish(0, Some(10.0), 10.0);
         eta.start(2, 10.0);
         eta.progress(1, 10.0, 10.0);
@@ -499,8 +677,10 @@ mod tests {
         eta.finish(1, Some(10.0), 3.0);
         assert_eq!(eta.remaining(3.0), None);
         eta.start(2, 3.0);
+        eta.stepping(2, 3.0);
         eta.progress(2, 5.0, 8.0);
         assert_eq!(eta.remaining(8.0), Some(5.0));
+        eta.progress(2, 10.0, 13.0);
         eta.finish(2, Some(10.0), 13.0);
         assert_eq!(eta.remaining(13.0), Some(0.0));
         // Nothing but zero-size runs left: they take no time once a rate is known.
@@ -512,10 +692,16 @@ mod tests {
 
     #[test]
     fn a_first_run_that_stops_early_counts_the_steps_it_did() {
-        // Run 0 blows up after 4 of its 1000 steps, in 4 s: 1 s a step. Counting its planned
-        // steps would say 1 ms a step and the rest would look 1000x shorter than it is.
+        // Run 0 sets up in 50 s, blows up after 4 of its 1000 steps, in 4 s (1 s a step), and
+        // ends in 5 s. Counting its planned steps would say 59 ms a step, and the rest would
+        // look 17x shorter than they are; counting its setup and teardown as steps, 14.75 s a
+        // step and 9x longer.
         let plan = vec![run(0, 1000.0, 1.0), run(0, 100.0, 1.0), run(0, 100.0, 1.0)];
-        let model = Model { cost: vec![1.0] };
+        let model = Model {
+            setup: vec![50.0],
+            cost: vec![1.0],
+            teardown: vec![5.0],
+        };
         let mut stops = vec![None; plan.len()];
         stops[0] = Some(4.0);
         let mut eta = Eta::new(plan.clone(), 1);
@@ -530,9 +716,9 @@ mod tests {
             |eta, now, _, truth, finished| {
                 if finished && !checked {
                     checked = true;
-                    assert_eq!(now, 4.0);
+                    assert_eq!(now, 59.0);
                     assert_eq!(eta.remaining(now), Some(truth));
-                    assert_eq!(truth, 200.0);
+                    assert_eq!(truth, 310.0);
                 }
             },
         );
@@ -551,6 +737,7 @@ mod tests {
         eta.start(0, 0.0);
         eta.finish(0, Some(10.0), 10.0);
         eta.start(1, 10.0);
+        eta.stepping(1, 10.0);
         // Its first step is late: the estimate counts down one step (1 s) and waits.
         assert_eq!(eta.remaining(10.5), Some(9.5));
         assert_eq!(eta.remaining(11.0), Some(9.0));

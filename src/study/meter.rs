@@ -1,40 +1,65 @@
-//! How far a running study run is: the steps it has taken, counted by the run's own thread
-//! and read by the progress bar's, so the ETA knows the unfinished part of runs in flight
-//! and how many steps a run that stopped early did.
+//! How far a running study run is: when it began stepping, the steps it has taken and when
+//! it took the last, counted by the run's own thread and read by the progress bar's, so the
+//! ETA knows the unfinished part of runs in flight, their time spent other than stepping, and
+//! how many steps a run that stopped early did.
 
 use crate::integrate::State;
 use crate::model::Model;
 use crate::run::{Observer, Sample};
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::OnceLock;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::{Duration, Instant};
 
 /// The steps one run has taken (every trajectory it runs, together).
 #[derive(Debug, Default)]
 pub(super) struct StepMeter {
     steps: AtomicU64,
-    /// Whether any trajectory was counted: a kind that runs none counts no steps.
-    counting: AtomicBool,
+    /// When its first counted trajectory took its initial state (its setup done); unset for
+    /// a kind that runs none.
+    began: OnceLock<Instant>,
+    /// Nanoseconds from `began` to its latest step.
+    last_step: AtomicU64,
+}
+
+/// What a meter says: when stepping began, the steps taken, and when the last was.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Reading {
+    pub began: Instant,
+    pub steps: u64,
+    /// `began` before the first step.
+    pub last_step: Instant,
 }
 
 impl StepMeter {
-    /// The steps taken so far; `None` when the run has counted none (its kind runs no
-    /// counted trajectory, or it has not begun one yet).
-    pub(super) fn steps(&self) -> Option<u64> {
-        self.counting
-            .load(Ordering::Relaxed)
-            .then(|| self.steps.load(Ordering::Relaxed))
+    /// The meter's reading; `None` when the run has counted nothing (its kind runs no counted
+    /// trajectory, or it has not begun one yet).
+    pub(super) fn read(&self) -> Option<Reading> {
+        let began = *self.began.get()?;
+        let steps = self.steps.load(Ordering::Acquire);
+        let last = Duration::from_nanos(self.last_step.load(Ordering::Relaxed));
+        Some(Reading {
+            began,
+            steps,
+            last_step: began + last,
+        })
     }
 }
 
-/// An [`Observer`] that counts every step on a [`StepMeter`] and passes everything on.
+/// An [`Observer`] that counts every step on a [`StepMeter`], with its time, and passes
+/// everything on.
 pub(super) struct Counting<'a> {
     inner: &'a mut dyn Observer,
     meter: &'a StepMeter,
+    began: Option<Instant>,
 }
 
 impl<'a> Counting<'a> {
     pub(super) fn new(inner: &'a mut dyn Observer, meter: &'a StepMeter) -> Self {
-        meter.counting.store(true, Ordering::Relaxed);
-        Self { inner, meter }
+        Self {
+            inner,
+            meter,
+            began: None,
+        }
     }
 }
 
@@ -44,9 +69,15 @@ impl Observer for Counting<'_> {
     }
 
     fn after_step(&mut self, step: usize, model: &Model, state: &State) -> std::io::Result<()> {
-        // Step 0 is the initial state, not a step taken.
-        if step > 0 {
-            self.meter.steps.fetch_add(1, Ordering::Relaxed);
+        match self.began {
+            // Step 0 is the initial state: stepping begins (the first trajectory's counts).
+            None => self.began = Some(*self.meter.began.get_or_init(Instant::now)),
+            Some(began) if step > 0 => {
+                let since = began.elapsed().as_nanos().min(u128::from(u64::MAX)) as u64;
+                self.meter.last_step.store(since, Ordering::Relaxed);
+                self.meter.steps.fetch_add(1, Ordering::Release);
+            }
+            Some(_) => {}
         }
         self.inner.after_step(step, model, state)
     }
@@ -91,7 +122,7 @@ mod tests {
         };
         let data = crate::data::DataPaths::new(None);
         let meter = StepMeter::default();
-        assert_eq!(meter.steps(), None, "nothing counted yet");
+        assert_eq!(meter.read(), None, "nothing counted yet");
         for _trial in 0..2 {
             let mut scene =
                 crate::scene::build(&loaded, &data, crate::parallel::Parallelism::Sequential)
@@ -107,6 +138,8 @@ mod tests {
             );
             assert_eq!(summary.steps_completed, 7);
         }
-        assert_eq!(meter.steps(), Some(14));
+        let reading = meter.read().unwrap();
+        assert_eq!(reading.steps, 14);
+        assert!(reading.last_step >= reading.began);
     }
 }
