@@ -1,20 +1,19 @@
-//! The time a study has left, estimated from what its finished runs cost.
+//! The time a study has left, estimated from what its runs have cost so far.
 //!
-//! Runs differ by orders of magnitude (steps × DOFs × the method's cost per step), so counting
-//! runs, or extrapolating a rate of finished runs per second, says little: that rate decays
-//! while a long run is in flight and its ETA balloons. Instead every run gets a size known
-//! before it starts (planned steps × a per-step weight), finished runs give a cost per unit
-//! of size (per group of runs of one scene, method and linear solver; else per scene, since
-//! scenes differ in what a DOF costs, contact or springs; else pooled over all runs), and
-//! the runs left — the queued ones whole, the running ones from where their step
-//! count says they are — are laid out on the jobs as the runner hands them out. A run's
-//! setup before its first step and teardown after its last are timed apart from its steps,
-//! so a run that blows up after a few steps does not make every step look as dear as them.
+//! Runs differ by orders of magnitude, so a rate of finished runs per second says little
+//! (and indicatif's, which decays while no run finishes, balloons while a long run is in
+//! flight). Here every run has a size known before it starts, planned steps × a per-step
+//! weight; the finished runs, and the running ones past a tenth of their steps, give seconds
+//! per unit of size per group (scene, method, linear solver, settings), else per scene, else
+//! over all runs; and the runs left (the running ones from their step counts) are laid out
+//! on the jobs as the runner hands them out. Setup and teardown are timed apart from the
+//! steps, so a run that blows up after a few steps does not make every step look as dear.
 //!
 //! [`Eta`] is pure: the runner feeds it events with times in seconds from any fixed origin,
 //! and it never reads a clock, so tests replay synthetic schedules.
 
-use super::spec::RunSpec;
+use super::identity::value_text;
+use super::spec::{RunSpec, Study};
 use std::collections::HashMap;
 
 /// A run as planned, before it starts.
@@ -24,7 +23,7 @@ pub(super) struct Planned {
     /// integer, an index into a table.
     pub scene: usize,
     /// Runs of one group, within a scene, are expected to cost the same per unit of size
-    /// (the runner uses one per scene, method and linear solver); an index too.
+    /// (see [`plan`]); an index too.
     pub group: usize,
     /// The steps the run is expected to take (0 for a run with nothing to do).
     pub steps: f64,
@@ -39,19 +38,29 @@ impl Planned {
     }
 }
 
-/// The plan of `runs`, in order: each run's scene and group (one per scene, method and
-/// linear solver), the steps its kind expects it to take, and the shard balance's cost of one
-/// of its steps.
-pub(super) fn plan(runs: &[&RunSpec]) -> Vec<Planned> {
+/// The plan of `runs` of `study`, in order: each run's scene and group, the steps its kind
+/// expects it to take, and the shard balance's cost of one of its steps. A group is a scene,
+/// method and linear solver with the same values of the other swept parameters (a contact
+/// response or a stiffness changes what a step costs) except those that only change how
+/// many steps a run takes, which its size counts.
+pub(super) fn plan(study: &Study, runs: &[&RunSpec]) -> Vec<Planned> {
+    let counted = |name: &str| matches!(name, "run.dt" | "run.steps");
     let mut scenes: HashMap<&str, usize> = HashMap::new();
-    let mut groups: HashMap<(&str, &str, &str), usize> = HashMap::new();
+    let mut groups: HashMap<String, usize> = HashMap::new();
     runs.iter()
         .map(|r| {
-            let key = (
-                r.scene.as_str(),
+            let mut key = format!(
+                "{}\u{1f}{}\u{1f}{}",
+                r.scene,
                 r.method.name(),
-                r.linear_solver.as_ref().map_or("", |s| s.name()),
+                r.linear_solver.as_ref().map_or("", |s| s.name())
             );
+            for (name, value) in study.parameters.iter().zip(&r.parameters) {
+                if !counted(name) {
+                    key.push('\u{1f}');
+                    key.push_str(&value.as_ref().map_or(String::new(), value_text));
+                }
+            }
             let (next_scene, next_group) = (scenes.len(), groups.len());
             Planned {
                 scene: *scenes.entry(&r.scene).or_insert(next_scene),
@@ -63,8 +72,8 @@ pub(super) fn plan(runs: &[&RunSpec]) -> Vec<Planned> {
         .collect()
 }
 
-/// The fraction of a run's planned steps that must be done before its running rate stands in
-/// for a rate when no run has finished yet.
+/// The fraction of its planned steps a running run must have done before its rate so far
+/// counts (its first steps may carry a factorization's analysis).
 pub(super) const ENOUGH_OF_A_RUN: f64 = 0.1;
 
 /// Where a run is.
@@ -103,6 +112,38 @@ impl Evidence {
     }
 }
 
+/// Stepping evidence per group, per scene and over every run.
+#[derive(Clone, Debug, Default, PartialEq)]
+struct Rates {
+    groups: Vec<Evidence>,
+    scenes: Vec<Evidence>,
+    pooled: Evidence,
+}
+
+impl Rates {
+    fn add(&mut self, p: &Planned, seconds: f64, size: f64) {
+        self.groups[p.group].add(seconds, size);
+        self.scenes[p.scene].add(seconds, size);
+        self.pooled.add(seconds, size);
+    }
+
+    /// Seconds per unit of size for a run: its group's, else its scene's (scenes differ in
+    /// what a DOF costs), else every run's.
+    fn rate(&self, p: &Planned) -> Option<f64> {
+        self.groups[p.group]
+            .rate()
+            .or_else(|| self.scenes[p.scene].rate())
+            .or_else(|| self.pooled.rate())
+    }
+
+    /// Becomes a copy of `other`, in its own storage.
+    fn copy_from(&mut self, other: &Rates) {
+        self.groups.clone_from(&other.groups);
+        self.scenes.clone_from(&other.scenes);
+        self.pooled = other.pooled;
+    }
+}
+
 /// A mean of seconds.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 struct Mean {
@@ -137,12 +178,10 @@ pub(super) struct Eta {
     plan: Vec<Planned>,
     phase: Vec<Phase>,
     jobs: usize,
-    /// Finished runs' stepping per group (indexed by [`Planned::group`]).
-    groups: Vec<Evidence>,
-    /// Finished runs' stepping per scene (indexed by [`Planned::scene`]).
-    scenes: Vec<Evidence>,
-    /// Finished runs' stepping over every run.
-    pooled: Evidence,
+    /// Finished runs' stepping (indexed by [`Planned::group`] and [`Planned::scene`]).
+    finished: Rates,
+    /// Scratch: the finished runs' and the running runs' so far (allocated once).
+    so_far: Rates,
     /// Overheads per scene, and over every run.
     scene_overheads: Vec<Overhead>,
     pooled_overhead: Overhead,
@@ -160,9 +199,16 @@ impl Eta {
             phase: vec![Phase::Queued; plan.len()],
             plan,
             jobs,
-            groups: vec![Evidence::default(); groups],
-            scenes: vec![Evidence::default(); scenes],
-            pooled: Evidence::default(),
+            finished: Rates {
+                groups: vec![Evidence::default(); groups],
+                scenes: vec![Evidence::default(); scenes],
+                pooled: Evidence::default(),
+            },
+            so_far: Rates {
+                groups: vec![Evidence::default(); groups],
+                scenes: vec![Evidence::default(); scenes],
+                pooled: Evidence::default(),
+            },
             scene_overheads: vec![Overhead::default(); scenes],
             pooled_overhead: Overhead::default(),
             free_at: Vec::with_capacity(jobs),
@@ -243,20 +289,15 @@ impl Eta {
         let done = steps.map_or(planned.steps, |s| s.clamp(0.0, planned.steps.max(0.0)));
         let size = done * planned.step_weight.max(0.0);
         if size > 0.0 {
-            self.groups[planned.group].add(seconds, size);
-            self.scenes[planned.scene].add(seconds, size);
-            self.pooled.add(seconds, size);
+            self.finished.add(&planned, seconds, size);
         }
     }
 
-    /// Seconds per unit of size when neither a run's group nor its scene has a finished run:
-    /// every finished run's, else (no run finished yet) that of the running runs past
-    /// [`ENOUGH_OF_A_RUN`].
-    fn fallback_rate(&self) -> Option<f64> {
-        if let Some(rate) = self.pooled.rate() {
-            return Some(rate);
-        }
-        let mut running = Evidence::default();
+    /// The finished runs' evidence, and that of the running runs past [`ENOUGH_OF_A_RUN`] of
+    /// their steps for the steps they have done, into `so_far`: a long run in flight tells
+    /// what its like cost before it ends.
+    fn gather(&mut self) {
+        self.so_far.copy_from(&self.finished);
         for (planned, phase) in self.plan.iter().zip(&self.phase) {
             if let Phase::Running {
                 stepping: Some(stepping),
@@ -267,29 +308,19 @@ impl Eta {
                 && steps > 0.0
                 && steps >= ENOUGH_OF_A_RUN * planned.steps
             {
-                running.add(
-                    moved - stepping,
-                    steps.min(planned.steps) * planned.step_weight,
-                );
+                let size = steps.min(planned.steps) * planned.step_weight.max(0.0);
+                self.so_far.add(planned, moved - stepping, size);
             }
         }
-        running.rate()
     }
 
     /// The estimated seconds until every run has finished, as of `now`; `None` until some
     /// run has finished, or enough of one has run, to estimate from.
     pub(super) fn remaining(&mut self, now: f64) -> Option<f64> {
-        let fallback = self.fallback_rate();
-        let (groups, scenes) = (&self.groups, &self.scenes);
+        self.gather();
+        let so_far = &self.so_far;
+        let rate = |p: &Planned| so_far.rate(p);
         let (overheads, pooled_overhead) = (&self.scene_overheads, &self.pooled_overhead);
-        // Seconds per unit of size for a run: its group's finished runs', else its scene's,
-        // else the fallback.
-        let rate = |p: &Planned| {
-            groups[p.group]
-                .rate()
-                .or_else(|| scenes[p.scene].rate())
-                .or(fallback)
-        };
         // A run's setup and teardown: its scene's means, else every scene's, else none.
         let overhead = |p: &Planned, part: fn(&Overhead) -> Mean| {
             part(&overheads[p.scene])
@@ -467,6 +498,35 @@ mod tests {
     }
 
     #[test]
+    fn a_plan_groups_runs_by_scene_method_and_settings_but_not_by_time_step() {
+        let shipped = |name: &str| {
+            let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(name);
+            super::super::load(&path, true, &crate::data::DataPaths::new(None)).unwrap()
+        };
+        // Methods × dt on two scenes; methods × Young's modulus on one.
+        for study in [
+            shipped("experiments/energy_drift.toml"),
+            shipped("experiments/stiffness_sweep.toml"),
+        ] {
+            let runs: Vec<&RunSpec> = study.runs.iter().collect();
+            let plan = plan(&study, &runs);
+            let stiffness =
+                |r: &RunSpec| r.loaded.config.material.as_ref().map(|m| m.youngs_modulus);
+            for (a, pa) in runs.iter().zip(&plan) {
+                assert_eq!(pa.steps, a.estimated_steps);
+                assert!(pa.step_weight >= a.dofs as f64 && a.dofs > 0);
+                for (b, pb) in runs.iter().zip(&plan) {
+                    assert_eq!(pa.scene == pb.scene, a.scene == b.scene);
+                    let alike = a.scene == b.scene
+                        && a.method.name() == b.method.name()
+                        && stiffness(a) == stiffness(b);
+                    assert_eq!(pa.group == pb.group, alike, "{} and {}", a.id, b.id);
+                }
+            }
+        }
+    }
+
+    #[test]
     fn no_estimate_before_a_run_finishes_or_enough_of_one_has_run() {
         let mut eta = Eta::new(vec![run(0, 100.0, 1.0), run(0, 100.0, 1.0)], 1);
         assert_eq!(eta.remaining(0.0), None);
@@ -504,7 +564,7 @@ mod tests {
                         let p = &plan[i];
                         matches!(eta.phase[i], Phase::Finished)
                             || (eta.scene_overheads[p.scene].teardown.count > 0.0
-                                && (p.size() == 0.0 || eta.groups[p.group].size > 0.0))
+                                && (p.size() == 0.0 || eta.finished.groups[p.group].size > 0.0))
                     });
                     let estimate = eta.remaining(now).expect("a run has finished");
                     // The groups' costs and setups differ by 2x, so before a group's first
@@ -552,7 +612,8 @@ mod tests {
                 &model,
                 &stops,
                 |eta, now, next, truth, _| {
-                    both_known |= eta.groups[0].size > 0.0 && eta.groups[1].size > 0.0;
+                    both_known |=
+                        eta.finished.groups[0].size > 0.0 && eta.finished.groups[1].size > 0.0;
                     if !both_known {
                         return;
                     }
@@ -661,7 +722,7 @@ mod tests {
         );
         assert_eq!(resumed_estimates, fresh_estimates);
         // Skipped runs are neither evidence nor work left.
-        assert_eq!(resumed.pooled, fresh.pooled);
+        assert_eq!(resumed.finished.pooled, fresh.finished.pooled);
         assert_eq!(resumed.remaining(1e9), Some(0.0));
     }
 
@@ -731,7 +792,7 @@ mod tests {
     }
 
     #[test]
-    fn a_run_slower_than_its_rate_holds_its_estimate_instead_of_reaching_zero() {
+    fn a_run_slower_than_its_rate_holds_its_estimate_and_then_tells_its_pace() {
         let plan = vec![run(0, 10.0, 1.0), run(0, 10.0, 1.0)];
         let mut eta = Eta::new(plan, 1);
         eta.start(0, 0.0);
@@ -742,7 +803,9 @@ mod tests {
         assert_eq!(eta.remaining(10.5), Some(9.5));
         assert_eq!(eta.remaining(11.0), Some(9.0));
         assert_eq!(eta.remaining(60.0), Some(9.0));
+        // Half done after 50 s, past ENOUGH_OF_A_RUN: its own pace counts with the finished
+        // run's, 60 s for 15 steps, so its 5 steps left take 20 s.
         eta.progress(1, 5.0, 60.0);
-        assert_eq!(eta.remaining(60.0), Some(5.0));
+        assert_eq!(eta.remaining(60.0), Some(20.0));
     }
 }

@@ -204,7 +204,11 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
         Some(record) => record.write(&lock_dir).map_err(io(&lock_dir))?,
     }
 
-    let progress = Progress::new(options.progress, super::eta::plan(&selected), options.jobs);
+    let progress = Progress::new(
+        options.progress,
+        super::eta::plan(study, &selected),
+        options.jobs,
+    );
     for i in (0..selected.len()).filter(|&i| complete[i]) {
         progress.skip(i);
     }
