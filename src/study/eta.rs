@@ -74,7 +74,7 @@ pub(super) fn plan(study: &Study, runs: &[&RunSpec]) -> Vec<Planned> {
 
 /// The fraction of its planned steps a running run must have done before its rate so far
 /// counts (its first steps may carry a factorization's analysis).
-pub(super) const ENOUGH_OF_A_RUN: f64 = 0.1;
+const ENOUGH_OF_A_RUN: f64 = 0.1;
 
 /// Where a run is.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -414,8 +414,8 @@ mod tests {
 
     /// Replays `plan` on `jobs` jobs as the runner does (each run to the job free first, in
     /// order), runs taking the model's time (or `stops[i]` steps of it, for a run that stops
-    /// early), feeding `eta` its setup's end, every step and its end. Calls `look(eta, now, next, true_remaining,
-    /// finished)` after every event, `next` the time of the next one.
+    /// early), feeding `eta` each run's start, setup's end, steps and end. Calls `look(eta,
+    /// now, next, true_remaining, finished)` after every event, `next` the next one's time.
     fn replay(
         eta: &mut Eta,
         plan: &[Planned],

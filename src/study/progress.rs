@@ -1,10 +1,11 @@
 //! Progress of a study: a bar on a terminal, otherwise one line per finished run.
 //!
 //! The bar has two phases. While the work the runs share is prepared (highest modes,
-//! reference solutions) it says what is being prepared and shows no ETA; [`Progress::begin_runs`]
-//! switches it to counting runs. The ETA is [`Eta`]'s, fed the runs' starts, step counts
-//! and finishes here: "estimating…" until a run has finished or enough of one has run. A
-//! finished run's line carries the ETA too, so a log without a terminal shows it.
+//! reference solutions) it says what is being prepared and shows no ETA;
+//! [`Progress::begin_runs`] switches it to counting runs. The ETA is [`Eta`]'s, fed here the
+//! runs' starts, their meters and their finishes: "estimating…" until a run has finished or
+//! enough of one has run. A finished run's line carries the ETA too, so a log without a
+//! terminal shows it.
 
 use super::eta::{Eta, Planned};
 use super::meter::StepMeter;

@@ -387,9 +387,9 @@ enum Stop {
 }
 
 /// Measure `pending` (each with its index in the progress's plan), `jobs` at a time,
-/// handing each result to `keep` as it arrives (in this thread). Stops handing out runs at the first failure or stop request; the runs
-/// already running finish, and after a stop request their results are dropped (they were cut
-/// short; a resume redoes them).
+/// handing each result to `keep` as it arrives (in this thread). Stops handing out runs at
+/// the first failure or stop request; the runs already running finish, and after a stop
+/// request their results are dropped (they were cut short; a resume redoes them).
 fn execute(
     study: &Study,
     pending: &[(usize, &RunSpec)],
