@@ -151,10 +151,10 @@ impl Kind for ContactStudy {
         &self,
         _: &Study,
         spec: &RunSpec,
-        _: &RunInputs,
+        inputs: &RunInputs,
         parallelism: Parallelism,
     ) -> Result<Measured, String> {
-        let (mut m, scene, state) = measure_with_state(spec, parallelism)?;
+        let (mut m, scene, state) = measure_with_state(spec, parallelism, inputs.meter)?;
         let series = std::mem::take(&mut m.series);
         let rows = &series;
         let max =

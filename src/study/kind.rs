@@ -15,6 +15,7 @@ use super::findings::Ranking;
 use super::grid::Axis;
 use super::measured::Measured;
 use super::meta::StudyMeta;
+use super::meter::StepMeter;
 use super::pictures::PictureRows;
 use super::reference::{Reference, ScoringSettings};
 use super::spec::{RunSpec, Study};
@@ -393,11 +394,14 @@ pub(super) struct Verdict<'a> {
     pub clean: bool,
 }
 
-/// What one run gets from the work the runs share: its scene's highest mode and its
-/// reference solution.
+/// What one run gets from the work the runs share (its scene's highest mode and its
+/// reference solution), and where it counts its steps for the ETA.
 pub(super) struct RunInputs<'a> {
     pub omega: Option<f64>,
     pub reference: Option<&'a Reference>,
+    /// Where the run's trajectories count their steps (`measured::run_observed`); none
+    /// outside a study's runner.
+    pub meter: Option<&'a StepMeter>,
 }
 
 /// The runs of `table` whose verdict is not clean, with their verdict word.

@@ -2,6 +2,7 @@
 //! sampled series; plus the pieces every kind shares (building the run, summary columns).
 
 use super::format::cell;
+use super::meter::{Counting, StepMeter};
 use super::spec::RunSpec;
 use crate::integrate::State;
 use crate::parallel::Parallelism;
@@ -234,18 +235,27 @@ pub fn build(spec: &RunSpec, parallelism: Parallelism) -> Result<Scene, scene::S
 }
 
 /// Run `scene` from rest with `run`, passing every row to `inner`; with a `surface`, also
-/// record its snapshots (see [`crate::render`]). Returns the final state too (how far a run
-/// that ended early got). Each call is one run with its own integrator
-/// ([`Scene::take_integrator`]).
+/// record its snapshots (see [`crate::render`]); with a `meter`, count its steps there (for
+/// the study's ETA). Returns the final state too (how far a run that ended early got). Each
+/// call is one run with its own integrator ([`Scene::take_integrator`]).
 pub fn run_observed(
     scene: &mut Scene,
     run: &RunConfig,
     surface: Option<crate::render::Surface>,
     inner: &mut dyn Observer,
+    meter: Option<&StepMeter>,
 ) -> (RunSummary, State, Option<crate::render::Snapshots>) {
     let recording = Recording {
         pictures: surface,
         ..Recording::default()
+    };
+    let mut counting;
+    let inner: &mut dyn Observer = match meter {
+        Some(meter) => {
+            counting = Counting::new(inner, meter);
+            &mut counting
+        }
+        None => inner,
     };
     let observed = pipeline::run_observed(scene, run, recording, inner)
         .expect("keeping rows and snapshots in memory cannot fail");

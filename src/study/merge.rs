@@ -133,7 +133,7 @@ pub(super) fn merge_study(
         Source::ReadOnly(&store),
         Parallelism::Sequential,
         1,
-        &Progress::new(false, 0),
+        &Progress::without_runs(false),
     )?;
     // The runs' load is each shard's, in its record; the merge's own moment says nothing
     // about the timings (and merging again must give the same files).

@@ -11,6 +11,7 @@
 
 use super::format::{cell, short};
 use super::measured::{Measured, build, outcome_of, run_observed};
+use super::meter::StepMeter;
 use super::shared_store::{bits, from_bits};
 use super::spec::RunSpec;
 use crate::integrate::{Method, State};
@@ -311,12 +312,13 @@ impl Observer for SampleObserver {
 }
 
 /// Run `scene` and keep the state at every multiple of `stride` steps (and, with a
-/// `surface`, the snapshots its pictures are drawn from).
+/// `surface`, the snapshots its pictures are drawn from), counting its steps on `meter`.
 pub(super) fn sampled_run(
     scene: &mut Scene,
     run: &RunConfig,
     stride: usize,
     surface: Option<crate::render::Surface>,
+    meter: Option<&StepMeter>,
 ) -> (
     RunSummary,
     Vec<Sample>,
@@ -331,7 +333,7 @@ pub(super) fn sampled_run(
             energies: Vec::new(),
         },
     };
-    let (summary, _, pictures) = run_observed(scene, run, surface, &mut observer);
+    let (summary, _, pictures) = run_observed(scene, run, surface, &mut observer, meter);
     // Rows exist at every sample time (sample_every divides the stride): their energies are
     // the sample energies.
     observer.snapshots.energies = observer
@@ -452,7 +454,7 @@ pub fn reference(
                 energy_limit: 0.0,
                 budget: None,
             };
-            let (summary, _, snapshots, _) = sampled_run(&mut scene, &run, stride, None);
+            let (summary, _, snapshots, _) = sampled_run(&mut scene, &run, stride, None, None);
             if !summary.outcome.is_completed() {
                 let (status, message) = outcome_of(&summary.outcome);
                 return Err(format!(

@@ -5,7 +5,7 @@
 use super::error::{RunError, io_error as io};
 use super::format::{epoch_seconds, now_utc};
 use super::identity::value_text;
-use super::kind::{Kind, not_ok};
+use super::kind::{Kind, RunInputs, not_ok};
 use super::machine::Machine;
 use super::measured::Measured;
 use super::meta::Meta;
@@ -172,10 +172,16 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
         .copied()
         .filter(|r| options.only.as_deref().is_none_or(|p| matches(&r.id, p)))
         .collect();
-    let pending: Vec<&RunSpec> = selected
+    let complete: Vec<bool> = selected
+        .iter()
+        .map(|r| !options.force && is_done(dir, r, &rows))
+        .collect();
+    // The runs to do now, each with its index in `selected` (the progress's plan).
+    let pending: Vec<(usize, &RunSpec)> = selected
         .iter()
         .copied()
-        .filter(|r| options.force || !is_done(dir, r, &rows))
+        .enumerate()
+        .filter(|&(i, _)| !complete[i])
         .collect();
     let reused = selected.len() - pending.len();
     let machine = Machine::current();
@@ -205,7 +211,15 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
         Some(record) => record.write(&lock_dir).map_err(io(&lock_dir))?,
     }
 
-    let progress = Progress::new(options.progress, pending.len() as u64);
+    let progress = Progress::new(
+        options.progress,
+        super::eta::plan(study, &selected),
+        options.jobs,
+    );
+    for i in (0..selected.len()).filter(|&i| complete[i]) {
+        progress.skip(i);
+    }
+    let pending_runs: Vec<&RunSpec> = pending.iter().map(|(_, r)| *r).collect();
     let name = match options.shard {
         None => study.file.name.clone(),
         Some(shard) => format!("{} shard {shard}", study.file.name),
@@ -245,7 +259,7 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
     };
     let shared = SharedWork::prepare(
         study,
-        &pending,
+        &pending_runs,
         source,
         parallelism,
         options.jobs,
@@ -283,7 +297,7 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
     progress.done();
     if let Err(Stop::Failed(e)) = failure {
         if let Some(record) = shard_record.as_mut() {
-            record.end("failed", clock.elapsed(), pending.len(), reused);
+            record.end("failed", clock.elapsed(), pending_runs.len(), reused);
             let _ = record.write(&lock_dir);
         }
         return Err(e);
@@ -312,7 +326,7 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
         });
     }
     if let Some(record) = shard_record.as_mut() {
-        record.end("finished", clock.elapsed(), pending.len(), reused);
+        record.end("finished", clock.elapsed(), pending_runs.len(), reused);
         record.write(&lock_dir).map_err(io(&lock_dir))?;
         drop(_lock);
         // The last shard to finish merges (any shard that finds every run done does; a merge
@@ -379,13 +393,13 @@ enum Stop {
     Failed(RunError),
 }
 
-/// Measure `pending`, `jobs` at a time, handing each result to `keep` as it arrives (in
-/// this thread). Stops handing out runs at the first failure or stop request; the runs
-/// already running finish, and after a stop request their results are dropped (they were cut
-/// short; a resume redoes them).
+/// Measure `pending` (each with its index in the progress's plan), `jobs` at a time,
+/// handing each result to `keep` as it arrives (in this thread). Stops handing out runs at
+/// the first failure or stop request; the runs already running finish, and after a stop
+/// request their results are dropped (they were cut short; a resume redoes them).
 fn execute(
     study: &Study,
-    pending: &[&RunSpec],
+    pending: &[(usize, &RunSpec)],
     shared: &SharedWork,
     parallelism: Parallelism,
     jobs: usize,
@@ -405,15 +419,17 @@ fn execute(
                         break;
                     }
                     let i = next.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
-                    let Some(spec) = pending.get(i) else { break };
-                    progress.start(&spec.id);
-                    let result = super::kinds::of(study.kind).measure(
-                        study,
-                        spec,
-                        &shared.of(spec),
-                        parallelism,
-                    );
-                    progress.finish(&spec.id);
+                    let Some(&(run, spec)) = pending.get(i) else {
+                        break;
+                    };
+                    progress.start_run(run, &spec.id);
+                    let inputs = RunInputs {
+                        meter: Some(progress.meter(run)),
+                        ..shared.of(spec)
+                    };
+                    let result =
+                        super::kinds::of(study.kind).measure(study, spec, &inputs, parallelism);
+                    progress.finish_run(run, &spec.id);
                     if sender.send((i, result)).is_err() {
                         break;
                     }
@@ -432,15 +448,13 @@ fn execute(
             if matches!(stop, Some(Stop::Interrupted(_))) {
                 continue;
             }
-            let spec = pending[i];
+            let spec = pending[i].1;
             let kept = match result {
                 Ok(m) => keep(spec, &m).map(|()| {
-                    progress.line(&format!(
-                        "{} {}: {}",
-                        progress.position(),
-                        spec.id,
-                        summary_line(super::kinds::of(study.kind), &m)
-                    ));
+                    progress.line(
+                        &progress
+                            .run_line(&spec.id, &summary_line(super::kinds::of(study.kind), &m)),
+                    );
                     progress.inc();
                 }),
                 Err(message) => Err(RunError::Run(format!("run {}: {message}", spec.id))),

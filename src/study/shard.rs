@@ -78,13 +78,18 @@ impl Shard {
 /// iterations, each a Hessian assembly and a factorization).
 pub fn estimated_cost(study: &Study, spec: &RunSpec) -> f64 {
     let _ = study;
-    let steps = spec.estimated_steps;
+    spec.estimated_steps.max(1.0) * step_weight(spec)
+}
+
+/// The estimated cost of one step of a run: free DOFs × the method's weight (see
+/// [`estimated_cost`]).
+pub fn step_weight(spec: &RunSpec) -> f64 {
     let weight = if spec.method.is_explicit() {
         f64::from(spec.method.order().max(1))
     } else {
         10.0
     };
-    steps.max(1.0) * spec.dofs.max(1) as f64 * weight
+    spec.dofs.max(1) as f64 * weight
 }
 
 /// The shard of every run of `study` (in grid order) when split `count` ways: longest

@@ -295,6 +295,7 @@ impl SharedWork {
         RunInputs {
             omega: self.omega.get(&spec.physics).copied().flatten(),
             reference: self.references.get(&key).map(|(_, r)| r),
+            meter: None,
         }
     }
 }

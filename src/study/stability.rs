@@ -1117,7 +1117,7 @@ pub(super) fn measure(
         // Every trial records its pictures (a copy of the surface per step), so the reported
         // trial's need no second run.
         let (mut summary, state, snapshots) =
-            run_observed(&mut scene, &run, surface.clone(), &mut output);
+            run_observed(&mut scene, &run, surface.clone(), &mut output, shared.meter);
         if summary.outcome.is_completed() && (needed as usize) > steps {
             summary.outcome = Outcome::ended(
                 OutcomeKind::HorizonNotReached,

@@ -350,6 +350,11 @@ impl Kind for Suite {
         }]
     }
 
+    /// Every repeat runs the whole trajectory again.
+    fn estimated_steps(&self, file: &StudyFile, config: &SceneConfig) -> f64 {
+        config.run.steps as f64 * settings(file).map_or(1, |s| s.repeats) as f64
+    }
+
     fn reference_settings(&self, file: &StudyFile, spec: &RunSpec) -> Option<ScoringSettings> {
         let problem = spec.loaded.config.problem.as_ref()?;
         scoring(file, problem, &spec.loaded.config)
@@ -375,7 +380,14 @@ impl Kind for Suite {
             .ok_or("the scene has no [problem]")?;
         let w = scoring(&study.file, problem, config).ok_or("no [suite] table")?;
         let reference = inputs.reference.ok_or("no reference solution")?;
-        let mut m = super::work_precision::measure_with(spec, &w, reference, parallelism, false)?;
+        let mut m = super::work_precision::measure_with(
+            spec,
+            &w,
+            reference,
+            parallelism,
+            false,
+            inputs.meter,
+        )?;
         judge(study, spec, problem, &mut m);
         Ok(m)
     }

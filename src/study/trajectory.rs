@@ -12,6 +12,7 @@ use super::kind::{Kind, RunInputs, number, parse_quick};
 use super::measured::{
     Measured, build, cap_cells, outcome_of, picture_surface, run_observed, summary_cells,
 };
+use super::meter::StepMeter;
 use super::spec::{RunSpec, Study};
 use super::table::Table;
 use crate::parallel::Parallelism;
@@ -180,10 +181,10 @@ impl Kind for Trajectory {
         &self,
         _: &Study,
         spec: &RunSpec,
-        _: &RunInputs,
+        inputs: &RunInputs,
         parallelism: Parallelism,
     ) -> Result<Measured, String> {
-        measure(spec, parallelism)
+        measure_with_state(spec, parallelism, inputs.meter).map(|(m, _, _)| m)
     }
 
     /// Cost per simulated second and energy drift.
@@ -226,14 +227,15 @@ impl Kind for Trajectory {
 
 /// Run one trajectory.
 pub fn measure(spec: &RunSpec, parallelism: Parallelism) -> Result<Measured, String> {
-    measure_with_state(spec, parallelism).map(|(m, _, _)| m)
+    measure_with_state(spec, parallelism, None).map(|(m, _, _)| m)
 }
 
-/// Run one trajectory; also return the scene and its final state (for kinds that add
-/// columns of their own).
-pub fn measure_with_state(
+/// Run one trajectory, counting its steps on `meter`; also return the scene and its final
+/// state (for kinds that add columns of their own).
+pub(super) fn measure_with_state(
     spec: &RunSpec,
     parallelism: Parallelism,
+    meter: Option<&StepMeter>,
 ) -> Result<(Measured, crate::scene::Scene, crate::integrate::State), String> {
     super::measured::reset_peak_rss();
     let mut scene = build(spec, parallelism).map_err(|e| e.to_string())?;
@@ -244,7 +246,7 @@ pub fn measure_with_state(
         rows.push(s.clone());
         Ok(())
     };
-    let (summary, state, snapshots) = run_observed(&mut scene, &run, surface, &mut keep);
+    let (summary, state, snapshots) = run_observed(&mut scene, &run, surface, &mut keep, meter);
     let (outcome, message) = outcome_of(&summary.outcome);
     let mut m = Measured {
         outcome,

@@ -19,6 +19,7 @@ use super::grid::Axis;
 use super::identity::float;
 use super::kind::{Kind, OwnKey, RunInputs, number, parse_quick};
 use super::measured::{Measured, build, cap_cells, outcome_of, picture_surface, summary_cells};
+use super::meter::StepMeter;
 use super::pictures::PictureRows;
 use super::reference::{Reference, ScoringSettings, errors, sampled_run, stride};
 use super::spec::{RunSpec, Study};
@@ -273,6 +274,11 @@ impl Kind for WorkPrecision {
         })
     }
 
+    /// Every repeat runs the whole trajectory again.
+    fn estimated_steps(&self, file: &StudyFile, config: &SceneConfig) -> f64 {
+        config.run.steps as f64 * settings(file).map_or(1, |w| w.repeats) as f64
+    }
+
     fn needs_omega(&self, file: &StudyFile) -> bool {
         settings(file).is_some_and(|w| w.reference.method.is_none() && !w.reference.same_dt)
     }
@@ -294,7 +300,7 @@ impl Kind for WorkPrecision {
     ) -> Result<Measured, String> {
         let settings = settings(&study.file).ok_or("no [work-precision] table")?;
         let reference = inputs.reference.ok_or("no reference solution")?;
-        measure(spec, &settings, reference, parallelism)
+        measure_with(spec, &settings, reference, parallelism, true, inputs.meter)
     }
 
     /// An error within the reference's own accuracy is listed, though the run completed.
@@ -577,17 +583,19 @@ pub fn measure(
     reference: &Reference,
     parallelism: Parallelism,
 ) -> Result<Measured, String> {
-    measure_with(spec, settings, reference, parallelism, true)
+    measure_with(spec, settings, reference, parallelism, true, None)
 }
 
-/// [`measure`], recording the snapshots the pictures are drawn from only with `pictures`;
-/// the `tets` cell says how many elastic tets the body has.
+/// [`measure`], recording the snapshots the pictures are drawn from only with `pictures` and
+/// counting the steps of every repeat on `meter`; the `tets` cell says how many elastic tets
+/// the body has.
 pub(super) fn measure_with(
     spec: &RunSpec,
     settings: &ScoringSettings,
     reference: &Reference,
     parallelism: Parallelism,
     pictures: bool,
+    meter: Option<&StepMeter>,
 ) -> Result<Measured, String> {
     let mut scene = build(spec, parallelism).map_err(|e| e.to_string())?;
     let run = scene.config.run;
@@ -598,7 +606,7 @@ pub(super) fn measure_with(
         None
     };
     let (summary, rows, snapshots, pictures) =
-        sampled_run(&mut scene, &run, stride(settings, run.dt), surface);
+        sampled_run(&mut scene, &run, stride(settings, run.dt), surface, meter);
     let (outcome, message) = outcome_of(&summary.outcome);
     let mut m = Measured {
         outcome,
@@ -610,7 +618,15 @@ pub(super) fn measure_with(
     };
     m.cells.extend(cap_cells(spec));
     m.set("tets", tets.to_string());
-    repeat(spec, settings, parallelism, &summary, &snapshots, &mut m)?;
+    repeat(
+        spec,
+        settings,
+        parallelism,
+        &summary,
+        &snapshots,
+        &mut m,
+        meter,
+    )?;
     m.set("dt", cell(Some(run.dt)));
     m.set("reference_method", reference.method.name().to_owned());
     m.set("reference_dt", cell(Some(reference.dt)));
@@ -662,13 +678,15 @@ fn repeat(
     first: &crate::run::RunSummary,
     snapshots: &super::reference::Snapshots,
     m: &mut Measured,
+    meter: Option<&StepMeter>,
 ) -> Result<(), String> {
     let mut seconds = vec![first.totals.times.total];
     let mut repeatable = true;
     for _ in 1..settings.repeats {
         let mut scene = build(spec, parallelism).map_err(|e| e.to_string())?;
         let run = scene.config.run;
-        let (summary, _, again, _) = sampled_run(&mut scene, &run, stride(settings, run.dt), None);
+        let (summary, _, again, _) =
+            sampled_run(&mut scene, &run, stride(settings, run.dt), None, meter);
         seconds.push(summary.totals.times.total);
         repeatable &= again.q == snapshots.q && summary.outcome == first.outcome;
     }
