@@ -5,7 +5,6 @@ use std::path::PathBuf;
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray2};
 use pyo3::prelude::*;
-use softbench::data::DataPaths;
 
 use crate::errors::IntoPy;
 
@@ -21,7 +20,7 @@ pub fn load_mesh<'py>(
     path: PathBuf,
     data_dir: Option<PathBuf>,
 ) -> PyResult<MeshArrays<'py>> {
-    let data = data_dir.map_or_else(DataPaths::from_env, |d| DataPaths::new(Some(d)));
+    let data = crate::scene::data_paths(data_dir);
     let file = data.resolve_from_cwd(&path).py_err()?;
     let mesh = py
         .detach(|| softbench::mesh::read_tet_mesh(&file))

@@ -8,7 +8,6 @@ use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use softbench::data::DataPaths;
 use softbench::model::{HessianOptions, Model as FemModel};
 use softbench::parallel::Parallelism;
 use softbench::scene::{self, Scene};
@@ -51,7 +50,7 @@ impl Model {
             set,
             set_json,
         };
-        let data = data_dir.map_or_else(DataPaths::from_env, |d| DataPaths::new(Some(d)));
+        let data = crate::scene::data_paths(data_dir);
         let scene = py
             .detach(|| -> anyhow::Result<Scene> {
                 let loaded = source.load()?;

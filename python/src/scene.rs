@@ -4,6 +4,7 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
+use softbench::data::DataPaths;
 use softbench::scene::{self, LoadedScene};
 
 /// Where a scene comes from and what changes it.
@@ -63,4 +64,9 @@ impl SceneSource {
         let config = scene::from_table(table, text.as_deref(), &path)?;
         Ok(LoadedScene { path, config })
     }
+}
+
+/// Where data files are found: `dir` if given, else the SOFTBENCH_DATA folder.
+pub fn data_paths(dir: Option<PathBuf>) -> DataPaths {
+    dir.map_or_else(DataPaths::from_env, |d| DataPaths::new(Some(d)))
 }

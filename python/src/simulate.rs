@@ -7,7 +7,6 @@ use std::path::PathBuf;
 use numpy::ndarray::Array3;
 use numpy::{IntoPyArray, PyArray1, PyArray3};
 use pyo3::prelude::*;
-use softbench::data::DataPaths;
 use softbench::export::ExportFormat;
 use softbench::parallel::Parallelism;
 use softbench::pipeline::{SimulateOptions, Simulation};
@@ -46,7 +45,7 @@ pub fn simulate<'py>(
         set,
         set_json,
     };
-    let data = data_dir.map_or_else(DataPaths::from_env, |d| DataPaths::new(Some(d)));
+    let data = crate::scene::data_paths(data_dir);
     let done = py
         .detach(|| -> anyhow::Result<_> {
             let loaded = source.load()?;

@@ -4,7 +4,6 @@
 use std::path::PathBuf;
 
 use pyo3::prelude::*;
-use softbench::data::DataPaths;
 use softbench::study;
 
 use crate::errors::IntoPy;
@@ -25,7 +24,7 @@ pub fn run_study(
     force: bool,
     data_dir: Option<PathBuf>,
 ) -> PyResult<String> {
-    let data = data_dir.map_or_else(DataPaths::from_env, |d| DataPaths::new(Some(d)));
+    let data = crate::scene::data_paths(data_dir);
     if jobs == 0 {
         return Err(crate::BadInputError::new_err("jobs must be at least 1"));
     }
