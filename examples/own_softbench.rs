@@ -7,9 +7,10 @@
 //! softbench's own explicit Runge–Kutta integrator (`runge_kutta::ExplicitRungeKutta`).
 //!
 //! `cargo run --release --example own_softbench -- list`
+//! (`cargo test --all-targets` runs its test: a simulation of the soft beam with heun3)
 //! `cargo run --release --example own_softbench -- simulate experiments/scenes/cantilever.toml --set integrator.method=heun3`
 
-use softbench::integrate::methods::explicit;
+use softbench::integrate::methods::{MethodEntry, explicit};
 use softbench::integrate::register_method;
 use softbench::integrate::runge_kutta::{ExplicitRungeKutta, Tableau};
 
@@ -23,12 +24,49 @@ const HEUN3: Tableau = Tableau {
 };
 
 fn main() -> std::process::ExitCode {
-    let heun3 = explicit(
+    register_method(heun3()).expect("heun3 is not a built-in name");
+    softbench::cli::main()
+}
+
+/// The method's registry entry: an explicit method of order 3 run by the tableau.
+fn heun3() -> MethodEntry {
+    explicit(
         "heun3",
         3,
         "Heun's third-order Runge-Kutta method",
         |_, _| Box::new(ExplicitRungeKutta::new(HEUN3)),
-    );
-    register_method(heun3).expect("heun3 is not a built-in name");
-    softbench::cli::main()
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::process::ExitCode;
+
+    /// `cargo test --all-targets` runs this: the command line of this program simulates the
+    /// soft beam with heun3 to the end.
+    #[test]
+    fn the_command_line_runs_the_registered_method() {
+        register_method(heun3()).unwrap();
+        let out = std::env::temp_dir().join(format!("own-softbench-{}", std::process::id()));
+        let scene = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/experiments/scenes/soft_beam.toml"
+        );
+        let code = softbench::cli::run([
+            "softbench",
+            "simulate",
+            scene,
+            "--out",
+            out.to_str().unwrap(),
+            "--set",
+            "integrator.method=heun3",
+            "--set",
+            "run.steps=50",
+        ]);
+        assert_eq!(code, ExitCode::SUCCESS);
+        let summary = std::fs::read_to_string(out.join("summary.json")).unwrap();
+        assert!(summary.contains("\"method\": \"heun3\""), "{summary}");
+        let _ = std::fs::remove_dir_all(out);
+    }
 }

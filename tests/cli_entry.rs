@@ -9,7 +9,7 @@ use common::{TempDir, softbench};
 use softbench::integrate::methods::explicit;
 use softbench::integrate::runge_kutta::{ExplicitRungeKutta, Tableau};
 use softbench::integrate::{Method, register_method};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::Once;
 
@@ -101,34 +101,6 @@ steps = 10
     assert_eq!(code, ExitCode::SUCCESS);
     let runs = std::fs::read_to_string(only.join("own/runs.csv")).unwrap();
     assert_eq!(runs.lines().count(), 2, "{runs}");
-}
-
-/// The README's own-binary example, built by `cargo test --all-targets`, lists its method.
-#[test]
-fn the_own_softbench_example_lists_its_method() {
-    let bin = Path::new(env!("CARGO_BIN_EXE_softbench"));
-    let example = bin.parent().unwrap().join("examples/own_softbench");
-    if !example.exists() {
-        assert!(
-            std::env::var_os("CI").is_none(),
-            "{} is missing: CI builds every target",
-            example.display()
-        );
-        println!(
-            "skipped: the_own_softbench_example_lists_its_method: build it with --all-targets"
-        );
-        return;
-    }
-    let out = std::process::Command::new(&example)
-        .arg("list")
-        .output()
-        .unwrap();
-    assert!(out.status.success());
-    let text = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        text.lines().any(|l| l.trim_start().starts_with("heun3")),
-        "{text}"
-    );
 }
 
 /// A crate that depends on softbench and starts from softbench's Cargo.lock (the README's
