@@ -62,6 +62,7 @@ fn local_solvers(c: &mut Criterion) {
     let xpbd = XpbdSettings {
         substeps: 50,
         iterations: 1,
+        ..Default::default()
     };
     bench(
         c,

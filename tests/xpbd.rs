@@ -71,6 +71,7 @@ fn xpbd_with_many_substeps_matches_backward_euler_on_its_energy() {
     let settings = XpbdSettings {
         substeps: 200,
         iterations: 2,
+        ..Default::default()
     };
     let xpbd = run(&mut model, &mut Xpbd::new(settings), &start, dt, steps);
     let be_error = distance(&be.q, &fine.q);
@@ -120,6 +121,17 @@ fn xpbd_tet_colouring_is_valid_and_thread_count_does_not_change_results() {
     let settings = XpbdSettings {
         substeps: 3,
         iterations: 2,
+        ..Default::default()
+    };
+    // Every colour split as finely as the pool allows, and by the default rule.
+    let go_split = |model: &mut Model, par: Parallelism, parallel_min_tets: usize| {
+        model.set_parallelism(par);
+        let mut integ = Xpbd::new(XpbdSettings {
+            parallel_min_tets,
+            ..settings
+        });
+        let end = run(model, &mut integ, &start, 0.01, 2);
+        (end, integ.colouring().unwrap().clone())
     };
     let go = |model: &mut Model, par: Parallelism| {
         model.set_parallelism(par);
@@ -134,7 +146,12 @@ fn xpbd_tet_colouring_is_valid_and_thread_count_does_not_change_results() {
         .build()
         .unwrap()
         .install(|| go(&mut model, Parallelism::Rayon));
-    for other in [&parallel, &three] {
+    let (three_finest, _) = rayon::ThreadPoolBuilder::new()
+        .num_threads(3)
+        .build()
+        .unwrap()
+        .install(|| go_split(&mut model, Parallelism::Rayon, 1));
+    for other in [&parallel, &three, &three_finest] {
         assert!(
             sequential
                 .q
@@ -220,6 +237,7 @@ fn xpbd_with_a_drag_matches_backward_euler_on_its_energy() {
     let settings = XpbdSettings {
         substeps: 200,
         iterations: 2,
+        ..Default::default()
     };
     let xpbd = run(&mut model, &mut Xpbd::new(settings), &start, dt, steps);
     let be_error = distance(&be.q, &fine.q);

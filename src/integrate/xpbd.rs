@@ -14,16 +14,18 @@
 //!
 //! Each substep `h = dt/substeps`: `v += h g`, `x += h v`, multipliers reset, `iterations`
 //! Gauss–Seidel sweeps over the drag constraints (targets at the substep's end) and then the
-//! tets, `v = (x − x_start)/h`. Tets of one colour share no free
-//! vertex ([`super::colouring`]), so each colour is solved in parallel into a buffer and then
-//! applied: the result is that of a sequential sweep, whatever the thread count.
+//! tets, `v = (x − x_start)/h`. Tets of one colour share no free vertex
+//! ([`super::colouring`]), so the tets of a colour are projected in place at once: each colour
+//! is cut into chunks of `parallel_min_tets` tets, which the pool's threads claim in colour
+//! order ([`crate::parallel::OrderedChunks`]), a colour starting once the one before it is
+//! done. The result is that of a sequential sweep, whatever the thread count or split.
 
 use super::colouring::Colouring;
 use super::{Integrator, State, StepError, StepReport};
 use crate::fem::TetRest;
 use crate::material::{ConstraintNeoHookean, MaterialModel, cofactor};
 use crate::model::{Anchors, MassKind, Model, ModelError};
-use crate::parallel::for_each_chunk;
+use crate::parallel::{DisjointSlice, OrderedChunks};
 use nalgebra::{Matrix3, Vector3};
 
 /// Settings of `xpbd`.
@@ -34,6 +36,10 @@ pub struct XpbdSettings {
     pub substeps: u32,
     /// Gauss–Seidel sweeps over the constraints per substep. Default 1.
     pub iterations: u32,
+    /// Tets per parallel chunk of a colour; a sweep whose colours all fit in one chunk runs on
+    /// the calling thread. Decides speed only, never results. Default
+    /// [`PARALLEL_MIN_TETS`], measured by `cargo bench --bench thread_crossover`.
+    pub parallel_min_tets: usize,
 }
 
 impl Default for XpbdSettings {
@@ -41,6 +47,7 @@ impl Default for XpbdSettings {
         Self {
             substeps: 20,
             iterations: 1,
+            parallel_min_tets: PARALLEL_MIN_TETS,
         }
     }
 }
@@ -55,10 +62,9 @@ impl XpbdSettings {
     }
 }
 
-/// Tets per parallel task: a colour of the 12k-tet box (about 500 tets) makes a few tasks per
-/// thread; smaller chunks cost more in scheduling (50 substeps × every colour per step) than
-/// they balance.
-const CHUNK: usize = 128;
+/// Default of [`XpbdSettings::parallel_min_tets`], tets per chunk (about 100 ns each):
+/// `cargo bench --bench thread_crossover` measures the sweep against one thread.
+pub const PARALLEL_MIN_TETS: usize = 32;
 
 fn unsupported(field: &str, value: impl ToString, expected: &str) -> StepError {
     StepError::Model(ModelError::InvalidParameter {
@@ -74,15 +80,19 @@ pub struct Xpbd {
     settings: XpbdSettings,
     num_dofs: Option<usize>,
     colouring: Colouring,
+    /// The sweep's chunks in colour order.
+    schedule: OrderedChunks,
+    /// The tets with their rest data in colour order (a colour's tets contiguous, so a sweep
+    /// streams through memory), and where each colour starts.
+    sorted: Vec<([usize; 4], TetRest)>,
+    colour_start: Vec<usize>,
     /// Inverse lumped mass of every vertex (0 for fixed ones).
     inverse_mass: Vec<f64>,
     x: Vec<Vector3<f64>>,
     x_start: Vec<Vector3<f64>>,
     v: Vec<Vector3<f64>>,
-    /// Multipliers (C_D, C_H) per tet.
+    /// Multipliers (C_D, C_H) per tet, in colour order.
     lambda: Vec<[f64; 2]>,
-    /// Per tet of a colour: 12 position changes and 2 multiplier changes.
-    out: Vec<f64>,
     /// The drags at the current substep's end, and their multipliers per vertex.
     anchors: Anchors,
     anchor_lambda: Vec<Vector3<f64>>,
@@ -146,7 +156,10 @@ impl Xpbd {
 
     fn set_up(&mut self, model: &Model, q: &[f64]) {
         let dofs = model.dofs();
-        let tets = model.elastic_elements().map_or(&[][..], |e| e.tets);
+        let empty: &[[usize; 4]] = &[];
+        let (tets, rest): (&[[usize; 4]], &[TetRest]) = model
+            .elastic_elements()
+            .map_or((empty, &[]), |e| (e.tets, e.rest));
         let (ptr, codes) = super::vbd::incidence(model, tets.iter().copied());
         self.colouring = Colouring::greedy(tets.len(), |e, visit| {
             for &v in &tets[e] {
@@ -158,6 +171,21 @@ impl Xpbd {
                 }
             }
         });
+        self.schedule = OrderedChunks::new(
+            (0..self.colouring.num_colours()).map(|c| self.colouring.group(c).len()),
+            self.settings.parallel_min_tets,
+        );
+        self.colour_start = (0..self.colouring.num_colours())
+            .scan(0, |start, c| {
+                let here = *start;
+                *start += self.colouring.group(c).len();
+                Some(here)
+            })
+            .collect();
+        self.sorted = (0..self.colouring.num_colours())
+            .flat_map(|c| self.colouring.group(c))
+            .map(|&e| (tets[e], rest[e]))
+            .collect();
         self.inverse_mass = (0..dofs.num_vertices())
             .map(|v| {
                 if dofs.is_fixed(v) {
@@ -172,7 +200,6 @@ impl Xpbd {
         self.v = vec![Vector3::zeros(); self.x.len()];
         self.lambda = vec![[0.0; 2]; tets.len()];
         self.anchor_lambda = vec![Vector3::zeros(); self.x.len()];
-        self.out = vec![0.0; 14 * self.colouring.largest_group()];
         self.num_dofs = Some(model.num_dofs());
     }
 }
@@ -197,20 +224,31 @@ impl Xpbd {
 }
 
 /// One constraint projection on the tet's local positions `p`: returns the multiplier change.
-#[inline]
+/// `dm_inv`'s rows are the shape gradients of vertices 1–3.
+#[inline(always)]
 fn project(
     p: &mut [Vector3<f64>; 4],
     w: &[f64; 4],
-    grads: &[Vector3<f64>; 4],
+    dm_inv: &Matrix3<f64>,
     c: f64,
     dc_df: &Matrix3<f64>,
     lambda: f64,
     alpha_tilde: f64,
 ) -> f64 {
-    // dC/dx_a = (dC/dF) n_a, and the four shape gradients sum to zero.
-    let g123 = [dc_df * grads[1], dc_df * grads[2], dc_df * grads[3]];
-    let g = [-(g123[0] + g123[1] + g123[2]), g123[0], g123[1], g123[2]];
-    let denominator: f64 = (0..4).map(|a| w[a] * g[a].norm_squared()).sum::<f64>() + alpha_tilde;
+    // dC/dx_a = (dC/dF) grad N_a: the columns of dC/dF Dm^{-T} for a = 1..3, and the four
+    // shape gradients sum to zero.
+    let g123 = dc_df * dm_inv.transpose();
+    let g = [
+        -(g123.column(0) + g123.column(1) + g123.column(2)),
+        g123.column(0).into_owned(),
+        g123.column(1).into_owned(),
+        g123.column(2).into_owned(),
+    ];
+    let denominator = w[0] * g[0].norm_squared()
+        + w[1] * g[1].norm_squared()
+        + w[2] * g[2].norm_squared()
+        + w[3] * g[3].norm_squared()
+        + alpha_tilde;
     if denominator <= 0.0 {
         return 0.0;
     }
@@ -221,42 +259,50 @@ fn project(
     dl
 }
 
-/// Both constraints of tet `e` at positions `x`; `out` gets 12 position and 2 multiplier
-/// changes.
+/// Both constraints of tet `e`, in place: its free vertices' positions in `x` and its
+/// multipliers `lambda[e]`.
+///
+/// # Safety
+/// No other task may touch `lambda[e]` or the positions of `tet`'s free vertices (those with
+/// a nonzero inverse mass, the only ones written) while this runs; fixed vertices are only
+/// read, and must not be written by anyone.
 #[inline]
 #[allow(clippy::too_many_arguments)]
-fn solve_tet(
+unsafe fn solve_tet(
     m: &ConstraintNeoHookean,
     rest: &TetRest,
     tet: &[usize; 4],
-    x: &[Vector3<f64>],
+    e: usize,
+    x: &DisjointSlice<'_, Vector3<f64>>,
+    lambda: &DisjointSlice<'_, [f64; 2]>,
     inverse_mass: &[f64],
-    lambda: [f64; 2],
     h2: f64,
-    out: &mut [f64],
 ) {
-    let mut p = tet.map(|v| x[v]);
+    // SAFETY (all reads and writes below): the caller's promise.
+    let mut p = tet.map(|v| unsafe { x.read(v) });
+    let mut l = unsafe { lambda.read(e) };
     let w = tet.map(|v| inverse_mass[v]);
-    let grads = rest.shape_gradients();
-    let mut dl = [0.0; 2];
+    let dm_inv = &rest.dm_inv;
+    // The compliances over h²: 1/(mu V h²) and 1/(lambda V h²), one division for both.
+    let scale = 1.0 / (rest.volume * h2);
     let f = rest.deformation_gradient(&p);
     let norm = f.norm();
     if norm > 1e-12 && m.mu > 0.0 {
-        let alpha = 1.0 / (m.mu * rest.volume * h2);
-        dl[0] = project(&mut p, &w, &grads, norm, &(f / norm), lambda[0], alpha);
+        let alpha = scale / m.mu;
+        l[0] += project(&mut p, &w, dm_inv, norm, &(f * norm.recip()), l[0], alpha);
     }
     if m.lambda > 0.0 {
         let f = rest.deformation_gradient(&p);
-        let alpha = 1.0 / (m.lambda * rest.volume * h2);
+        let alpha = scale / m.lambda;
         let c = f.determinant() - m.alpha;
-        dl[1] = project(&mut p, &w, &grads, c, &cofactor(&f), lambda[1], alpha);
+        l[1] += project(&mut p, &w, dm_inv, c, &cofactor(&f), l[1], alpha);
     }
     for a in 0..4 {
-        let d = p[a] - x[tet[a]];
-        out[3 * a..3 * a + 3].copy_from_slice(d.as_slice());
+        if w[a] > 0.0 {
+            unsafe { x.write(tet[a], p[a]) };
+        }
     }
-    out[12] = dl[0];
-    out[13] = dl[1];
+    unsafe { lambda.write(e, l) };
 }
 
 impl Integrator for Xpbd {
@@ -293,10 +339,6 @@ impl Integrator for Xpbd {
             self.x[v] = Vector3::from_column_slice(&state.q[3 * f..3 * f + 3]);
             self.v[v] = Vector3::from_column_slice(&state.v[3 * f..3 * f + 3]);
         }
-        let empty: &[[usize; 4]] = &[];
-        let (tets, rest): (&[[usize; 4]], &[TetRest]) = model
-            .elastic_elements()
-            .map_or((empty, &[]), |e| (e.tets, e.rest));
         let g = model.gravity().unwrap_or_else(Vector3::zeros);
         let par = model.parallelism();
         let h = dt / f64::from(self.settings.substeps);
@@ -324,26 +366,20 @@ impl Integrator for Xpbd {
                 let Some(m) = material else {
                     continue;
                 };
-                for c in 0..self.colouring.num_colours() {
-                    let group = self.colouring.group(c);
-                    let (x, inverse_mass, lambda) = (&self.x, &self.inverse_mass, &self.lambda);
-                    let out = &mut self.out[..14 * group.len()];
-                    for_each_chunk(par, out, 14 * CHUNK, |ci, out| {
-                        for (k, o) in out.chunks_exact_mut(14).enumerate() {
-                            let e = group[ci * CHUNK + k];
-                            solve_tet(&m, &rest[e], &tets[e], x, inverse_mass, lambda[e], h * h, o);
-                        }
-                        Ok::<(), StepError>(())
-                    })?;
-                    for (k, &e) in group.iter().enumerate() {
-                        let o = &self.out[14 * k..14 * k + 14];
-                        for (a, &v) in tets[e].iter().enumerate() {
-                            self.x[v] += Vector3::from_column_slice(&o[3 * a..3 * a + 3]);
-                        }
-                        self.lambda[e][0] += o[12];
-                        self.lambda[e][1] += o[13];
+                let x = DisjointSlice::new(&mut self.x);
+                let lambda = DisjointSlice::new(&mut self.lambda);
+                let (sorted, inverse_mass) = (&self.sorted, &self.inverse_mass);
+                let colour_start = &self.colour_start;
+                self.schedule.run(par, &|c, range| {
+                    let start = colour_start[c];
+                    let range = start + range.start..start + range.end;
+                    for (k, (tet, rest)) in range.clone().zip(&sorted[range]) {
+                        // SAFETY: tets of one colour share no free vertex (the colouring's
+                        // edges) and each owns its multipliers; fixed vertices (inverse mass
+                        // 0) are never written; the schedule runs colours one after another.
+                        unsafe { solve_tet(&m, rest, tet, k, &x, &lambda, inverse_mass, h * h) };
                     }
-                }
+                });
             }
             for &v in free {
                 self.v[v] = (self.x[v] - self.x_start[v]) / h;

@@ -1,0 +1,329 @@
+//! Where a second thread starts to pay, for each loop whose threads are decided by a rule:
+//! XPBD's colour sweep (tets per chunk, [`XpbdSettings::parallel_min_tets`]), the element
+//! loops of assembly (chunks of 256 tets, [`MIN_PARALLEL_CHUNKS`]), CG's mat-vec (columns) and
+//! the sparse Cholesky factorization (predicted flops, [`PARALLEL_MIN_FLOPS`]). Each row times
+//! one thread against two with the rule switched off (so both sides of the rule are
+//! measured), both called inside the same two-thread pool, as the median of interleaved rounds, and each table ends with the
+//! crossover: the smallest size from which two threads were at least 3% faster at every
+//! larger size.
+//! The defaults in the library are set from this output on a quiet two-core machine.
+//!
+//! `cargo bench --bench thread_crossover` (add `-- --quick` for fewer rounds; `-- xpbd`,
+//! `elements`, `matvec` or `factor` for one table).
+
+#[path = "../tests/support/fem_system.rs"]
+mod fem_system;
+
+use fem_system::{fem_ball, fem_box};
+use nalgebra::Vector3;
+use softbench::fem::TetRest;
+use softbench::integrate::xpbd::{PARALLEL_MIN_TETS, Xpbd, XpbdSettings};
+use softbench::integrate::{Integrator, State};
+use softbench::material::{LameParameters, Material, MaterialModel, StableNeoHookean};
+use softbench::mesh::generate::box_mesh;
+use softbench::model::{AxisRule, FixedSelection, MassKind, Model, ModelSpec, Side};
+use softbench::parallel::{MIN_PARALLEL_CHUNKS, Parallelism, for_each_chunk_from};
+use softbench::solve::symmetric_mul_vec;
+use softbench::solve::{
+    CholeskySolver, DirectSettings, LinearSolver, Ordering, PARALLEL_MIN_FLOPS,
+};
+use std::hint::black_box;
+use std::time::Instant;
+
+/// Median seconds of `rounds` interleaved runs of `one` and `two` (each run `reps` calls).
+fn interleaved(
+    rounds: usize,
+    reps: usize,
+    mut one: impl FnMut(),
+    mut two: impl FnMut(),
+) -> (f64, f64) {
+    let time = |f: &mut dyn FnMut()| {
+        let t = Instant::now();
+        for _ in 0..reps {
+            f();
+        }
+        t.elapsed().as_secs_f64() / reps as f64
+    };
+    one();
+    two();
+    let (mut a, mut b) = (Vec::new(), Vec::new());
+    for _ in 0..rounds {
+        a.push(time(&mut one));
+        b.push(time(&mut two));
+    }
+    (median(a), median(b))
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// Print a row and remember whether two threads won.
+struct Table {
+    name: &'static str,
+    unit: &'static str,
+    rows: Vec<(f64, bool)>,
+}
+
+impl Table {
+    fn new(name: &'static str, unit: &'static str, columns: &str) -> Self {
+        println!(
+            "\n## {name}\n\n| {columns} | 1 thread | 2 threads | speed-up |\n|---|---|---|---|"
+        );
+        Self {
+            name,
+            unit,
+            rows: Vec::new(),
+        }
+    }
+
+    fn row(&mut self, label: &str, size: f64, (one, two): (f64, f64)) {
+        println!(
+            "| {label} | {:.3} ms | {:.3} ms | {:.2}x |",
+            one * 1e3,
+            two * 1e3,
+            one / two
+        );
+        // A win is at least 3% faster: closer than that is the noise of this machine.
+        self.rows.push((size, two < 0.97 * one));
+    }
+
+    /// The smallest size from which two threads won at every larger size.
+    fn crossover(&self) {
+        let mut sorted = self.rows.clone();
+        sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let from = (0..sorted.len())
+            .find(|&i| sorted[i..].iter().all(|r| r.1))
+            .map(|i| sorted[i].0);
+        match from {
+            Some(size) => println!(
+                "\n{}: two threads faster from {size:.3e} {}",
+                self.name, self.unit
+            ),
+            None => println!(
+                "\n{}: two threads never faster at the largest size",
+                self.name
+            ),
+        }
+    }
+}
+
+fn xpbd_model(cells: [usize; 3]) -> Model {
+    let lame = LameParameters::from_youngs_poisson(1e6, 0.45).unwrap();
+    let material = MaterialModel::from_name("xpbd-neo-hookean", lame).unwrap();
+    let mut spec = ModelSpec::elastic(box_mesh(cells, [1.0, 0.5, 0.5]), material, 1000.0);
+    spec.gravity = Some(Vector3::new(0.0, -9.81, 0.0));
+    spec.mass_kind = MassKind::Lumped;
+    spec.fixed = FixedSelection {
+        rules: vec![AxisRule {
+            axis: 0,
+            side: Side::Min,
+            tolerance: 1e-9,
+        }],
+        ..Default::default()
+    };
+    Model::new(spec).unwrap()
+}
+
+const BOXES: [[usize; 3]; 6] = [
+    [4, 2, 2],
+    [8, 4, 4],
+    [12, 6, 6],
+    [16, 8, 8],
+    [20, 10, 10],
+    [32, 16, 16],
+];
+
+fn xpbd(pool: &rayon::ThreadPool, rounds: usize) {
+    for chunk in [32, 64, 128] {
+        let mut table = Table::new(
+            if chunk == PARALLEL_MIN_TETS {
+                "xpbd, default chunk"
+            } else {
+                "xpbd"
+            },
+            "tets",
+            &format!("box, 50 substeps, {chunk} tets per chunk"),
+        );
+        for cells in BOXES {
+            let mut model = xpbd_model(cells);
+            let tets = model.elastic_elements().unwrap().tets.len();
+            let start = State::at_rest(&model);
+            let settings = XpbdSettings {
+                substeps: 50,
+                parallel_min_tets: chunk,
+                ..Default::default()
+            };
+            let mut one = Xpbd::new(settings);
+            let mut two = Xpbd::new(settings);
+            let reps = (4000 / tets).max(1);
+            let mut m1 = xpbd_model(cells);
+            m1.set_parallelism(Parallelism::Sequential);
+            let times = interleaved(
+                rounds,
+                reps,
+                || {
+                    pool.install(|| one.step(&mut m1, &mut start.clone(), 0.01).unwrap());
+                },
+                || {
+                    pool.install(|| two.step(&mut model, &mut start.clone(), 0.01).unwrap());
+                },
+            );
+            table.row(&format!("{tets} tets"), tets as f64, times);
+        }
+        table.crossover();
+    }
+}
+
+/// The Hessian loop's per-element work (F, dP/dF, the 12×12 block) in chunks of 256 tets.
+fn elements(pool: &rayon::ThreadPool, rounds: usize) {
+    let m = StableNeoHookean::new(LameParameters::from_youngs_poisson(1e6, 0.45).unwrap());
+    let mut table = Table::new(
+        "element Hessians",
+        "tets",
+        &format!("tets (chunks of 256; library rule: {MIN_PARALLEL_CHUNKS} chunks)"),
+    );
+    for tets in [256usize, 512, 1024, 1536, 2048, 3072, 4096, 8192, 16384] {
+        let mesh = box_mesh([tets.div_ceil(6), 1, 1], [1.0, 0.1, 0.1]);
+        let rest: Vec<TetRest> = mesh
+            .tets
+            .iter()
+            .take(tets)
+            .map(|t| TetRest::new(&t.map(|v| mesh.positions[v])).unwrap())
+            .collect();
+        let x: Vec<Vector3<f64>> = mesh.positions.iter().map(|p| p * 1.01).collect();
+        let mut buf = vec![0.0; 81 * tets];
+        let run = |par, buf: &mut [f64]| {
+            for_each_chunk_from(par, buf, 81 * 256, 1, |ci, out| {
+                for (k, h) in out.chunks_exact_mut(81).enumerate() {
+                    let e = ci * 256 + k;
+                    let t = &mesh.tets[e];
+                    let f = rest[e].deformation_gradient(&t.map(|v| x[v]));
+                    let d = m.first_piola_derivative(&f).unwrap();
+                    h.copy_from_slice(d.as_slice());
+                }
+                Ok::<(), ()>(())
+            })
+            .unwrap();
+        };
+        let mut buf2 = buf.clone();
+        let times = interleaved(
+            rounds,
+            (400_000 / tets).max(1),
+            || pool.install(|| run(Parallelism::Sequential, &mut buf)),
+            || pool.install(|| run(Parallelism::Rayon, &mut buf2)),
+        );
+        table.row(&format!("{tets}"), tets as f64, times);
+        black_box(&buf2);
+    }
+    table.crossover();
+}
+
+fn matvec(pool: &rayon::ThreadPool, rounds: usize) {
+    let mut table = Table::new("CG mat-vec", "rows", "matrix (box), rows");
+    for cells in [
+        [6, 3, 3],
+        [10, 5, 5],
+        [14, 7, 7],
+        [20, 10, 10],
+        [32, 16, 16],
+    ] {
+        let a = fem_box(cells).matrix;
+        let n = a.dim();
+        let x = vec![1.0; n];
+        let (mut y1, mut y2) = (vec![0.0; n], vec![0.0; n]);
+        let times = interleaved(
+            rounds,
+            (2_000_000 / n).max(1),
+            || pool.install(|| symmetric_mul_vec(&a, &x, &mut y1, Parallelism::Sequential)),
+            || pool.install(|| symmetric_mul_vec(&a, &x, &mut y2, Parallelism::Rayon)),
+        );
+        table.row(&format!("{cells:?}, {n}"), n as f64, times);
+    }
+    table.crossover();
+}
+
+fn factor(pool: &rayon::ThreadPool, rounds: usize) {
+    let mut table = Table::new(
+        "Cholesky factorization (METIS, subtree schedule)",
+        "flops",
+        &format!("matrix, predicted flops (library rule: {PARALLEL_MIN_FLOPS:.0e})"),
+    );
+    let settings = |par| DirectSettings {
+        ordering: Ordering::Metis,
+        parallelism: par,
+        parallel_min_flops: 0.0,
+        ..DirectSettings::default()
+    };
+    let mut systems = Vec::new();
+    for cells in [
+        [12, 6, 6],
+        [16, 8, 8],
+        [20, 10, 10],
+        [24, 12, 12],
+        [28, 14, 14],
+        [32, 16, 16],
+    ] {
+        systems.push((format!("box {cells:?}"), fem_box(cells).matrix));
+    }
+    for n in [6, 8, 10] {
+        systems.push((format!("ball {n}"), fem_ball(n).matrix));
+    }
+    for (label, a) in &systems {
+        let mut one = CholeskySolver::new(settings(Parallelism::Sequential));
+        one.analyze(a.pattern()).unwrap();
+        let mut two = pool.install(|| {
+            let mut s = CholeskySolver::new(settings(Parallelism::Rayon));
+            s.analyze(a.pattern()).unwrap();
+            s
+        });
+        let flops = one.stats().factor_flops;
+        let times = interleaved(
+            rounds,
+            1,
+            || {
+                pool.install(|| one.factor(a).unwrap());
+            },
+            || {
+                pool.install(|| two.factor(a).unwrap());
+            },
+        );
+        table.row(&format!("{label}, {flops:.2e}"), flops, times);
+    }
+    table.crossover();
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| a != "--bench")
+        .collect();
+    let quick = args.iter().any(|a| a == "--quick");
+    let only: Vec<&String> = args.iter().filter(|a| !a.starts_with("--")).collect();
+    let wanted = |name: &str| only.is_empty() || only.iter().any(|o| *o == name);
+    let rounds = if quick { 5 } else { 15 };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .unwrap();
+    let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
+    println!(
+        "# thread crossover: 1 thread against a 2-thread pool, medians of {rounds} interleaved rounds\n\nload average at start: {}",
+        load.trim()
+    );
+    if wanted("xpbd") {
+        xpbd(&pool, rounds);
+    }
+    if wanted("elements") {
+        elements(&pool, rounds);
+    }
+    if wanted("matvec") {
+        matvec(&pool, rounds);
+    }
+    if wanted("factor") {
+        factor(&pool, rounds);
+    }
+    let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
+    println!("\nload average at end: {}", load.trim());
+}
