@@ -3,7 +3,8 @@
 //! loops of assembly (chunks of 256 tets, [`MIN_PARALLEL_CHUNKS`]), CG's mat-vec (columns) and
 //! the sparse Cholesky factorization (predicted flops, [`PARALLEL_MIN_FLOPS`]). Each row times
 //! one thread against two with the rule switched off (so both sides of the rule are
-//! measured), both called inside the same two-thread pool, as the median of interleaved rounds, and each table ends with the
+//! measured), called as `softbench` calls them (from a thread outside rayon's global pool of
+//! two threads), as the median of interleaved rounds, and each table ends with the
 //! crossover: the smallest size from which two threads were at least 3% faster at every
 //! larger size.
 //! The defaults in the library are set from this output on a quiet two-core machine.
@@ -22,7 +23,7 @@ use softbench::integrate::{Integrator, State};
 use softbench::material::{LameParameters, Material, MaterialModel, StableNeoHookean};
 use softbench::mesh::generate::box_mesh;
 use softbench::model::{AxisRule, FixedSelection, MassKind, Model, ModelSpec, Side};
-use softbench::parallel::{MIN_PARALLEL_CHUNKS, Parallelism, for_each_chunk_from};
+use softbench::parallel::{Parallelism, for_each_chunk_from};
 use softbench::solve::symmetric_mul_vec;
 use softbench::solve::{
     CholeskySolver, DirectSettings, LinearSolver, Ordering, PARALLEL_MIN_FLOPS,
@@ -135,7 +136,7 @@ const BOXES: [[usize; 3]; 6] = [
     [32, 16, 16],
 ];
 
-fn xpbd(pool: &rayon::ThreadPool, rounds: usize) {
+fn xpbd(rounds: usize) {
     for chunk in [32, 64, 128] {
         let mut table = Table::new(
             if chunk == PARALLEL_MIN_TETS {
@@ -164,10 +165,10 @@ fn xpbd(pool: &rayon::ThreadPool, rounds: usize) {
                 rounds,
                 reps,
                 || {
-                    pool.install(|| one.step(&mut m1, &mut start.clone(), 0.01).unwrap());
+                    one.step(&mut m1, &mut start.clone(), 0.01).unwrap();
                 },
                 || {
-                    pool.install(|| two.step(&mut model, &mut start.clone(), 0.01).unwrap());
+                    two.step(&mut model, &mut start.clone(), 0.01).unwrap();
                 },
             );
             table.row(&format!("{tets} tets"), tets as f64, times);
@@ -176,51 +177,59 @@ fn xpbd(pool: &rayon::ThreadPool, rounds: usize) {
     }
 }
 
-/// The Hessian loop's per-element work (F, dP/dF, the 12×12 block) in chunks of 256 tets.
-fn elements(pool: &rayon::ThreadPool, rounds: usize) {
+/// The element loops' work in chunks of 256 tets: the energy loop's (F and ψ), the gradient
+/// loop's (F, P and the 12 gradient entries) and the Hessian loop's (F and dP/dF); each loop
+/// has its own rule in `model::elastic` (`*_MIN_CHUNKS`).
+fn elements(rounds: usize) {
     let m = StableNeoHookean::new(LameParameters::from_youngs_poisson(1e6, 0.45).unwrap());
-    let mut table = Table::new(
-        "element Hessians",
-        "tets",
-        &format!("tets (chunks of 256; library rule: {MIN_PARALLEL_CHUNKS} chunks)"),
-    );
-    for tets in [256usize, 512, 1024, 1536, 2048, 3072, 4096, 8192, 16384] {
-        let mesh = box_mesh([tets.div_ceil(6), 1, 1], [1.0, 0.1, 0.1]);
-        let rest: Vec<TetRest> = mesh
-            .tets
-            .iter()
-            .take(tets)
-            .map(|t| TetRest::new(&t.map(|v| mesh.positions[v])).unwrap())
-            .collect();
-        let x: Vec<Vector3<f64>> = mesh.positions.iter().map(|p| p * 1.01).collect();
-        let mut buf = vec![0.0; 81 * tets];
-        let run = |par, buf: &mut [f64]| {
-            for_each_chunk_from(par, buf, 81 * 256, 1, |ci, out| {
-                for (k, h) in out.chunks_exact_mut(81).enumerate() {
-                    let e = ci * 256 + k;
-                    let t = &mesh.tets[e];
-                    let f = rest[e].deformation_gradient(&t.map(|v| x[v]));
-                    let d = m.first_piola_derivative(&f).unwrap();
-                    h.copy_from_slice(d.as_slice());
-                }
-                Ok::<(), ()>(())
-            })
-            .unwrap();
-        };
-        let mut buf2 = buf.clone();
-        let times = interleaved(
-            rounds,
-            (400_000 / tets).max(1),
-            || pool.install(|| run(Parallelism::Sequential, &mut buf)),
-            || pool.install(|| run(Parallelism::Rayon, &mut buf2)),
+    for (kind, width) in [("energies", 1), ("gradients", 12), ("Hessians", 81)] {
+        let mut table = Table::new(
+            kind,
+            "tets",
+            &format!("element {kind}, tets in chunks of 256"),
         );
-        table.row(&format!("{tets}"), tets as f64, times);
-        black_box(&buf2);
+        for tets in [256usize, 512, 1024, 2048, 4096, 8192, 16384, 32768] {
+            let mesh = box_mesh([tets.div_ceil(6), 1, 1], [1.0, 0.1, 0.1]);
+            let rest: Vec<TetRest> = mesh
+                .tets
+                .iter()
+                .take(tets)
+                .map(|t| TetRest::new(&t.map(|v| mesh.positions[v])).unwrap())
+                .collect();
+            let x: Vec<Vector3<f64>> = mesh.positions.iter().map(|p| p * 1.01).collect();
+            let run = |par, buf: &mut [f64]| {
+                for_each_chunk_from(par, buf, width * 256, 1, |ci, out| {
+                    for (k, h) in out.chunks_exact_mut(width).enumerate() {
+                        let e = ci * 256 + k;
+                        let t = &mesh.tets[e];
+                        let f = rest[e].deformation_gradient(&t.map(|v| x[v]));
+                        match width {
+                            1 => h[0] = rest[e].volume * m.energy_density(&f).unwrap(),
+                            12 => rest[e].gradient_from_stress(&m.first_piola(&f).unwrap(), h),
+                            _ => {
+                                h.copy_from_slice(m.first_piola_derivative(&f).unwrap().as_slice())
+                            }
+                        }
+                    }
+                    Ok::<(), ()>(())
+                })
+                .unwrap();
+            };
+            let (mut buf, mut buf2) = (vec![0.0; width * tets], vec![0.0; width * tets]);
+            let times = interleaved(
+                rounds,
+                (400_000 / tets).max(1),
+                || run(Parallelism::Sequential, &mut buf),
+                || run(Parallelism::Rayon, &mut buf2),
+            );
+            table.row(&format!("{tets}"), tets as f64, times);
+            black_box(&buf2);
+        }
+        table.crossover();
     }
-    table.crossover();
 }
 
-fn matvec(pool: &rayon::ThreadPool, rounds: usize) {
+fn matvec(rounds: usize) {
     let mut table = Table::new("CG mat-vec", "rows", "matrix (box), rows");
     for cells in [
         [6, 3, 3],
@@ -236,15 +245,15 @@ fn matvec(pool: &rayon::ThreadPool, rounds: usize) {
         let times = interleaved(
             rounds,
             (2_000_000 / n).max(1),
-            || pool.install(|| symmetric_mul_vec(&a, &x, &mut y1, Parallelism::Sequential)),
-            || pool.install(|| symmetric_mul_vec(&a, &x, &mut y2, Parallelism::Rayon)),
+            || symmetric_mul_vec(&a, &x, &mut y1, Parallelism::Sequential),
+            || symmetric_mul_vec(&a, &x, &mut y2, Parallelism::Rayon),
         );
         table.row(&format!("{cells:?}, {n}"), n as f64, times);
     }
     table.crossover();
 }
 
-fn factor(pool: &rayon::ThreadPool, rounds: usize) {
+fn factor(rounds: usize) {
     let mut table = Table::new(
         "Cholesky factorization (METIS, subtree schedule)",
         "flops",
@@ -258,6 +267,9 @@ fn factor(pool: &rayon::ThreadPool, rounds: usize) {
     };
     let mut systems = Vec::new();
     for cells in [
+        [6, 3, 3],
+        [8, 4, 4],
+        [10, 5, 5],
         [12, 6, 6],
         [16, 8, 8],
         [20, 10, 10],
@@ -273,20 +285,17 @@ fn factor(pool: &rayon::ThreadPool, rounds: usize) {
     for (label, a) in &systems {
         let mut one = CholeskySolver::new(settings(Parallelism::Sequential));
         one.analyze(a.pattern()).unwrap();
-        let mut two = pool.install(|| {
-            let mut s = CholeskySolver::new(settings(Parallelism::Rayon));
-            s.analyze(a.pattern()).unwrap();
-            s
-        });
+        let mut two = CholeskySolver::new(settings(Parallelism::Rayon));
+        two.analyze(a.pattern()).unwrap();
         let flops = one.stats().factor_flops;
         let times = interleaved(
             rounds,
-            1,
+            (1e8 / flops).clamp(1.0, 50.0) as usize,
             || {
-                pool.install(|| one.factor(a).unwrap());
+                one.factor(a).unwrap();
             },
             || {
-                pool.install(|| two.factor(a).unwrap());
+                two.factor(a).unwrap();
             },
         );
         table.row(&format!("{label}, {flops:.2e}"), flops, times);
@@ -303,9 +312,10 @@ fn main() {
     let only: Vec<&String> = args.iter().filter(|a| !a.starts_with("--")).collect();
     let wanted = |name: &str| only.is_empty() || only.iter().any(|o| *o == name);
     let rounds = if quick { 5 } else { 15 };
-    let pool = rayon::ThreadPoolBuilder::new()
+    // As the command line runs: the global pool of two threads, called from outside it.
+    rayon::ThreadPoolBuilder::new()
         .num_threads(2)
-        .build()
+        .build_global()
         .unwrap();
     let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
     println!(
@@ -313,16 +323,16 @@ fn main() {
         load.trim()
     );
     if wanted("xpbd") {
-        xpbd(&pool, rounds);
+        xpbd(rounds);
     }
     if wanted("elements") {
-        elements(&pool, rounds);
+        elements(rounds);
     }
     if wanted("matvec") {
-        matvec(&pool, rounds);
+        matvec(rounds);
     }
     if wanted("factor") {
-        factor(&pool, rounds);
+        factor(rounds);
     }
     let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
     println!("\nload average at end: {}", load.trim());

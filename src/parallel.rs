@@ -217,6 +217,12 @@ impl OrderedChunks {
         }
     }
 
+    /// Whether some group has more than one chunk: else [`Self::run`] stays on the calling
+    /// thread.
+    pub fn splits(&self) -> bool {
+        self.splits
+    }
+
     /// Call `f(group, items)` for every chunk, `items` a range within the group, in group
     /// order: on the calling thread, or with [`Parallelism::Rayon`] when some group has more
     /// than one chunk, on every thread of the pool at once. No allocation.

@@ -243,3 +243,37 @@ fn the_default_ordering_is_auto_and_keeps_the_cheaper_one() {
     let config: softbench::solve::SolverSettings = toml::from_str("").unwrap();
     assert_eq!(config.direct.ordering, Ordering::Auto);
 }
+
+/// Each scheduler has its own threshold, measured by `cargo bench --bench thread_crossover`:
+/// the subtree scheduler pays on two threads from ~1e7 flops, faer's loop (parallel only
+/// inside dense kernels) from billions, so a 1.8e8-flop factorization takes two threads with
+/// the first and one with the second.
+#[test]
+fn each_scheduler_has_its_own_flops_rule() {
+    let a = fem_box([16, 8, 8]).matrix;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .unwrap();
+    let parallel = |scheduler| {
+        pool.install(|| {
+            let mut s = CholeskySolver::new(DirectSettings {
+                ordering: Ordering::Metis,
+                parallelism: Parallelism::Rayon,
+                scheduler,
+                ..Default::default()
+            });
+            s.analyze(a.pattern()).unwrap();
+            let flops = s.stats().factor_flops;
+            assert!(
+                (softbench::solve::PARALLEL_MIN_FLOPS
+                    ..softbench::solve::FAER_LOOP_PARALLEL_MIN_FLOPS)
+                    .contains(&flops),
+                "{flops:e} flops"
+            );
+            s.stats().parallel_factor
+        })
+    };
+    assert!(parallel(softbench::solve::Scheduler::Subtrees));
+    assert!(!parallel(softbench::solve::Scheduler::Faer));
+}

@@ -25,7 +25,7 @@ use super::{Integrator, State, StepError, StepReport};
 use crate::fem::TetRest;
 use crate::material::{ConstraintNeoHookean, MaterialModel, cofactor};
 use crate::model::{Anchors, MassKind, Model, ModelError};
-use crate::parallel::{DisjointSlice, OrderedChunks};
+use crate::parallel::{DisjointSlice, OrderedChunks, Parallelism};
 use nalgebra::{Matrix3, Vector3};
 
 /// Settings of `xpbd`.
@@ -64,7 +64,7 @@ impl XpbdSettings {
 
 /// Default of [`XpbdSettings::parallel_min_tets`], tets per chunk (about 100 ns each):
 /// `cargo bench --bench thread_crossover` measures the sweep against one thread.
-pub const PARALLEL_MIN_TETS: usize = 32;
+pub const PARALLEL_MIN_TETS: usize = 64;
 
 fn unsupported(field: &str, value: impl ToString, expected: &str) -> StepError {
     StepError::Model(ModelError::InvalidParameter {
@@ -305,34 +305,16 @@ unsafe fn solve_tet(
     unsafe { lambda.write(e, l) };
 }
 
-impl Integrator for Xpbd {
-    fn name(&self) -> &'static str {
-        "xpbd"
-    }
-
-    fn order(&self) -> u32 {
-        1
-    }
-
-    fn is_explicit(&self) -> bool {
-        false
-    }
-
-    fn check_model(&self, model: &Model) -> Result<(), StepError> {
-        Self::material(model).map(|_| ())
-    }
-
-    fn advance(
+impl Xpbd {
+    /// The step's substeps on the calling thread (sweeps on the pool with `Rayon`).
+    fn substeps(
         &mut self,
-        model: &mut Model,
+        model: &Model,
         state: &mut State,
         dt: f64,
-        report: &mut StepReport,
+        material: Option<ConstraintNeoHookean>,
     ) -> Result<(), StepError> {
-        let material = Self::material(model)?;
-        if self.num_dofs != Some(model.num_dofs()) {
-            self.set_up(model, &state.q);
-        }
+        let par = model.parallelism();
         let dofs = model.dofs();
         let free = dofs.free_vertices();
         for (f, &v) in free.iter().enumerate() {
@@ -340,7 +322,6 @@ impl Integrator for Xpbd {
             self.v[v] = Vector3::from_column_slice(&state.v[3 * f..3 * f + 3]);
         }
         let g = model.gravity().unwrap_or_else(Vector3::zeros);
-        let par = model.parallelism();
         let h = dt / f64::from(self.settings.substeps);
         let pulled = !model.vertex_potentials().is_empty();
         for s in 0..self.settings.substeps {
@@ -388,6 +369,50 @@ impl Integrator for Xpbd {
         for (f, &v) in free.iter().enumerate() {
             state.q[3 * f..3 * f + 3].copy_from_slice(self.x[v].as_slice());
             state.v[3 * f..3 * f + 3].copy_from_slice(self.v[v].as_slice());
+        }
+        Ok(())
+    }
+}
+
+impl Integrator for Xpbd {
+    fn name(&self) -> &'static str {
+        "xpbd"
+    }
+
+    fn order(&self) -> u32 {
+        1
+    }
+
+    fn is_explicit(&self) -> bool {
+        false
+    }
+
+    fn check_model(&self, model: &Model) -> Result<(), StepError> {
+        Self::material(model).map(|_| ())
+    }
+
+    fn advance(
+        &mut self,
+        model: &mut Model,
+        state: &mut State,
+        dt: f64,
+        report: &mut StepReport,
+    ) -> Result<(), StepError> {
+        let material = Self::material(model)?;
+        if self.num_dofs != Some(model.num_dofs()) {
+            self.set_up(model, &state.q);
+        }
+        let par = model.parallelism();
+        if par == Parallelism::Rayon
+            && self.schedule.splits()
+            && rayon::current_thread_index().is_none()
+        {
+            // One entry into rayon's pool per step rather than one per sweep (~20 µs each,
+            // 50 sweeps per step by default): the step runs on a pool thread, whose sweeps
+            // then start at the cost of a join.
+            rayon::scope(|_| self.substeps(model, state, dt, material))?;
+        } else {
+            self.substeps(model, state, dt, material)?;
         }
         report.substeps = self.settings.substeps;
         report.local_iterations = self.settings.substeps * self.settings.iterations;

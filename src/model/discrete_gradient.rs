@@ -24,10 +24,10 @@
 //! - Vertex potentials (anchors, drags) depend on time: their gradient at the midpoint
 //!   positions (second order, not exactly conservative — they do work on the body anyway).
 
-use super::elastic::{CHUNK, ElasticBody, ElementFailure};
+use super::elastic::{CHUNK, ElasticBody, ElementFailure, GRADIENT_MIN_CHUNKS};
 use super::{Model, ModelError};
 use crate::material::{InvalidDeformation, Material, with_material};
-use crate::parallel::{Parallelism, for_each_chunk};
+use crate::parallel::{Parallelism, for_each_chunk_from};
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 
 /// Below this relative size of `ΔC` the correction's numerator comes from Simpson's rule on
@@ -111,7 +111,7 @@ fn tet_discrete_gradients<M: Material>(
     x1: &[Vector3<f64>],
     buf: &mut [f64],
 ) -> Result<(), ElementFailure> {
-    for_each_chunk(par, buf, 12 * CHUNK, |ci, out| {
+    for_each_chunk_from(par, buf, 12 * CHUNK, GRADIENT_MIN_CHUNKS, |ci, out| {
         for (k, g) in out.chunks_exact_mut(12).enumerate() {
             let e = ci * CHUNK + k;
             let rest = &body.rest[e];

@@ -5,12 +5,23 @@ use crate::fem::{
     ElementFilter, FilterScope, FilterSpace, ProjectToPsd, TetRest, pack_matrix12, unpack_matrix12,
 };
 use crate::material::{Material, MaterialModel, with_material};
-use crate::parallel::{Parallelism, for_each_chunk};
+use crate::parallel::{Parallelism, for_each_chunk_from};
 use nalgebra::Vector3;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 /// Elements per parallel task (and per partial energy sum, so sums never depend on threads).
 pub(crate) const CHUNK: usize = 256;
+
+/// Chunks from which each element loop runs on threads, from `cargo bench --bench
+/// thread_crossover -- elements` on a quiet two-core machine, called from outside rayon's pool
+/// as a run calls them (waking the pool costs ~20 µs): the energy and gradient loops (~20 and
+/// ~25 ns per tet) paid from 4096 tets and were 0.3–0.9x below; the Hessian loop (~80 ns per
+/// tet) paid from 512–1024 tets.
+pub(crate) const ENERGY_MIN_CHUNKS: usize = 16;
+/// See [`ENERGY_MIN_CHUNKS`].
+pub(crate) const GRADIENT_MIN_CHUNKS: usize = 16;
+/// See [`ENERGY_MIN_CHUNKS`].
+pub(crate) const HESSIAN_MIN_CHUNKS: usize = 4;
 
 /// An element whose energy is undefined at the current positions.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -84,7 +95,7 @@ fn energy<M: Material>(
     partial: &mut [f64],
 ) -> Result<f64, ElementFailure> {
     let n = body.tets.len();
-    for_each_chunk(par, partial, 1, |ci, out| {
+    for_each_chunk_from(par, partial, 1, ENERGY_MIN_CHUNKS, |ci, out| {
         let mut sum = 0.0;
         for e in ci * CHUNK..((ci + 1) * CHUNK).min(n) {
             let rest = &body.rest[e];
@@ -108,7 +119,7 @@ fn gradients<M: Material>(
     x: &[Vector3<f64>],
     buf: &mut [f64],
 ) -> Result<(), ElementFailure> {
-    for_each_chunk(par, buf, 12 * CHUNK, |ci, out| {
+    for_each_chunk_from(par, buf, 12 * CHUNK, GRADIENT_MIN_CHUNKS, |ci, out| {
         for (k, g) in out.chunks_exact_mut(12).enumerate() {
             let e = ci * CHUNK + k;
             let rest = &body.rest[e];
@@ -133,7 +144,7 @@ fn hessians<M: Material>(
     buf: &mut [f64],
 ) -> Result<usize, ElementFailure> {
     let filtered = AtomicUsize::new(0);
-    for_each_chunk(par, buf, 144 * CHUNK, |ci, out| {
+    for_each_chunk_from(par, buf, 144 * CHUNK, HESSIAN_MIN_CHUNKS, |ci, out| {
         let mut count = 0;
         for (k, h) in out.chunks_exact_mut(144).enumerate() {
             let e = ci * CHUNK + k;
@@ -208,16 +219,20 @@ impl ElasticBody {
         v: &[Vector3<f64>],
         buf: &mut [f64],
     ) {
-        let ok: Result<(), ElementFailure> = for_each_chunk(par, buf, 12 * CHUNK, |ci, out| {
-            for (k, g) in out.chunks_exact_mut(12).enumerate() {
-                let e = ci * CHUNK + k;
-                let rest = &self.rest[e];
-                let f = rest.deformation_gradient(&element_positions(&self.tets[e], x));
-                let fdot = rest.deformation_gradient(&element_positions(&self.tets[e], v));
-                rest.gradient_from_stress(&super::damping::viscous_stress(phi, psi, &f, &fdot), g);
-            }
-            Ok(())
-        });
+        let ok: Result<(), ElementFailure> =
+            for_each_chunk_from(par, buf, 12 * CHUNK, GRADIENT_MIN_CHUNKS, |ci, out| {
+                for (k, g) in out.chunks_exact_mut(12).enumerate() {
+                    let e = ci * CHUNK + k;
+                    let rest = &self.rest[e];
+                    let f = rest.deformation_gradient(&element_positions(&self.tets[e], x));
+                    let fdot = rest.deformation_gradient(&element_positions(&self.tets[e], v));
+                    rest.gradient_from_stress(
+                        &super::damping::viscous_stress(phi, psi, &f, &fdot),
+                        g,
+                    );
+                }
+                Ok(())
+            });
         ok.expect("viscous forces cannot fail");
     }
 
@@ -246,7 +261,7 @@ fn damping_matrices<M: Material>(
     viscous: Option<(f64, f64)>,
     buf: &mut [f64],
 ) -> Result<(), ElementFailure> {
-    for_each_chunk(par, buf, 144 * CHUNK, |ci, out| {
+    for_each_chunk_from(par, buf, 144 * CHUNK, HESSIAN_MIN_CHUNKS, |ci, out| {
         let mut viscous_block = [0.0; 144];
         for (k, h) in out.chunks_exact_mut(144).enumerate() {
             let e = ci * CHUNK + k;

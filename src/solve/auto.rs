@@ -29,6 +29,7 @@
 
 use std::sync::Arc;
 
+use super::Scheduler;
 use super::faer_common::{OrderingChoice, SymbolicAnalysis, factor_threads};
 use super::{
     AmgSettings, CgSettings, CgSolver, CholeskySolver, FactorReport, LinearSolver, Preconditioner,
@@ -165,7 +166,11 @@ impl LinearSolver for AutoSolver {
             pattern.nnz(),
             self.settings.cg.amg.rebuild_every,
         )
-        .with_factor_threads(factor_threads(&self.settings.direct, choice.cost.flops));
+        .with_factor_threads(factor_threads(
+            &self.settings.direct,
+            choice.cost.flops,
+            self.settings.direct.scheduler == Scheduler::Faer,
+        ));
         let solver: Box<dyn LinearSolver> = if prediction.direct() {
             let analysis = SymbolicAnalysis::from_choice(pattern, &self.settings.direct, choice)?;
             let mut s = CholeskySolver::new(self.settings.direct);

@@ -115,19 +115,30 @@ impl SymbolicAnalysis {
     }
 }
 
-/// Predicted factorization flops from which the numeric phase runs on rayon's pool. faer
-/// parallelizes inside each supernode's dense kernels, which pays only for large fronts: on a
-/// quiet two-core machine two threads gave 1.2–1.5× on the 49k-tet box (1.2e10 flops with
-/// METIS, 2.0e10 with AMD) and were 1.3–1.5× slower on the 12k-tet box (6.9e8) and the
-/// 56k-tet armadillo. `cargo bench --bench ordering` measures both sides of the rule.
-pub const PARALLEL_MIN_FLOPS: f64 = 5.0e9;
+/// Predicted factorization flops from which the subtree-scheduled numeric LLᵀ runs on rayon's
+/// pool. `cargo bench --bench thread_crossover -- factor` on a quiet two-core machine: two
+/// threads were 1.09x faster at 3.4e6 flops (the 768-tet box), 1.29x at 1.3e7, 1.53x at
+/// 1.8e8 and 1.83x at 1.2e10 (the 49k box); 0.97x at 6.1e5.
+pub const PARALLEL_MIN_FLOPS: f64 = 1.0e7;
+
+/// The same for faer's own supernodal loop (LDLᵀ, simplicial, `scheduler = "faer"`), which is
+/// parallel only inside each supernode's dense kernels and pays only for large fronts: two
+/// threads gave 1.2–1.5x on the 49k-tet box (1.2e10 flops) and were 1.3–1.5x slower on the
+/// 12k-tet box (6.9e8) and the 56k-tet armadillo (`cargo bench --bench ordering`).
+pub const FAER_LOOP_PARALLEL_MIN_FLOPS: f64 = 5.0e9;
 
 /// The threads a numeric factorization of `flops` runs on: rayon's current pool when the
-/// settings allow it and the flops reach `parallel_min_flops`, else one.
-pub fn factor_threads(settings: &DirectSettings, flops: f64) -> usize {
+/// settings allow it and the flops reach the threshold of its scheduler (`faer_loop`: faer's
+/// own loop), else one.
+pub fn factor_threads(settings: &DirectSettings, flops: f64, faer_loop: bool) -> usize {
     let threads = rayon::current_num_threads();
+    let min_flops = if faer_loop {
+        settings.faer_parallel_min_flops
+    } else {
+        settings.parallel_min_flops
+    };
     match settings.parallelism {
-        Parallelism::Rayon if flops >= settings.parallel_min_flops && threads > 1 => threads,
+        Parallelism::Rayon if flops >= min_flops && threads > 1 => threads,
         _ => 1,
     }
 }
@@ -161,11 +172,6 @@ impl FaerFactor {
             ordering,
             cost,
         } = analysis;
-        let par = if factor_threads(settings, cost.flops) > 1 {
-            Par::rayon(0)
-        } else {
-            Par::Seq
-        };
         let tree = match (kind, settings.scheduler, symbolic.raw()) {
             (
                 ScratchKind::Llt,
@@ -181,6 +187,11 @@ impl FaerFactor {
                     })
             }
             _ => None,
+        };
+        let par = if factor_threads(settings, cost.flops, tree.is_none()) > 1 {
+            Par::rayon(0)
+        } else {
+            Par::Seq
         };
         let factor_req = match kind {
             ScratchKind::Llt => {

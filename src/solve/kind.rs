@@ -3,10 +3,10 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::PARALLEL_MIN_FLOPS;
 use super::auto::AutoSolver;
 use super::ordering::Ordering;
 use super::{CgSettings, CgSolver, CholeskySolver, DenseCholeskySolver, LdltSolver, LinearSolver};
+use super::{FAER_LOOP_PARALLEL_MIN_FLOPS, PARALLEL_MIN_FLOPS};
 use crate::parallel::Parallelism;
 use crate::registry::{Entry, Fact, Registry};
 
@@ -20,15 +20,20 @@ pub struct DirectSettings {
     /// Supernodal or simplicial factorization. Default: `Auto` (faer's flop-ratio
     /// threshold; in 3D supernodal wins by ~20×).
     pub supernodal: Supernodal,
-    /// Threads for the numeric factorization and solves: with `Rayon`, faer runs on rayon's
-    /// pool when the predicted factorization flops reach `parallel_min_flops` (smaller
-    /// factorizations ran slower on two threads). Set from the run's parallelism (the CLI's
+    /// Threads for the numeric factorization and solves: with `Rayon`, the factorization runs
+    /// on rayon's pool when the predicted factorization flops reach `parallel_min_flops`
+    /// (subtree scheduler) or `faer_parallel_min_flops` (faer's loop; smaller factorizations
+    /// ran slower on two threads). Set from the run's parallelism (the CLI's
     /// `--threads`) when a scene builds its integrator; not part of a config file.
     #[serde(skip)]
     pub parallelism: Parallelism,
-    /// Predicted factorization flops (Σ c_j²) from which the factorization runs on threads.
-    /// Default: [`PARALLEL_MIN_FLOPS`].
+    /// Predicted factorization flops (Σ c_j²) from which the subtree-scheduled LLᵀ runs on
+    /// threads. Default: [`PARALLEL_MIN_FLOPS`].
     pub parallel_min_flops: f64,
+    /// The same for a factorization in faer's own loop (LDLᵀ, simplicial, `scheduler =
+    /// "faer"`), which is parallel only inside large dense kernels. Default:
+    /// [`FAER_LOOP_PARALLEL_MIN_FLOPS`].
+    pub faer_parallel_min_flops: f64,
     /// Who schedules a parallel Cholesky factorization: `subtrees` (independent subtrees of
     /// the elimination tree concurrently, the separators near the root with parallel dense
     /// kernels) or `faer` (faer's sequential loop over supernodes, parallel only inside each
@@ -64,6 +69,7 @@ impl Default for DirectSettings {
             supernodal: Supernodal::Auto,
             parallelism: Parallelism::Sequential,
             parallel_min_flops: PARALLEL_MIN_FLOPS,
+            faer_parallel_min_flops: FAER_LOOP_PARALLEL_MIN_FLOPS,
             scheduler: Scheduler::default(),
         }
     }

@@ -43,7 +43,7 @@ pub(crate) use common::{
     Analyzed, ResidualCheck, check_rhs, dot, finish_direct_solve, norm, record_factor,
 };
 pub use dense::DenseCholeskySolver;
-pub use faer_common::PARALLEL_MIN_FLOPS;
+pub use faer_common::{FAER_LOOP_PARALLEL_MIN_FLOPS, PARALLEL_MIN_FLOPS};
 pub use faer_direct::{CholeskySolver, FaerDirectSolver, LdltSolver};
 pub use kind::{
     DirectSettings, LINEAR_SOLVERS, LinearSolverKind, Scheduler, SolverEntry, SolverSettings,
