@@ -1,6 +1,8 @@
 //! Log-log charts of a solver-scaling study (`experiments/solver_scaling.toml`) with the
-//! fitted slope of each solver: time per step, factorization flops and nnz(L), CG iterations
-//! per solve and peak memory against the number of tets, one chart per body family (the
+//! fitted slope of each solver: steady time per step (the median of the steps after the
+//! first), the first step's setup (its excess over the steady step: ordering, symbolic
+//! analysis, AMG build), factorization flops and nnz(L), CG iterations per solve and peak
+//! memory against the number of tets, one chart per body family (the
 //! scene name's prefix before `-`). Reads only `runs.csv`; writes the charts and
 //! `slopes.csv` (least-squares slope of log(time per step) on log(tets) over the fit range)
 //! into the study folder.
@@ -114,7 +116,8 @@ fn main() -> anyhow::Result<()> {
     families.dedup();
     let mut slopes = String::from("family,solver,metric,slope,fit_min_tets,fit_max_tets,points\n");
     let metrics = [
-        ("step_seconds_median", "time per step [s]", "step_time"),
+        ("step_seconds_median", "steady time per step [s]", "step_time"),
+        ("setup_seconds", "first-step setup [s]", "setup_time"),
         (
             "factor_flops",
             "predicted factorization flops",

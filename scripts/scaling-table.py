@@ -1,7 +1,9 @@
 #!/usr/bin/env python3
-"""Print the solver-scaling table of results/README.md from a solver_scaling study's runs.csv: the median
-time per converged backward-Euler step of every solver on every scene, with the solver `auto`
-chose, and a mark on any run that did not complete.
+"""Print the solver-scaling table of results/README.md from a solver_scaling study's runs.csv: the steady
+time per converged backward-Euler step (the median of the steps after the first) of every solver
+on every scene, then in brackets the first step's setup (its excess over the steady step:
+ordering, symbolic analysis, AMG build), with the solver `auto` chose, and a mark on any run that
+did not complete.
 
     scripts/scaling-table.py results/solver_scaling/runs.csv
 """
@@ -32,6 +34,8 @@ def cell(row):
     if row is None:
         return "–"
     text = seconds(row["step_seconds_median"]) if row["step_seconds_median"] else "–"
+    if row.get("setup_seconds"):
+        text += f" (+{seconds(row['setup_seconds'])})"
     if row["linear_solver"] == "auto":
         text += f" ({row['linear_solver_used']})"
     if row["outcome"] != "completed":
