@@ -245,7 +245,7 @@ fn the_default_ordering_is_auto_and_keeps_the_cheaper_one() {
 }
 
 /// Each scheduler has its own threshold, measured by `cargo bench --bench thread_crossover`:
-/// the subtree scheduler pays on two threads from ~1e7 flops, faer's loop (parallel only
+/// the subtree scheduler pays on two threads from ~1e8 flops, faer's loop (parallel only
 /// inside dense kernels) from billions, so a 1.8e8-flop factorization takes two threads with
 /// the first and one with the second.
 #[test]

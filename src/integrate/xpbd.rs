@@ -64,7 +64,7 @@ impl XpbdSettings {
 
 /// Default of [`XpbdSettings::parallel_min_tets`], tets per chunk (about 100 ns each):
 /// `cargo bench --bench thread_crossover` measures the sweep against one thread.
-pub const PARALLEL_MIN_TETS: usize = 64;
+pub const PARALLEL_MIN_TETS: usize = 32;
 
 fn unsupported(field: &str, value: impl ToString, expected: &str) -> StepError {
     StepError::Model(ModelError::InvalidParameter {
