@@ -245,12 +245,12 @@ fn the_default_ordering_is_auto_and_keeps_the_cheaper_one() {
 }
 
 /// Each scheduler has its own threshold, measured by `cargo bench --bench thread_crossover`:
-/// the subtree scheduler pays on two threads from ~1e8 flops, faer's loop (parallel only
-/// inside dense kernels) from billions, so a 1.8e8-flop factorization takes two threads with
-/// the first and one with the second.
+/// the subtree scheduler pays on two threads from ~5e8 flops, faer's loop (parallel only
+/// inside dense kernels) from billions, so a 6.9e8-flop factorization (the 12k box) takes two
+/// threads with the first and one with the second.
 #[test]
 fn each_scheduler_has_its_own_flops_rule() {
-    let a = fem_box([16, 8, 8]).matrix;
+    let a = fem_box([20, 10, 10]).matrix;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(2)
         .build()

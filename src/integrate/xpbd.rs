@@ -63,8 +63,10 @@ impl XpbdSettings {
 }
 
 /// Default of [`XpbdSettings::parallel_min_tets`], tets per chunk (about 100 ns each):
-/// `cargo bench --bench thread_crossover` measures the sweep against one thread.
-pub const PARALLEL_MIN_TETS: usize = 32;
+/// `cargo bench --bench thread_crossover -- xpbd` measures the sweep against one thread. With
+/// 64, two threads were 1.00–1.01x at 96 and 768 tets and 1.7x at 12k and 49k; 32 was 0.84–0.99x
+/// at 768 tets, 128 0.90–0.98x at 2.6k.
+pub const PARALLEL_MIN_TETS: usize = 64;
 
 fn unsupported(field: &str, value: impl ToString, expected: &str) -> StepError {
     StepError::Model(ModelError::InvalidParameter {
