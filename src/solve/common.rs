@@ -121,7 +121,8 @@ pub fn symmetric_mul_vec(a: &SymmetricMatrix, x: &[f64], y: &mut [f64], parallel
             .sum()
     };
     // Rows below which one thread is faster (`cargo bench --bench thread_crossover -- matvec`:
-    // 0.82–0.91x at 2688 rows, 1.41–1.63x at 7260, called from outside rayon's pool).
+    // 0.82–1.00x at 2688 rows, 0.98–1.63x at 7260 and 1.42–1.68x at 27744 in three runs, called
+    // from outside rayon's pool).
     const MIN_PARALLEL_ROWS: usize = 4096;
     let parallelism = if y.len() < MIN_PARALLEL_ROWS {
         Parallelism::Sequential
