@@ -116,7 +116,11 @@ fn main() -> anyhow::Result<()> {
     families.dedup();
     let mut slopes = String::from("family,solver,metric,slope,fit_min_tets,fit_max_tets,points\n");
     let metrics = [
-        ("step_seconds_median", "steady time per step [s]", "step_time"),
+        (
+            "step_seconds_median",
+            "steady time per step [s]",
+            "step_time",
+        ),
         ("setup_seconds", "first-step setup [s]", "setup_time"),
         (
             "factor_flops",
