@@ -16,9 +16,10 @@ use std::ops::Range;
 /// Columns per task below which work is not split further.
 const MIN_COLUMNS_PER_TASK: usize = 2048;
 
-/// Fewer chunks than this run sequentially: waking the pool costs more than it saves
-/// (measured: 627 tets, 3 chunks, ran 10-40% slower in parallel). `cargo bench --bench
-/// thread_crossover` prints where two threads start to pay for the element loops.
+/// Fewer chunks than this run sequentially in [`for_each_chunk`]: waking the pool costs more
+/// than it saves (measured: 627 tets, 3 chunks, ran 10-40% slower in parallel). The loops
+/// without a rule of their own use it (springs, damping, ...); the elastic element loops have
+/// theirs, from `cargo bench --bench thread_crossover -- elements`.
 pub const MIN_PARALLEL_CHUNKS: usize = 8;
 
 /// Call `f(columns, values)` on disjoint contiguous column ranges covering `cols`, where column
