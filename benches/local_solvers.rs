@@ -6,33 +6,21 @@
 //!
 //! `cargo bench --bench local_solvers` (add `-- --quick` for a shorter run).
 
+#[path = "support/clamped_box.rs"]
+mod clamped_box;
+
+use clamped_box::clamped_box;
 use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
-use nalgebra::Vector3;
 use softbench::integrate::vbd::{Vbd, VbdSettings};
 use softbench::integrate::xpbd::{Xpbd, XpbdSettings};
 use softbench::integrate::{Integrator, State};
-use softbench::material::{LameParameters, MaterialModel};
-use softbench::mesh::generate::box_mesh;
-use softbench::model::{AxisRule, FixedSelection, MassKind, Model, ModelSpec, Side};
+use softbench::model::Model;
 use std::time::Duration;
 
 fn box_model(material: &str) -> Model {
-    let lame = LameParameters::from_youngs_poisson(1e6, 0.45).unwrap();
-    let material = MaterialModel::from_name(material, lame).unwrap();
-    let mesh = box_mesh([20, 10, 10], [1.0, 0.5, 0.5]);
-    assert_eq!(mesh.num_tets(), 12_000);
-    let mut spec = ModelSpec::elastic(mesh, material, 1000.0);
-    spec.gravity = Some(Vector3::new(0.0, -9.81, 0.0));
-    spec.mass_kind = MassKind::Lumped;
-    spec.fixed = FixedSelection {
-        rules: vec![AxisRule {
-            axis: 0,
-            side: Side::Min,
-            tolerance: 1e-9,
-        }],
-        ..Default::default()
-    };
-    Model::new(spec).unwrap()
+    let model = clamped_box(material, [20, 10, 10]);
+    assert_eq!(model.elastic_elements().unwrap().tets.len(), 12_000);
+    model
 }
 
 fn bench(c: &mut Criterion, name: &str, mut model: Model, mut integ: Box<dyn Integrator>) {

@@ -12,17 +12,20 @@
 //! `cargo bench --bench thread_crossover` (add `-- --quick` for fewer rounds; `-- xpbd`,
 //! `elements`, `matvec` or `factor` for one table).
 
+#[path = "support/clamped_box.rs"]
+mod clamped_box;
 #[path = "../tests/support/fem_system.rs"]
 mod fem_system;
+
+use clamped_box::clamped_box;
 
 use fem_system::{fem_ball, fem_box};
 use nalgebra::Vector3;
 use softbench::fem::TetRest;
 use softbench::integrate::xpbd::{PARALLEL_MIN_TETS, Xpbd, XpbdSettings};
 use softbench::integrate::{Integrator, State};
-use softbench::material::{LameParameters, Material, MaterialModel, StableNeoHookean};
+use softbench::material::{LameParameters, Material, StableNeoHookean};
 use softbench::mesh::generate::box_mesh;
-use softbench::model::{AxisRule, FixedSelection, MassKind, Model, ModelSpec, Side};
 use softbench::parallel::{Parallelism, for_each_chunk_from};
 use softbench::solve::symmetric_mul_vec;
 use softbench::solve::{
@@ -110,23 +113,6 @@ impl Table {
     }
 }
 
-fn xpbd_model(cells: [usize; 3]) -> Model {
-    let lame = LameParameters::from_youngs_poisson(1e6, 0.45).unwrap();
-    let material = MaterialModel::from_name("xpbd-neo-hookean", lame).unwrap();
-    let mut spec = ModelSpec::elastic(box_mesh(cells, [1.0, 0.5, 0.5]), material, 1000.0);
-    spec.gravity = Some(Vector3::new(0.0, -9.81, 0.0));
-    spec.mass_kind = MassKind::Lumped;
-    spec.fixed = FixedSelection {
-        rules: vec![AxisRule {
-            axis: 0,
-            side: Side::Min,
-            tolerance: 1e-9,
-        }],
-        ..Default::default()
-    };
-    Model::new(spec).unwrap()
-}
-
 const BOXES: [[usize; 3]; 6] = [
     [4, 2, 2],
     [8, 4, 4],
@@ -148,7 +134,7 @@ fn xpbd(rounds: usize) {
             &format!("box, 50 substeps, {chunk} tets per chunk"),
         );
         for cells in BOXES {
-            let mut model = xpbd_model(cells);
+            let mut model = clamped_box("xpbd-neo-hookean", cells);
             let tets = model.elastic_elements().unwrap().tets.len();
             let start = State::at_rest(&model);
             let settings = XpbdSettings {
@@ -159,7 +145,7 @@ fn xpbd(rounds: usize) {
             let mut one = Xpbd::new(settings);
             let mut two = Xpbd::new(settings);
             let reps = (4000 / tets).max(1);
-            let mut m1 = xpbd_model(cells);
+            let mut m1 = clamped_box("xpbd-neo-hookean", cells);
             m1.set_parallelism(Parallelism::Sequential);
             let times = interleaved(
                 rounds,

@@ -79,6 +79,11 @@ impl Colouring {
         &self.items[self.ptr[c]..self.ptr[c + 1]]
     }
 
+    /// Where group `c` starts in the concatenation of the groups in colour order.
+    pub fn group_start(&self, c: usize) -> usize {
+        self.ptr[c]
+    }
+
     /// The size of the largest colour group.
     pub fn largest_group(&self) -> usize {
         self.ptr.windows(2).map(|w| w[1] - w[0]).max().unwrap_or(0)

@@ -64,8 +64,8 @@ impl XpbdSettings {
 
 /// Default of [`XpbdSettings::parallel_min_tets`], tets per chunk (about 100 ns each):
 /// `cargo bench --bench thread_crossover -- xpbd` measures the sweep against one thread. With
-/// 64, two threads were 1.00–1.01x at 96 and 768 tets and 1.7x at 12k and 49k; 32 was 0.84–0.99x
-/// at 768 tets, 128 0.90–0.98x at 2.6k.
+/// 64, two threads were 0.99–1.02x at 96 and 768 tets and 1.7x at 12k and 49k in four runs;
+/// 32 was 0.84–1.03x at 768 tets, 128 0.88–0.98x at 2.6k.
 pub const PARALLEL_MIN_TETS: usize = 64;
 
 fn unsupported(field: &str, value: impl ToString, expected: &str) -> StepError {
@@ -85,9 +85,8 @@ pub struct Xpbd {
     /// The sweep's chunks in colour order.
     schedule: OrderedChunks,
     /// The tets with their rest data in colour order (a colour's tets contiguous, so a sweep
-    /// streams through memory), and where each colour starts.
+    /// streams through memory; colour `c` starts at `colouring.group_start(c)`).
     sorted: Vec<([usize; 4], TetRest)>,
-    colour_start: Vec<usize>,
     /// Inverse lumped mass of every vertex (0 for fixed ones).
     inverse_mass: Vec<f64>,
     x: Vec<Vector3<f64>>,
@@ -177,13 +176,6 @@ impl Xpbd {
             (0..self.colouring.num_colours()).map(|c| self.colouring.group(c).len()),
             self.settings.parallel_min_tets,
         );
-        self.colour_start = (0..self.colouring.num_colours())
-            .scan(0, |start, c| {
-                let here = *start;
-                *start += self.colouring.group(c).len();
-                Some(here)
-            })
-            .collect();
         self.sorted = (0..self.colouring.num_colours())
             .flat_map(|c| self.colouring.group(c))
             .map(|&e| (tets[e], rest[e]))
@@ -352,9 +344,9 @@ impl Xpbd {
                 let x = DisjointSlice::new(&mut self.x);
                 let lambda = DisjointSlice::new(&mut self.lambda);
                 let (sorted, inverse_mass) = (&self.sorted, &self.inverse_mass);
-                let colour_start = &self.colour_start;
+                let colouring = &self.colouring;
                 self.schedule.run(par, &|c, range| {
-                    let start = colour_start[c];
+                    let start = colouring.group_start(c);
                     let range = start + range.start..start + range.end;
                     for (k, (tet, rest)) in range.clone().zip(&sorted[range]) {
                         // SAFETY: tets of one colour share no free vertex (the colouring's

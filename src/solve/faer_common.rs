@@ -117,8 +117,8 @@ impl SymbolicAnalysis {
 
 /// Predicted factorization flops from which the subtree-scheduled numeric LLᵀ runs on rayon's
 /// pool. `cargo bench --bench thread_crossover -- factor` on a quiet two-core machine, called
-/// from outside the pool as a run calls it, in two runs: two threads were 0.92–0.98x at
-/// 1.3e7–3.4e7 flops (the 1.5k- and 2.6k-tet boxes), 0.94–1.20x at 1.8e8, 1.19–1.20x at 6.9e8
+/// from outside the pool as a run calls it, in three runs: two threads were 0.89–0.98x at
+/// 1.3e7–3.4e7 flops (the 1.5k- and 2.6k-tet boxes), 0.94–1.20x at 1.8e8, 1.18–1.20x at 6.9e8
 /// (the 12k box) and 1.73x at 1.2e10 (the 49k box).
 pub const PARALLEL_MIN_FLOPS: f64 = 5.0e8;
 
