@@ -10,7 +10,7 @@
 //! The defaults in the library are set from this output on a quiet two-core machine.
 //!
 //! `cargo bench --bench thread_crossover` (add `-- --quick` for fewer rounds; `-- xpbd`,
-//! `elements`, `matvec` or `factor` for one table).
+//! `elements`, `matvec`, `amg` or `factor` for one table).
 
 #[path = "support/clamped_box.rs"]
 mod clamped_box;
@@ -29,10 +29,24 @@ use softbench::mesh::generate::box_mesh;
 use softbench::parallel::{Parallelism, for_each_chunk_from};
 use softbench::solve::symmetric_mul_vec;
 use softbench::solve::{
-    CholeskySolver, DirectSettings, LinearSolver, Ordering, PARALLEL_MIN_FLOPS,
+    AMG_PARALLEL_MIN_ROWS, AmgSettings, AmgSmoother, CgSettings, CgSolver, CholeskySolver,
+    DirectSettings, LinearSolver, Ordering, PARALLEL_MIN_FLOPS, Preconditioner,
 };
 use std::hint::black_box;
 use std::time::Instant;
+
+/// Whether this is the smoke run of `cargo test` (see `main`).
+static SMOKE: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// The sizes a table measures: all of them, or the two smallest in the smoke run.
+fn sizes<T: Clone>(all: &[T]) -> Vec<T> {
+    let n = if SMOKE.load(std::sync::atomic::Ordering::Relaxed) {
+        2.min(all.len())
+    } else {
+        all.len()
+    };
+    all[..n].to_vec()
+}
 
 /// Median seconds of `rounds` interleaved runs of `one` and `two` (each run `reps` calls).
 fn interleaved(
@@ -133,7 +147,7 @@ fn xpbd(rounds: usize) {
             "tets",
             &format!("box, 50 substeps, {chunk} tets per chunk"),
         );
-        for cells in BOXES {
+        for cells in sizes(&BOXES) {
             let mut model = clamped_box("xpbd-neo-hookean", cells);
             let tets = model.elastic_elements().unwrap().tets.len();
             let start = State::at_rest(&model);
@@ -174,7 +188,7 @@ fn elements(rounds: usize) {
             "tets",
             &format!("element {kind}, tets in chunks of 256"),
         );
-        for tets in [256usize, 512, 1024, 2048, 4096, 8192, 16384, 32768] {
+        for tets in sizes(&[256usize, 512, 1024, 2048, 4096, 8192, 16384, 32768]) {
             let mesh = box_mesh([tets.div_ceil(6), 1, 1], [1.0, 0.1, 0.1]);
             let rest: Vec<TetRest> = mesh
                 .tets
@@ -217,13 +231,13 @@ fn elements(rounds: usize) {
 
 fn matvec(rounds: usize) {
     let mut table = Table::new("CG mat-vec", "rows", "matrix (box), rows");
-    for cells in [
+    for cells in sizes(&[
         [6, 3, 3],
         [10, 5, 5],
         [14, 7, 7],
         [20, 10, 10],
         [32, 16, 16],
-    ] {
+    ]) {
         let a = fem_box(cells).matrix;
         let n = a.dim();
         let x = vec![1.0; n];
@@ -239,6 +253,90 @@ fn matvec(rounds: usize) {
     table.crossover();
 }
 
+/// One CG + AMG solve to 1e-8 (the hierarchy built once), per smoother and thread count: the
+/// multicolour smoother on one thread and on two (its rows from
+/// [`AMG_PARALLEL_MIN_ROWS`] switched off, so both sides of the rule are measured), and the
+/// DOF-order Gauss–Seidel on one, with the CG iterations of each (the order changes the
+/// iteration, not only its speed).
+fn amg(rounds: usize) {
+    println!(
+        "\n## CG + AMG solve (library rule: levels of {AMG_PARALLEL_MIN_ROWS} rows or more parallel)\n\n         | matrix (box), rows | DOF-order GS, 1 thread | multicolour, 1 thread | multicolour, 2 threads | speed-up (2 vs 1) | iterations DOF-order / multicolour |\n|---|---|---|---|---|---|"
+    );
+    let mut table_rows = Vec::new();
+    for cells in sizes(&[
+        [10, 5, 5],
+        [14, 7, 7],
+        [20, 10, 10],
+        [32, 16, 16],
+        [52, 26, 26],
+    ]) {
+        let system = fem_box(cells);
+        let a = &system.matrix;
+        let n = a.dim();
+        let solver = |smoother, par| {
+            let mut s = CgSolver::new(CgSettings {
+                preconditioner: Preconditioner::Amg,
+                tolerance: 1e-8,
+                max_iterations: 1000,
+                amg: AmgSettings {
+                    smoother,
+                    parallel_min_rows: 0,
+                    ..AmgSettings::default()
+                },
+                parallelism: par,
+                ..CgSettings::default()
+            });
+            s.analyze(a.pattern()).unwrap();
+            s.set_coordinates(&system.positions);
+            s.factor(a).unwrap();
+            s
+        };
+        let mut lex = solver(AmgSmoother::GaussSeidel, Parallelism::Sequential);
+        let mut one = solver(AmgSmoother::MulticolourGaussSeidel, Parallelism::Sequential);
+        let mut two = solver(AmgSmoother::MulticolourGaussSeidel, Parallelism::Rayon);
+        let rhs: Vec<f64> = (0..n).map(|i| ((i % 7) as f64 - 3.0) * 1e-3).collect();
+        let solve = |s: &mut CgSolver| {
+            let mut x = rhs.clone();
+            s.solve(&mut x).unwrap().iterations
+        };
+        let (it_lex, it_mc) = (solve(&mut lex), solve(&mut one));
+        let reps = (2_000_000 / n).clamp(1, 20);
+        let (t_one, t_two) = interleaved(
+            rounds,
+            reps,
+            || {
+                solve(&mut one);
+            },
+            || {
+                solve(&mut two);
+            },
+        );
+        let (t_lex, _) = interleaved(
+            rounds.div_ceil(3),
+            reps,
+            || {
+                solve(&mut lex);
+            },
+            || {},
+        );
+        println!(
+            "| {cells:?}, {n} | {:.3} ms | {:.3} ms | {:.3} ms | {:.2}x | {it_lex} / {it_mc} |",
+            t_lex * 1e3,
+            t_one * 1e3,
+            t_two * 1e3,
+            t_one / t_two
+        );
+        table_rows.push((n, t_two < 0.97 * t_one));
+    }
+    let from = (0..table_rows.len())
+        .find(|&i| table_rows[i..].iter().all(|r| r.1))
+        .map(|i| table_rows[i].0);
+    match from {
+        Some(rows) => println!("\nCG + AMG solve: two threads faster from {rows} rows"),
+        None => println!("\nCG + AMG solve: two threads never faster at the largest size"),
+    }
+}
+
 fn factor(rounds: usize) {
     let mut table = Table::new(
         "Cholesky factorization (METIS, subtree schedule)",
@@ -252,7 +350,7 @@ fn factor(rounds: usize) {
         ..DirectSettings::default()
     };
     let mut systems = Vec::new();
-    for cells in [
+    for cells in sizes(&[
         [6, 3, 3],
         [8, 4, 4],
         [10, 5, 5],
@@ -262,10 +360,10 @@ fn factor(rounds: usize) {
         [24, 12, 12],
         [28, 14, 14],
         [32, 16, 16],
-    ] {
+    ]) {
         systems.push((format!("box {cells:?}"), fem_box(cells).matrix));
     }
-    for n in [6, 8, 10] {
+    for n in sizes(&[6, 8, 10]) {
         systems.push((format!("ball {n}"), fem_ball(n).matrix));
     }
     for (label, a) in &systems {
@@ -294,10 +392,20 @@ fn main() {
         .skip(1)
         .filter(|a| a != "--bench")
         .collect();
-    let quick = args.iter().any(|a| a == "--quick");
+    // `cargo test --all-targets` runs this main without `--bench`: then a smoke run (every
+    // table on its smallest sizes, one round), so the tests prove the bench still runs.
+    let smoke = !std::env::args().any(|a| a == "--bench");
+    SMOKE.store(smoke, std::sync::atomic::Ordering::Relaxed);
+    let quick = smoke || args.iter().any(|a| a == "--quick");
     let only: Vec<&String> = args.iter().filter(|a| !a.starts_with("--")).collect();
     let wanted = |name: &str| only.is_empty() || only.iter().any(|o| *o == name);
-    let rounds = if quick { 5 } else { 15 };
+    let rounds = if smoke {
+        1
+    } else if quick {
+        5
+    } else {
+        15
+    };
     // As the command line runs: the global pool of two threads, called from outside it.
     rayon::ThreadPoolBuilder::new()
         .num_threads(2)
@@ -316,6 +424,9 @@ fn main() {
     }
     if wanted("matvec") {
         matvec(rounds);
+    }
+    if wanted("amg") {
+        amg(rounds);
     }
     if wanted("factor") {
         factor(rounds);

@@ -46,6 +46,7 @@ fn main() {
                 amg: AmgSettings {
                     strength_threshold: theta,
                     rebuild_every: 1,
+                    ..AmgSettings::default()
                 },
                 max_iterations: 5000,
                 ..CgSettings::default()

@@ -15,6 +15,7 @@
 //! storage order.
 
 pub mod cli;
+pub mod colouring;
 pub mod console;
 pub mod contact;
 pub mod data;

@@ -129,7 +129,7 @@ where
 
 /// A slice that parallel tasks read and write in place at indices the caller keeps disjoint:
 /// for a colour of a graph colouring, no two items of one colour touch the same entry, so
-/// they can all update it at once without a buffer (see [`crate::integrate::colouring`]).
+/// they can all update it at once without a buffer (see [`crate::colouring`]).
 pub struct DisjointSlice<'a, T> {
     ptr: *mut T,
     len: usize,

@@ -663,3 +663,68 @@ fn going_past_the_roundoff_stop_meets_gradient_tolerances_the_energy_cannot_reso
         }
     }
 }
+
+/// Inexact Newton: with CG + AMG a direction solved only to the forcing term reaches the same
+/// converged step as directions solved to CG's tolerance (the Newton criterion decides), with
+/// fewer CG iterations; a direct solver ignores the forcing and gives the same bits.
+#[test]
+fn inexact_newton_directions_reach_the_same_step_with_fewer_cg_iterations() {
+    let mut model = stiff_cantilever();
+    let start = State::at_rest(&model);
+    let step = |model: &mut Model, solver: &str, forcing_max: f64| {
+        let mut settings = IntegratorSettings {
+            method: Method::from_name("backward-euler").unwrap(),
+            linear_solver: LinearSolverKind::from_name(solver).unwrap(),
+            ..Default::default()
+        };
+        settings.solver.cg.preconditioner = softbench::solve::Preconditioner::Amg;
+        settings.newton = NewtonSettings {
+            tolerance: 1e-8,
+            max_iterations: 50,
+            require_convergence: true,
+            forcing_max,
+            ..Default::default()
+        };
+        settings.validate().unwrap();
+        let mut integrator = settings.build();
+        let mut next = start.clone();
+        let report = integrator
+            .step(model, &mut next, 0.01)
+            .unwrap_or_else(|e| panic!("{solver}, forcing_max {forcing_max}: {e}"));
+        (next, report)
+    };
+    let (exact, exact_report) = step(&mut model, "cg", 0.0);
+    let (inexact, inexact_report) = step(&mut model, "cg", 0.1);
+    let size = norm_diff(&exact.q, &start.q);
+    let distance = norm_diff(&exact.q, &inexact.q);
+    eprintln!(
+        "CG iterations {} exact, {} inexact; Newton iterations {} / {}; distance {:.2e} of the step",
+        exact_report.linear_iterations,
+        inexact_report.linear_iterations,
+        exact_report.newton_iterations,
+        inexact_report.newton_iterations,
+        distance / size
+    );
+    assert!(distance <= 1e-6 * size, "{distance:e} of {size:e}");
+    assert!(
+        inexact_report.linear_iterations < exact_report.linear_iterations,
+        "{} vs {}",
+        inexact_report.linear_iterations,
+        exact_report.linear_iterations
+    );
+    assert!(inexact_report.max_relative_residual > 1e-8);
+    let (direct, _) = step(&mut model, "cholesky", 0.0);
+    let (direct_forced, _) = step(&mut model, "cholesky", 0.1);
+    assert!(
+        direct.q == direct_forced.q,
+        "a direct solver ignores the forcing"
+    );
+}
+
+fn norm_diff(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).powi(2))
+        .sum::<f64>()
+        .sqrt()
+}

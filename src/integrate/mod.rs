@@ -17,7 +17,7 @@
 //!   simplified Newton, a real and a [`complex_shifted`] factor per step);
 //!   [`energy_momentum`] (the midpoint rule on the discrete gradient, Newton on its residual);
 //! - local solvers on the backward Euler step: [`vbd`] (vertex block descent, parallel over a
-//!   vertex [`colouring`]) and [`projective_dynamics`] (local/global, on its projective
+//!   vertex [`crate::colouring`]) and [`projective_dynamics`] (local/global, on its projective
 //!   energy, corotated elasticity); [`xpbd`] (substepped constraints, on its constraint
 //!   energy).
 
@@ -25,7 +25,6 @@ pub mod acceleration;
 pub mod adaptive;
 pub mod backward_euler;
 pub mod bdf;
-pub mod colouring;
 mod complex_shifted;
 pub mod controller;
 pub mod cost_guard;

@@ -339,6 +339,12 @@ impl ImplicitSystem {
 
     /// Solve `H x = b` in place for the last factored `H`. If CG finds the matrix indefinite,
     /// refactor the projected matrix at `x_assembled` and solve again.
+    /// The relative residual the next iterative solves may stop at (see
+    /// [`crate::solve::LinearSolver::set_forcing`]).
+    pub fn set_forcing(&mut self, forcing: Option<f64>) {
+        self.solver.set_forcing(forcing);
+    }
+
     pub fn solve(
         &mut self,
         model: &mut Model,

@@ -25,8 +25,8 @@
 
 use super::acceleration::energy::PotentialScratch;
 use super::acceleration::{Accelerate, Acceleration, AccelerationSettings, IncrementalPotential};
-use super::colouring::Colouring;
 use super::{Integrator, State, StepError, StepReport};
+use crate::colouring::Colouring;
 use crate::fem::{ProjectToPsd, TetRest};
 use crate::material::{Corotated, Material, MaterialModel};
 use crate::model::{ElasticElements, MassMatrix, Model, Spring};

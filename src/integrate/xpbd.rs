@@ -20,8 +20,8 @@
 //! order ([`crate::parallel::OrderedChunks`]), a colour starting once the one before it is
 //! done. The result is that of a sequential sweep, whatever the thread count or split.
 
-use super::colouring::Colouring;
 use super::{Integrator, State, StepError, StepReport};
+use crate::colouring::Colouring;
 use crate::fem::TetRest;
 use crate::material::{ConstraintNeoHookean, MaterialModel, cofactor};
 use crate::model::{Anchors, MassKind, Model, ModelError};

@@ -202,6 +202,12 @@ impl LinearSolver for AutoSolver {
         self.inner("solve")?.solve_with_guess(rhs, x)
     }
 
+    fn set_forcing(&mut self, forcing: Option<f64>) {
+        if let Some(s) = self.inner.as_mut() {
+            s.set_forcing(forcing);
+        }
+    }
+
     fn set_coordinates(&mut self, positions: &[f64]) {
         if let Some(s) = self.inner.as_mut() {
             s.set_coordinates(positions);

@@ -73,6 +73,8 @@ pub struct CgSolver {
     w: Work,
     /// `w.x` holds the previous solution.
     has_previous: bool,
+    /// The caller's looser stopping residual, if any ([`LinearSolver::set_forcing`]).
+    forcing: Option<f64>,
     stats: SolverStats,
 }
 
@@ -96,6 +98,7 @@ impl CgSolver {
             precond: PrecondState::Identity,
             w: Work::default(),
             has_previous: false,
+            forcing: None,
             stats: SolverStats::default(),
         }
     }
@@ -109,11 +112,13 @@ impl CgSolver {
     fn run(&mut self, x_is_zero: bool, start: Instant) -> Result<SolveReport, SolveError> {
         let a = self.analyzed.factored_matrix()?;
         let mut residual_time = Duration::ZERO;
+        let tolerance = self.settings.tolerance.max(self.forcing.unwrap_or(0.0));
         let result = pcg(
             a,
             &mut self.precond,
             &mut self.w,
             &self.settings,
+            tolerance,
             x_is_zero,
             &mut residual_time,
         );
@@ -141,12 +146,14 @@ impl CgSolver {
     }
 }
 
-/// PCG on `A x = w.b` starting from `w.x`. Returns (iterations, true relative residual).
+/// PCG on `A x = w.b` starting from `w.x`, to relative residual `tolerance`. Returns
+/// (iterations, true relative residual).
 fn pcg(
     a: &SymmetricMatrix,
     m: &mut PrecondState,
     w: &mut Work,
     s: &CgSettings,
+    tolerance: f64,
     x_is_zero: bool,
     residual_time: &mut Duration,
 ) -> Result<(usize, f64), SolveError> {
@@ -156,7 +163,7 @@ fn pcg(
         x.fill(0.0);
         return Ok((0, 0.0));
     }
-    let tol = s.tolerance * bnorm;
+    let tol = tolerance * bnorm;
     // r = b − A x, exactly (not by recurrence).
     let mut true_residual = |x: &[f64], r: &mut [f64], q: &mut [f64]| -> f64 {
         let t = Instant::now();
@@ -238,8 +245,12 @@ impl LinearSolver for CgSolver {
             self.stats.analyses_reused += 1;
         } else {
             let n = pattern.dim();
-            self.precond =
-                PrecondState::analyze(self.settings.preconditioner, self.settings.amg, pattern);
+            self.precond = PrecondState::analyze(
+                self.settings.preconditioner,
+                self.settings.amg,
+                self.settings.parallelism,
+                pattern,
+            );
             let v = || vec![0.0; n];
             self.w = Work {
                 b: v(),
@@ -321,6 +332,10 @@ impl LinearSolver for CgSolver {
             x.copy_from_slice(&self.w.x);
         }
         result
+    }
+
+    fn set_forcing(&mut self, forcing: Option<f64>) {
+        self.forcing = forcing;
     }
 
     fn set_coordinates(&mut self, positions: &[f64]) {

@@ -35,7 +35,7 @@ use std::time::Duration;
 
 use crate::sparse::{SparsityPattern, SymmetricMatrix};
 
-pub use amg::{AmgSettings, AmgStats};
+pub use amg::{AmgSettings, AmgSmoother, AmgStats, PARALLEL_MIN_ROWS as AMG_PARALLEL_MIN_ROWS};
 pub use auto::{AutoPrediction, AutoSolver};
 pub use cg::{CgSettings, CgSolver, Preconditioner};
 pub use common::symmetric_mul_vec;
@@ -88,6 +88,11 @@ pub trait LinearSolver: Send {
         x.copy_from_slice(rhs);
         self.solve(x)
     }
+
+    /// The relative residual at which the next solves may stop when it is larger than the
+    /// solver's own tolerance (an inexact Newton's forcing term); `None` restores the own
+    /// tolerance. Iterative solvers only: a direct solver solves exactly and ignores it.
+    fn set_forcing(&mut self, _forcing: Option<f64>) {}
 
     /// The current positions of the unknowns (stacked xyz per vertex), for preconditioners
     /// that build the rigid-body modes (AMG); called before `factor`. Default: ignored.

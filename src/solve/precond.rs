@@ -10,6 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use super::amg::{Amg, AmgSettings, AmgStats};
 use super::{FactorReport, SolveError};
+use crate::parallel::Parallelism;
 use crate::sparse::{SparsityPattern, SymmetricMatrix};
 
 /// CG preconditioners, all SPD when `A` is.
@@ -77,7 +78,13 @@ pub(crate) enum PrecondState {
 impl PrecondState {
     /// Allocates the storage of `kind` for `pattern`.
     /// `amg` configures the AMG preconditioner (ignored by the others).
-    pub fn analyze(kind: Preconditioner, amg: AmgSettings, pattern: &SparsityPattern) -> Self {
+    /// `parallelism` is AMG's (the others run on the calling thread).
+    pub fn analyze(
+        kind: Preconditioner,
+        amg: AmgSettings,
+        parallelism: Parallelism,
+        pattern: &SparsityPattern,
+    ) -> Self {
         let n = pattern.dim();
         let diag_pos = || {
             (0..n)
@@ -111,7 +118,7 @@ impl PrecondState {
                 }
             }
             Preconditioner::IncompleteCholesky => Self::Ic0(Ic0::analyze(pattern)),
-            Preconditioner::Amg => Self::Amg(Box::new(Amg::new(amg))),
+            Preconditioner::Amg => Self::Amg(Box::new(Amg::new(amg, parallelism))),
         }
     }
 

@@ -206,8 +206,10 @@ fn newton_cap_cells(spec: &RunSpec) -> Vec<(&'static str, String)> {
             ("newton_max_iterations", String::new()),
             ("newton_required", String::new()),
             ("newton_refactor_every", String::new()),
+            ("newton_forcing_max", String::new()),
             ("amg_strength_threshold", String::new()),
             ("amg_rebuild_every", String::new()),
+            ("amg_smoother", String::new()),
         ];
     }
     let newton = &integrator.newton;
@@ -221,11 +223,13 @@ fn newton_cap_cells(spec: &RunSpec) -> Vec<(&'static str, String)> {
         ("newton_max_iterations", newton.max_iterations.to_string()),
         ("newton_required", newton.require_convergence.to_string()),
         ("newton_refactor_every", newton.refactor_every.to_string()),
+        ("newton_forcing_max", newton.forcing_max.to_string()),
         (
             "amg_strength_threshold",
             amg_cell(amg.strength_threshold.to_string()),
         ),
         ("amg_rebuild_every", amg_cell(amg.rebuild_every.to_string())),
+        ("amg_smoother", amg_cell(amg.smoother.name().to_owned())),
     ]
 }
 

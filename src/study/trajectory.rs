@@ -47,6 +47,7 @@ pub const COLUMNS: &[&str] = &[
     "newton_max_iterations",
     "newton_required",
     "newton_refactor_every",
+    "newton_forcing_max",
     "energy_excess_peak",
     "energy_growth_rate",
     "energy_growth_factor",
@@ -83,6 +84,7 @@ pub const COLUMNS: &[&str] = &[
     "amg_reuses",
     "amg_strength_threshold",
     "amg_rebuild_every",
+    "amg_smoother",
     "linear_iterations_per_solve",
     "peak_rss_mib",
 ];

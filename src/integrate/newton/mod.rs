@@ -532,6 +532,17 @@ impl Newton {
                 Globalization::TrustRegion => {
                     self.trust_region_direction(model, p, x, radius, &sc, report)?
                 }
+                _ if s.direction == Direction::Newton && s.forcing_max > 0.0 => {
+                    // Inexact Newton: an iterative solve stops at the forcing term.
+                    let forcing = (norm(&self.potential.g)
+                        / sc.initial_gradient.max(f64::MIN_POSITIVE))
+                    .sqrt()
+                    .min(s.forcing_max);
+                    self.system.set_forcing(Some(forcing));
+                    let slope = self.direction(model, p, x, iteration, report);
+                    self.system.set_forcing(None);
+                    slope?
+                }
                 _ => self.direction(model, p, x, iteration, report)?,
             };
             record.decrement = -slope;

@@ -159,6 +159,12 @@ pub struct NewtonSettings {
     /// the gradient norm (then the `roundoff` stop): a gradient criterion can then be met
     /// below the ~1e-7 the energy can resolve.
     pub roundoff_stop: bool,
+    /// The largest relative residual at which an iterative linear solve (CG, or `auto` when it
+    /// chose CG) may stop: each Newton direction is solved to `min(forcing_max,
+    /// sqrt(‖g‖/‖g₀‖))` (the inexact-Newton forcing term, g₀ the solve's first gradient) or
+    /// the solver's own tolerance, whichever is larger. Direct solvers solve exactly whatever
+    /// it says. 0 solves every direction to the solver's tolerance. Default 0.1.
+    pub forcing_max: f64,
 }
 
 impl Default for NewtonSettings {
@@ -186,11 +192,15 @@ impl Default for NewtonSettings {
             trust_region_cg_iterations: 500,
             log_iterations: false,
             roundoff_stop: true,
+            forcing_max: Self::DEFAULT_FORCING_MAX,
         }
     }
 }
 
 impl NewtonSettings {
+    /// See [`NewtonSettings::forcing_max`] and DESIGN.md for the measurement behind it.
+    pub const DEFAULT_FORCING_MAX: f64 = 0.1;
+
     /// The filter the system matrix uses (`project_hessian = true` is `filter = "clamp"`).
     pub fn filter_settings(&self) -> FilterSettings {
         let filter = match (self.project_hessian, self.filter) {
@@ -258,6 +268,10 @@ impl NewtonSettings {
             (
                 self.trust_region_cg_iterations >= 1,
                 "newton.trust_region_cg_iterations must be >= 1",
+            ),
+            (
+                (0.0..1.0).contains(&self.forcing_max),
+                "newton.forcing_max must lie in [0, 1) (0 = solve to the linear solver's tolerance)",
             ),
             (
                 self.globalization != Globalization::TrustRegion

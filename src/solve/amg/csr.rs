@@ -2,6 +2,13 @@
 //! phase (the pattern, allocated once) and a numeric phase (values into that pattern,
 //! allocation-free), so a hierarchy whose structure is kept recomputes only values.
 
+use std::ops::Range;
+
+use crate::parallel::Parallelism;
+
+/// Rows per task of a parallel mat-vec.
+const ROWS_PER_TASK: usize = 1024;
+
 /// A sparse matrix in CSR (for a symmetric matrix, also its CSC); columns sorted per row.
 #[derive(Clone, Debug, Default)]
 pub(super) struct Csr {
@@ -24,8 +31,27 @@ impl Csr {
 
     /// `y = A x`.
     pub fn mul(&self, x: &[f64], y: &mut [f64]) {
-        for (i, yi) in y.iter_mut().enumerate() {
-            let (idx, val) = self.row(i);
+        self.mul_rows(0, x, y);
+    }
+
+    /// `y = A x`, rows in parallel chunks with [`Parallelism::Rayon`] (each row's sum in the
+    /// same order: the result does not depend on the thread count).
+    pub fn mul_par(&self, x: &[f64], y: &mut [f64], par: Parallelism) {
+        match par {
+            Parallelism::Sequential => self.mul(x, y),
+            Parallelism::Rayon => {
+                use rayon::prelude::*;
+                y.par_chunks_mut(ROWS_PER_TASK)
+                    .enumerate()
+                    .for_each(|(c, ys)| self.mul_rows(c * ROWS_PER_TASK, x, ys));
+            }
+        }
+    }
+
+    /// Rows `first..first + y.len()` of `A x` into `y`.
+    fn mul_rows(&self, first: usize, x: &[f64], y: &mut [f64]) {
+        for (k, yi) in y.iter_mut().enumerate() {
+            let (idx, val) = self.row(first + k);
             *yi = idx.iter().zip(val).map(|(&j, &v)| v * x[j]).sum();
         }
     }
@@ -97,23 +123,113 @@ impl Csr {
     /// The values of `A B` into `c`, whose pattern holds that product's (from
     /// [`Csr::matmul`] on the same patterns). Allocates nothing; `marker` as for `matmul`.
     pub fn matmul_values(&self, b: &Csr, c: &mut Csr, marker: &mut [usize]) {
-        for i in 0..self.nrows {
-            let (s, e) = (c.ptr[i], c.ptr[i + 1]);
+        let rows = 0..self.nrows;
+        self.matmul_rows(b, &c.ptr, &c.idx, rows, &mut c.val, marker);
+    }
+
+    /// [`Csr::matmul_values`] with the rows split into one contiguous range per marker, the
+    /// ranges in parallel with [`Parallelism::Rayon`]. Each entry is summed in the same order
+    /// by whichever task holds its row: the result does not depend on the split.
+    pub fn matmul_values_par(
+        &self,
+        b: &Csr,
+        c: &mut Csr,
+        markers: &mut [Vec<usize>],
+        par: Parallelism,
+    ) {
+        for m in markers.iter_mut() {
+            if m.len() < b.ncols {
+                m.resize(b.ncols, usize::MAX);
+            }
+        }
+        if par == Parallelism::Sequential || markers.len() < 2 {
+            self.matmul_values(b, c, &mut markers[0]);
+            return;
+        }
+        let Csr { ptr, idx, val, .. } = c;
+        self.matmul_split(b, ptr, idx, 0..self.nrows, val, markers);
+    }
+
+    fn matmul_split(
+        &self,
+        b: &Csr,
+        ptr: &[usize],
+        idx: &[usize],
+        rows: Range<usize>,
+        val: &mut [f64],
+        markers: &mut [Vec<usize>],
+    ) {
+        if markers.len() == 1 {
+            self.matmul_rows(b, ptr, idx, rows, val, &mut markers[0]);
+            return;
+        }
+        let (left_markers, right_markers) = markers.split_at_mut(markers.len() / 2);
+        let mid = rows.start
+            + rows.len() * left_markers.len() / (left_markers.len() + right_markers.len());
+        let (left, right) = val.split_at_mut(ptr[mid] - ptr[rows.start]);
+        rayon::join(
+            || self.matmul_split(b, ptr, idx, rows.start..mid, left, left_markers),
+            || self.matmul_split(b, ptr, idx, mid..rows.end, right, right_markers),
+        );
+    }
+
+    /// The values of rows `rows` of `A B` into `val` (those rows' entries of the product's
+    /// pattern `ptr`, `idx`).
+    fn matmul_rows(
+        &self,
+        b: &Csr,
+        ptr: &[usize],
+        idx: &[usize],
+        rows: Range<usize>,
+        val: &mut [f64],
+        marker: &mut [usize],
+    ) {
+        let base = ptr[rows.start];
+        for i in rows {
+            let (s, e) = (ptr[i], ptr[i + 1]);
             for p in s..e {
-                marker[c.idx[p]] = p;
-                c.val[p] = 0.0;
+                marker[idx[p]] = p - base;
+                val[p - base] = 0.0;
             }
             let (ai, av) = self.row(i);
             for (&k, &a) in ai.iter().zip(av) {
                 let (bk, bv) = b.row(k);
                 for (&j, &v) in bk.iter().zip(bv) {
-                    c.val[marker[j]] += a * v;
+                    val[marker[j]] += a * v;
                 }
             }
             for p in s..e {
-                marker[c.idx[p]] = usize::MAX;
+                marker[idx[p]] = usize::MAX;
             }
         }
+    }
+
+    /// `Π_r A Π_cᵀ`: row `r` of the result is row `rows[r]` of `A`, column `j` becomes
+    /// `new_col[j]` (columns sorted again). Also returns, per stored entry of the result, its
+    /// position in `A` (to gather new values of the same pattern).
+    pub fn permuted(&self, rows: &[usize], new_col: &[usize]) -> (Csr, Vec<usize>) {
+        let mut c = Csr {
+            nrows: rows.len(),
+            ncols: self.ncols,
+            ptr: Vec::with_capacity(rows.len() + 1),
+            idx: Vec::with_capacity(self.nnz()),
+            val: Vec::with_capacity(self.nnz()),
+        };
+        let mut src = Vec::with_capacity(self.nnz());
+        let mut entries: Vec<(usize, usize)> = Vec::new();
+        c.ptr.push(0);
+        for &old in rows {
+            entries.clear();
+            entries.extend((self.ptr[old]..self.ptr[old + 1]).map(|p| (new_col[self.idx[p]], p)));
+            entries.sort_unstable();
+            for &(j, p) in &entries {
+                c.idx.push(j);
+                c.val.push(self.val[p]);
+                src.push(p);
+            }
+            c.ptr.push(c.idx.len());
+        }
+        (c, src)
     }
 
     /// The diagonal entries (0 where none is stored).

@@ -13,8 +13,13 @@
 //!
 //! The coarsest matrix (≤ [`COARSE_DOFS`] DOFs) is factored densely. Smoothing is one forward
 //! Gauss–Seidel sweep before the coarse correction and one backward sweep after, so the cycle
-//! is a symmetric positive definite operator, as CG requires. Every loop runs in a fixed
-//! order: results are the same for any thread count.
+//! is a symmetric positive definite operator, as CG requires; by default in the order of a
+//! colouring of each level's nodes, parallel within a colour (`smoother.rs`).
+//!
+//! Threads: on a level of at least [`AmgSettings::parallel_min_rows`] rows (with
+//! [`Parallelism::Rayon`]) the smoother's colours, the mat-vecs and the Galerkin products'
+//! rows run in parallel; every entry is computed in the same order whoever computes it, so
+//! results are the same for any thread count.
 //!
 //! Reuse: a Newton iteration changes the matrix's values, not its pattern. Within
 //! [`AmgSettings::rebuild_every`] setups of a full build, a setup keeps the aggregates and
@@ -24,6 +29,7 @@
 
 mod aggregation;
 mod csr;
+mod smoother;
 mod strength;
 
 use std::sync::Arc;
@@ -33,8 +39,11 @@ use serde::{Deserialize, Serialize};
 
 use self::aggregation::{aggregate, near_null_space, tentative_prolongator};
 use self::csr::Csr;
+pub use self::smoother::AmgSmoother;
+use self::smoother::{Sweep, colour_order};
 use self::strength::strength;
 use super::SolveError;
+use crate::parallel::Parallelism;
 use crate::sparse::{SparsityPattern, SymmetricMatrix};
 
 /// Coarsest level size (DOFs) that is factored densely.
@@ -43,6 +52,11 @@ pub const COARSE_DOFS: usize = 600;
 const MAX_LEVELS: usize = 12;
 /// Power iterations for ρ(D⁻¹A).
 const POWER_ITERATIONS: usize = 15;
+/// Rows from which a level's smoother sweeps, mat-vecs and Galerkin products run on every
+/// thread (with [`Parallelism::Rayon`]); below, on the calling thread. From
+/// `cargo bench --bench thread_crossover -- amg` (see the crossover table in
+/// `results/benchmarks/thread_crossover.md`).
+pub const PARALLEL_MIN_ROWS: usize = 8192;
 
 /// AMG settings (`solver.cg.amg` in a scene file).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -57,6 +71,11 @@ pub struct AmgSettings {
     /// are recomputed), 0 never rebuilds until the pattern changes. Default:
     /// [`AmgSettings::DEFAULT_REBUILD_EVERY`].
     pub rebuild_every: usize,
+    /// The order of the V-cycle's Gauss–Seidel sweeps. Default: multicolour (parallel).
+    pub smoother: AmgSmoother,
+    /// Rows from which a level's loops run on every thread (with the run's parallelism).
+    /// Default: [`PARALLEL_MIN_ROWS`].
+    pub parallel_min_rows: usize,
 }
 
 impl AmgSettings {
@@ -82,6 +101,8 @@ impl Default for AmgSettings {
         Self {
             strength_threshold: Self::DEFAULT_THETA,
             rebuild_every: Self::DEFAULT_REBUILD_EVERY,
+            smoother: AmgSmoother::default(),
+            parallel_min_rows: PARALLEL_MIN_ROWS,
         }
     }
 }
@@ -101,6 +122,8 @@ pub struct AmgStats {
     pub builds: usize,
     /// Setups that kept the hierarchy's structure and recomputed only its values.
     pub reuses: usize,
+    /// Colours of the finest level's smoother (1: DOF order).
+    pub fine_colours: usize,
 }
 
 /// One level of the hierarchy: its matrix, the prolongator to it from the next coarser level,
@@ -108,6 +131,9 @@ pub struct AmgStats {
 struct Level {
     a: Csr,
     inv_diag: Vec<f64>,
+    sweep: Sweep,
+    /// Whether this level's loops run on every thread ([`AmgSettings::parallel_min_rows`]).
+    par: Parallelism,
     /// Prolongator from the next level, its transpose and the product `A P` (kept for its
     /// pattern); `None` on the coarsest level.
     p: Option<Transfer>,
@@ -122,10 +148,26 @@ struct Transfer {
     ap: Csr,
 }
 
+impl Level {
+    /// Completes this level's transfer once the next coarser level's numbering is final:
+    /// renumbers the prolongator's columns by `inverse` (old → new coarse DOF) if the coarser
+    /// level was renumbered, then forms `Pᵀ` and `A P`.
+    fn finish_transfer(&mut self, inverse: Option<&[usize]>, marker: &mut Vec<usize>) {
+        let t = self.p.as_mut().expect("a finer level has a transfer");
+        if let Some(inverse) = inverse {
+            let rows: Vec<usize> = (0..t.p.nrows).collect();
+            t.p = t.p.permuted(&rows, inverse).0;
+        }
+        t.pt = t.p.transpose();
+        t.ap = self.a.matmul(&t.p, marker);
+    }
+}
+
 /// The smoothed-aggregation hierarchy.
 #[derive(Default)]
 pub(crate) struct Amg {
     settings: AmgSettings,
+    parallelism: Parallelism,
     levels: Vec<Level>,
     coarse: Option<nalgebra::Cholesky<f64, nalgebra::Dyn>>,
     coarse_rhs: DVector<f64>,
@@ -134,16 +176,37 @@ pub(crate) struct Amg {
     /// The pattern the hierarchy was built for, and setups since that build.
     pattern: Option<Arc<SparsityPattern>>,
     since_build: usize,
+    /// The finest level's renumbering when it is smoothed colour by colour: the DOF
+    /// permutation (new → old) and, per stored entry of the renumbered matrix, its position
+    /// among the input matrix's values.
+    fine_order: Option<(Vec<usize>, Vec<usize>)>,
     /// Scratch for products (all `usize::MAX` between calls).
     marker: Vec<usize>,
+    /// One marker per task of a parallel Galerkin product (one per pool thread).
+    markers: Vec<Vec<usize>>,
     pub stats: AmgStats,
 }
 
 impl Amg {
-    pub fn new(settings: AmgSettings) -> Self {
+    pub fn new(settings: AmgSettings, parallelism: Parallelism) -> Self {
+        let tasks = match parallelism {
+            Parallelism::Sequential => 1,
+            Parallelism::Rayon => rayon::current_num_threads().max(1),
+        };
         Self {
             settings,
+            parallelism,
+            markers: vec![Vec::new(); tasks],
             ..Self::default()
+        }
+    }
+
+    /// The parallelism of a level of `rows` rows.
+    fn level_parallelism(&self, rows: usize) -> Parallelism {
+        if rows >= self.settings.parallel_min_rows {
+            self.parallelism
+        } else {
+            Parallelism::Sequential
         }
     }
 
@@ -179,6 +242,7 @@ impl Amg {
     /// A full build: aggregation, prolongators, Galerkin products, coarse factor.
     fn build(&mut self, a: &SymmetricMatrix) -> Result<(), SolveError> {
         self.pattern = None;
+        self.fine_order = None;
         let p = a.pattern();
         let n = a.dim();
         let fine = Csr {
@@ -212,16 +276,60 @@ impl Amg {
                         &mut self.marker,
                     );
                     drop(strong);
-                    let pt = p.transpose();
                     let ap = current.matmul(&p, &mut self.marker);
-                    let coarse = pt.matmul(&ap, &mut self.marker);
-                    Some((Transfer { p, pt, ap }, coarse, coarse_b, coarse_nodes))
+                    let coarse = p.transpose().matmul(&ap, &mut self.marker);
+                    Some((p, coarse, coarse_b, coarse_nodes))
                 }
             } else {
                 None
             };
+            // Renumber a smoothed level colour by colour (the coarsest is factored, not
+            // smoothed): its matrix, its prolongator's rows, the finer prolongator's columns.
+            let coloured =
+                self.settings.smoother == AmgSmoother::MulticolourGaussSeidel && next.is_some();
+            let (sweep, order) = if coloured {
+                let (perm, new_nodes, start) = colour_order(&current, &nodes);
+                let mut inverse = vec![0; dofs];
+                for (new, &old) in perm.iter().enumerate() {
+                    inverse[old] = new;
+                }
+                let (renumbered, src) = current.permuted(&perm, &inverse);
+                current = renumbered;
+                if self.levels.is_empty() {
+                    self.fine_order = Some((perm.clone(), src));
+                }
+                (Sweep::coloured(new_nodes, start), Some((perm, inverse)))
+            } else {
+                (Sweep::Lexicographic, None)
+            };
+            let inv_diag = match &order {
+                Some(_) => inverse_diagonal(&current)?,
+                None => inv_diag,
+            };
+            if let Some(finer) = self.levels.last_mut() {
+                let inverse = order.as_ref().map(|(_, inverse)| &inverse[..]);
+                finer.finish_transfer(inverse, &mut self.marker);
+            }
+            let next = next.map(|(p, coarse, coarse_b, coarse_nodes)| {
+                let p = match &order {
+                    Some((perm, _)) => {
+                        let identity: Vec<usize> = (0..p.ncols).collect();
+                        p.permuted(perm, &identity).0
+                    }
+                    None => p,
+                };
+                let transfer = Transfer {
+                    p,
+                    pt: Csr::default(),
+                    ap: Csr::default(),
+                };
+                (transfer, coarse, coarse_b, coarse_nodes)
+            });
+            let par = self.level_parallelism(dofs);
             let level = |a: Csr, p| Level {
                 inv_diag,
+                sweep,
+                par,
                 p,
                 x: vec![0.0; dofs],
                 b: vec![0.0; dofs],
@@ -251,20 +359,32 @@ impl Amg {
         self.stats.grid_complexity =
             self.levels.iter().map(|l| l.a.nrows).sum::<usize>() as f64 / fine_dofs as f64;
         self.stats.coarse_dofs = self.levels.last().map_or(0, |l| l.a.nrows);
+        self.stats.fine_colours = self.levels[0].sweep.colours();
         Ok(())
     }
 
     /// New values in the kept hierarchy: `A_0 = a`, `A_{l+1} = P_lᵀ A_l P_l`, diagonals,
     /// coarse factor. Allocates nothing.
     fn refresh(&mut self, a: &SymmetricMatrix) -> Result<(), SolveError> {
-        self.levels[0].a.val.copy_from_slice(a.values());
+        match &self.fine_order {
+            Some((_, src)) => {
+                let values = a.values();
+                for (v, &k) in self.levels[0].a.val.iter_mut().zip(src) {
+                    *v = values[k];
+                }
+            }
+            None => self.levels[0].a.val.copy_from_slice(a.values()),
+        }
         for l in 0..self.levels.len() {
             let (fine, coarse) = self.levels.split_at_mut(l + 1);
             let level = &mut fine[l];
             inverse_diagonal_into(&level.a, &mut level.inv_diag)?;
             if let Some(t) = level.p.as_mut() {
-                level.a.matmul_values(&t.p, &mut t.ap, &mut self.marker);
-                t.pt.matmul_values(&t.ap, &mut coarse[0].a, &mut self.marker);
+                let par = level.par;
+                level
+                    .a
+                    .matmul_values_par(&t.p, &mut t.ap, &mut self.markers, par);
+                t.pt.matmul_values_par(&t.ap, &mut coarse[0].a, &mut self.markers, par);
             }
         }
         self.factor_coarsest()
@@ -295,9 +415,23 @@ impl Amg {
 
     /// `z = M⁻¹ r`: one V-cycle from zero.
     pub fn apply(&mut self, r: &[f64], z: &mut [f64]) {
-        self.levels[0].b.copy_from_slice(r);
-        self.cycle(0);
-        z.copy_from_slice(&self.levels[0].x);
+        match self.fine_order.take() {
+            Some((perm, src)) => {
+                for (b, &old) in self.levels[0].b.iter_mut().zip(&perm) {
+                    *b = r[old];
+                }
+                self.cycle(0);
+                for (x, &old) in self.levels[0].x.iter().zip(&perm) {
+                    z[old] = *x;
+                }
+                self.fine_order = Some((perm, src));
+            }
+            None => {
+                self.levels[0].b.copy_from_slice(r);
+                self.cycle(0);
+                z.copy_from_slice(&self.levels[0].x);
+            }
+        }
     }
 
     fn cycle(&mut self, l: usize) {
@@ -313,8 +447,16 @@ impl Amg {
         {
             let level = &mut self.levels[l];
             level.x.fill(0.0);
-            gauss_seidel(&level.a, &level.inv_diag, &level.b, &mut level.x, false);
-            level.a.mul(&level.x, &mut level.r);
+            let par = level.par;
+            (level.sweep).run(
+                &level.a,
+                &level.inv_diag,
+                &level.b,
+                &mut level.x,
+                false,
+                par,
+            );
+            level.a.mul_par(&level.x, &mut level.r, par);
             for (ri, bi) in level.r.iter_mut().zip(&level.b) {
                 *ri = bi - *ri;
             }
@@ -322,37 +464,19 @@ impl Amg {
         {
             let (fine, coarse) = self.levels.split_at_mut(l + 1);
             let t = fine[l].p.as_ref().expect("not the coarsest");
-            t.pt.mul(&fine[l].r, &mut coarse[0].b);
+            t.pt.mul_par(&fine[l].r, &mut coarse[0].b, fine[l].par);
         }
         self.cycle(l + 1);
         let (fine, coarse) = self.levels.split_at_mut(l + 1);
         let level = &mut fine[l];
         let t = level.p.as_ref().expect("not the coarsest");
         // r = P x_c, then x += r.
-        t.p.mul(&coarse[0].x, &mut level.r);
+        let par = level.par;
+        t.p.mul_par(&coarse[0].x, &mut level.r, par);
         for (xi, ci) in level.x.iter_mut().zip(&level.r) {
             *xi += ci;
         }
-        gauss_seidel(&level.a, &level.inv_diag, &level.b, &mut level.x, true);
-    }
-}
-
-/// One Gauss–Seidel sweep on `A x = b`, forward or backward.
-fn gauss_seidel(a: &Csr, inv_diag: &[f64], b: &[f64], x: &mut [f64], backward: bool) {
-    let mut update = |i: usize| {
-        let (idx, val) = a.row(i);
-        let mut s = b[i];
-        for (&j, &v) in idx.iter().zip(val) {
-            if j != i {
-                s -= v * x[j];
-            }
-        }
-        x[i] = s * inv_diag[i];
-    };
-    if backward {
-        (0..a.nrows).rev().for_each(&mut update);
-    } else {
-        (0..a.nrows).for_each(&mut update);
+        (level.sweep).run(&level.a, &level.inv_diag, &level.b, &mut level.x, true, par);
     }
 }
 
@@ -464,16 +588,24 @@ mod tests {
 
     #[test]
     fn a_refresh_recomputes_every_galerkin_product_of_the_kept_prolongators() {
-        let mut amg = Amg::new(AmgSettings {
-            rebuild_every: 0,
-            ..AmgSettings::default()
-        });
+        let mut amg = Amg::new(
+            AmgSettings {
+                rebuild_every: 0,
+                ..AmgSettings::default()
+            },
+            Parallelism::Sequential,
+        );
         amg.setup(&chain(400, 1.0)).unwrap();
         assert!(amg.levels.len() >= 2);
         let b = chain(400, 1.7);
         amg.setup(&b).unwrap();
         assert_eq!((amg.stats.builds, amg.stats.reuses), (1, 1));
-        assert_eq!(amg.levels[0].a.val, b.values());
+        let (_, src) = amg
+            .fine_order
+            .as_ref()
+            .expect("renumbered colour by colour");
+        let gathered: Vec<f64> = src.iter().map(|&k| b.values()[k]).collect();
+        assert_eq!(amg.levels[0].a.val, gathered);
         let mut marker = Vec::new();
         for l in 0..amg.levels.len() - 1 {
             let t = amg.levels[l].p.as_ref().unwrap();

@@ -4,7 +4,8 @@
 //!
 //! Greedy first-fit in index order: deterministic, at most (largest degree + 1) colours.
 //! Vertex block descent colours free vertices (edges: the Hessian's block pattern, i.e. shared
-//! tets and springs); XPBD colours constraints (edges: a shared vertex).
+//! tets and springs); XPBD colours constraints (edges: a shared vertex); the AMG smoother
+//! colours the nodes of each level (edges: a nonzero block of the level's matrix).
 
 /// A colouring of `n` items: the colour of each and the items of each colour in index order.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
