@@ -80,6 +80,8 @@ pub struct StepReport {
     /// recomputed only its values.
     pub amg_builds: u32,
     pub amg_reuses: u32,
+    /// Of the reuses, those that kept the coarse operators (refreshed the finest level only).
+    pub amg_lagged: u32,
     /// Times an indefinite system matrix was replaced by its projected (PSD) form.
     pub indefinite_fallbacks: u32,
     /// Element matrices (tets, springs) the Hessian filter changed, summed over every
@@ -151,6 +153,7 @@ impl StepReport {
         self.amg_grid_complexity = self.amg_grid_complexity.max(other.amg_grid_complexity);
         self.amg_builds += other.amg_builds;
         self.amg_reuses += other.amg_reuses;
+        self.amg_lagged += other.amg_lagged;
         if !other.linear_solver.is_empty() {
             self.linear_solver = other.linear_solver;
             self.ordering = other.ordering;

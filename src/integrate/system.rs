@@ -239,6 +239,7 @@ impl ImplicitSystem {
         let amg = self.solver.stats().amg;
         report.amg_builds += amg.builds.saturating_sub(amg_before.builds) as u32;
         report.amg_reuses += amg.reuses.saturating_sub(amg_before.reuses) as u32;
+        report.amg_lagged += amg.lagged.saturating_sub(amg_before.lagged) as u32;
         let factored = result?;
         report.factorizations += 1;
         record_solver(self.solver.stats(), report);

@@ -122,6 +122,8 @@ pub struct Sample {
     pub amg_grid_complexity: f64,
     pub amg_builds: u64,
     pub amg_reuses: u64,
+    /// Of the reuses, those that kept the coarse operators.
+    pub amg_lagged: u64,
     /// Wall time of force and energy evaluations outside assembly since the previous row (s).
     pub force_seconds: f64,
     /// Consistent-mass solves `M^{-1} f` since the previous row, and their wall time (s).
@@ -340,6 +342,7 @@ fn sample(
         amg_grid_complexity: work.amg_grid_complexity,
         amg_builds: work.amg_builds.into(),
         amg_reuses: work.amg_reuses.into(),
+        amg_lagged: work.amg_lagged.into(),
         force_seconds: work.times.forces,
         mass_solves: work.mass_solves.into(),
         mass_solve_seconds: work.times.mass_solve,

@@ -141,6 +141,7 @@ pub fn summary_cells(s: &RunSummary) -> Vec<(&'static str, String)> {
         ("amg_grid_complexity", amg(t.amg_grid_complexity)),
         ("amg_builds", t.amg_builds.to_string()),
         ("amg_reuses", t.amg_reuses.to_string()),
+        ("amg_lagged", t.amg_lagged.to_string()),
         (
             "linear_iterations_per_solve",
             f(t.linear_iterations as f64 / f64::from(t.linear_solves.max(1))),
@@ -209,6 +210,7 @@ fn newton_cap_cells(spec: &RunSpec) -> Vec<(&'static str, String)> {
             ("newton_forcing_max", String::new()),
             ("amg_strength_threshold", String::new()),
             ("amg_rebuild_every", String::new()),
+            ("amg_galerkin_every", String::new()),
             ("amg_smoother", String::new()),
         ];
     }
@@ -229,6 +231,10 @@ fn newton_cap_cells(spec: &RunSpec) -> Vec<(&'static str, String)> {
             amg_cell(amg.strength_threshold.to_string()),
         ),
         ("amg_rebuild_every", amg_cell(amg.rebuild_every.to_string())),
+        (
+            "amg_galerkin_every",
+            amg_cell(amg.galerkin_every.to_string()),
+        ),
         ("amg_smoother", amg_cell(amg.smoother.name().to_owned())),
     ]
 }

@@ -50,6 +50,11 @@ use crate::sparse::{SparsityPattern, SymmetricMatrix};
 pub const COARSE_DOFS: usize = 600;
 /// Levels at most (the finest included).
 const MAX_LEVELS: usize = 12;
+/// A lagged refresh ([`AmgSettings::galerkin_every`]) recomputes the coarse operators anyway
+/// when some diagonal entry of the finest matrix moved by more than this fraction since they
+/// were computed (a new time step size, a stiffening element): the coarse correction would be
+/// off by about as much.
+pub const GALERKIN_DRIFT: f64 = 0.1;
 /// Power iterations for ρ(D⁻¹A).
 const POWER_ITERATIONS: usize = 15;
 /// Rows from which a level's smoother sweeps, mat-vecs and Galerkin products run on every
@@ -73,6 +78,12 @@ pub struct AmgSettings {
     pub rebuild_every: usize,
     /// The order of the V-cycle's Gauss–Seidel sweeps. Default: multicolour (parallel).
     pub smoother: AmgSmoother,
+    /// Setups between recomputations of the coarse operators `Pᵀ A P` within a kept
+    /// hierarchy: 1 recomputes them at every setup; k > 1 refreshes only the finest level's
+    /// values in between (the coarse operators lag by up to k − 1 setups; the cycle stays SPD),
+    /// unless a diagonal entry moved by more than [`GALERKIN_DRIFT`]. Default:
+    /// [`AmgSettings::DEFAULT_GALERKIN_EVERY`].
+    pub galerkin_every: usize,
     /// Rows from which a level's loops run on every thread (with the run's parallelism).
     /// Default: [`PARALLEL_MIN_ROWS`].
     pub parallel_min_rows: usize,
@@ -83,9 +94,14 @@ impl AmgSettings {
     pub const DEFAULT_THETA: f64 = 0.08;
     /// Full builds at most every this many setups (see DESIGN.md for the measurement).
     pub const DEFAULT_REBUILD_EVERY: usize = 10;
+    /// Coarse operators recomputed every this many setups (see DESIGN.md).
+    pub const DEFAULT_GALERKIN_EVERY: usize = 5;
 
     /// Checks the ranges; the error names the key.
     pub fn validate(&self) -> Result<(), String> {
+        if self.galerkin_every == 0 {
+            return Err("solver.cg.amg.galerkin_every must be >= 1 (1 = every setup)".into());
+        }
         if !(self.strength_threshold.is_finite() && (0.0..1.0).contains(&self.strength_threshold)) {
             return Err(format!(
                 "solver.cg.amg.strength_threshold must be in [0, 1), got {}",
@@ -102,6 +118,7 @@ impl Default for AmgSettings {
             strength_threshold: Self::DEFAULT_THETA,
             rebuild_every: Self::DEFAULT_REBUILD_EVERY,
             smoother: AmgSmoother::default(),
+            galerkin_every: Self::DEFAULT_GALERKIN_EVERY,
             parallel_min_rows: PARALLEL_MIN_ROWS,
         }
     }
@@ -122,6 +139,9 @@ pub struct AmgStats {
     pub builds: usize,
     /// Setups that kept the hierarchy's structure and recomputed only its values.
     pub reuses: usize,
+    /// Of the reuses, those that refreshed only the finest level (coarse operators lagged,
+    /// [`AmgSettings::galerkin_every`]).
+    pub lagged: usize,
     /// Colours of the finest level's smoother (1: DOF order).
     pub fine_colours: usize,
 }
@@ -180,6 +200,8 @@ pub(crate) struct Amg {
     /// permutation (new → old) and, per stored entry of the renumbered matrix, its position
     /// among the input matrix's values.
     fine_order: Option<(Vec<usize>, Vec<usize>)>,
+    /// The finest level's inverse diagonal when the coarse operators were last computed.
+    galerkin_diagonal: Vec<f64>,
     /// Scratch for products (all `usize::MAX` between calls).
     marker: Vec<usize>,
     /// One marker per task of a parallel Galerkin product (one per pool thread).
@@ -227,12 +249,31 @@ impl Amg {
             .is_some_and(|p| Arc::ptr_eq(p, a.pattern()) || **p == **a.pattern());
         let k = self.settings.rebuild_every;
         let due = k != 0 && self.since_build + 1 >= k;
-        if same_pattern && !due && !self.levels.is_empty() && self.refresh(a).is_ok() {
-            self.since_build += 1;
-            self.stats.reuses += 1;
-            return Ok(());
+        let g = self.settings.galerkin_every;
+        let galerkin_due = g <= 1 || (self.since_build + 1).is_multiple_of(g);
+        if same_pattern && !due && !self.levels.is_empty() {
+            let mut lagged = false;
+            let refreshed = if galerkin_due {
+                self.refresh(a)
+            } else {
+                self.refresh_finest(a).and_then(|()| {
+                    lagged = self.diagonal_drift() <= GALERKIN_DRIFT;
+                    if lagged { Ok(()) } else { self.refresh(a) }
+                })
+            };
+            if refreshed.is_ok() {
+                self.since_build += 1;
+                self.stats.reuses += 1;
+                if lagged {
+                    self.stats.lagged += 1;
+                } else {
+                    self.remember_galerkin_diagonal();
+                }
+                return Ok(());
+            }
         }
         self.build(a)?;
+        self.remember_galerkin_diagonal();
         self.pattern = Some(a.pattern().clone());
         self.since_build = 0;
         self.stats.builds += 1;
@@ -363,9 +404,34 @@ impl Amg {
         Ok(())
     }
 
-    /// New values in the kept hierarchy: `A_0 = a`, `A_{l+1} = P_lᵀ A_l P_l`, diagonals,
-    /// coarse factor. Allocates nothing.
-    fn refresh(&mut self, a: &SymmetricMatrix) -> Result<(), SolveError> {
+    /// New values on the finest level only (its matrix and smoother diagonal); the coarse
+    /// operators keep their last Galerkin values. The V-cycle stays symmetric positive
+    /// definite for any SPD coarse operators, so CG still converges; only the coarse
+    /// correction is a little off.
+    fn refresh_finest(&mut self, a: &SymmetricMatrix) -> Result<(), SolveError> {
+        self.gather_finest(a);
+        let level = &mut self.levels[0];
+        inverse_diagonal_into(&level.a, &mut level.inv_diag)
+    }
+
+    /// The largest relative change of the finest level's inverse diagonal since the coarse
+    /// operators were last computed.
+    fn diagonal_drift(&self) -> f64 {
+        let now = &self.levels[0].inv_diag;
+        now.iter()
+            .zip(&self.galerkin_diagonal)
+            .map(|(x, y)| (x / y - 1.0).abs())
+            .fold(0.0, f64::max)
+    }
+
+    fn remember_galerkin_diagonal(&mut self) {
+        self.galerkin_diagonal.clear();
+        self.galerkin_diagonal
+            .extend_from_slice(&self.levels[0].inv_diag);
+    }
+
+    /// `a`'s values into the finest level (through its renumbering, if any).
+    fn gather_finest(&mut self, a: &SymmetricMatrix) {
         match &self.fine_order {
             Some((_, src)) => {
                 let values = a.values();
@@ -375,6 +441,12 @@ impl Amg {
             }
             None => self.levels[0].a.val.copy_from_slice(a.values()),
         }
+    }
+
+    /// New values in the kept hierarchy: `A_0 = a`, `A_{l+1} = P_lᵀ A_l P_l`, diagonals,
+    /// coarse factor. Allocates nothing.
+    fn refresh(&mut self, a: &SymmetricMatrix) -> Result<(), SolveError> {
+        self.gather_finest(a);
         for l in 0..self.levels.len() {
             let (fine, coarse) = self.levels.split_at_mut(l + 1);
             let level = &mut fine[l];
@@ -616,5 +688,28 @@ mod tests {
                 assert!((x - y).abs() <= 1e-12 * x.abs().max(1.0));
             }
         }
+    }
+
+    /// Between Galerkin recomputations a setup refreshes only the finest level, unless a
+    /// diagonal entry moved by more than [`GALERKIN_DRIFT`]: a 0.5 % change is lagged, a 70 %
+    /// change recomputes the coarse operators.
+    #[test]
+    fn small_changes_lag_the_coarse_operators_and_large_ones_recompute_them() {
+        let mut amg = Amg::new(
+            AmgSettings {
+                rebuild_every: 0,
+                galerkin_every: 10,
+                ..AmgSettings::default()
+            },
+            Parallelism::Sequential,
+        );
+        amg.setup(&chain(400, 1.0)).unwrap();
+        let coarse = amg.levels[1].a.val.clone();
+        amg.setup(&chain(400, 1.005)).unwrap();
+        assert_eq!((amg.stats.reuses, amg.stats.lagged), (1, 1));
+        assert_eq!(amg.levels[1].a.val, coarse, "coarse operators kept");
+        amg.setup(&chain(400, 1.7)).unwrap();
+        assert_eq!((amg.stats.reuses, amg.stats.lagged), (2, 1));
+        assert_ne!(amg.levels[1].a.val, coarse, "coarse operators recomputed");
     }
 }
