@@ -11,8 +11,12 @@
 //!   two-thread Cholesky took 1.06 s);
 //! - CG with AMG: mat-vecs of `2 nnz(A)` flops at `SPARSE_FLOPS_PER_SECOND`: the setup
 //!   amortized over the hierarchy's reuse (one build of `AMG_BUILD_MATVECS` per
-//!   `rebuild_every` setups, value-only refreshes of `AMG_REFRESH_MATVECS` in between) plus
-//!   `CG_ITERATIONS` iterations of `MATVECS_PER_ITERATION`.
+//!   `rebuild_every` setups, value-only refreshes of `AMG_REFRESH_MATVECS` every
+//!   `galerkin_every`, lagged ones of `AMG_LAGGED_MATVECS` in between) plus `CG_ITERATIONS`
+//!   iterations of `MATVECS_PER_ITERATION`, times `INEXACT_NEWTON_ITERATIONS` (inexact
+//!   directions take more Newton iterations than exact ones), divided by its parallel
+//!   speed-up (`ITERATIVE_PARALLEL_EFFICIENCY`) when AMG's levels will run on more than one
+//!   thread.
 //!
 //! The constants were measured with `cargo run --release --example auto_calibrate` (boxes
 //! and balls of 1.5k–96k tets, one thread, medians of 3, the machine loaded: load average
@@ -21,7 +25,16 @@
 //! refresh 57–183, an iteration 10–14, and CG took 20–24 iterations on a smooth load (21–33 per
 //! Newton solve in `experiments/solver_scaling.toml`). The rates enter only as their ratio.
 //! With them the rule picked the measured faster solver on all six meshes of that run
-//! (Cholesky up to the 12k box and 10k ball, CG+AMG from 48k tets). The prediction needs only
+//! (Cholesky up to the 12k box and 10k ball, CG+AMG from 48k tets).
+//!
+//! Since then CG solves Newton directions inexactly (`newton.forcing_max`: 5–6 CG iterations
+//! per solve instead of 20–33, for about 1.5× the Newton iterations) and AMG runs on every
+//! thread with lagged coarse operators; the iterative side's constants were refitted from the
+//! solver-scaling study and step_49k at d15dfe3 (rates and build/refresh costs kept), where
+//! CG + AMG on two threads was faster than Cholesky from the 48k ball and the 49k box up
+//! (0.43 against 0.52 s and 0.27 against 0.47 s per steady step) and slower on the 10k ball
+//! and the smaller meshes; the 12k box was a tie within the noise (45–104 ms against 54–64 ms
+//! in two runs). The prediction needs only
 //! the ordering and L's column counts (`OrderingChoice`), so choosing CG costs no symbolic
 //! factorization; when Cholesky wins, the ordering is handed to it and symbolically factored
 //! once. The choice is reported per run (`SolverStats::chosen`, the `linear_solver_used`
@@ -35,14 +48,17 @@ use super::{
     AmgSettings, CgSettings, CgSolver, CholeskySolver, FactorReport, LinearSolver, Preconditioner,
     SolveError, SolveReport, SolverSettings, SolverStats,
 };
+use crate::parallel::Parallelism;
 use crate::sparse::{SparsityPattern, SymmetricMatrix};
 
 /// Flops per second of faer's supernodal factorization (one thread, 3D FEM systems).
 pub const DIRECT_FLOPS_PER_SECOND: f64 = 1.5e10;
 /// Speed-up of a parallel factorization per thread beyond the first. The subtree-scheduled
 /// factorization ran 1.78–1.89× faster on two threads than on one on the 49k box and the 83k
-/// ball (`results/cholmod`, 5c6955b); CG with AMG gains little from threads (1.07× on the
-/// 49k box's step, step_49k) and is left at one. Only two-thread runs back the value.
+/// ball (`results/cholmod`, 5c6955b). CG with AMG is left at one thread in the rule: it
+/// gained 1.07× on the 49k box's step when that value was set, and about 1.4× since AMG runs
+/// on every thread (step_49k, see the module docs for why the rule was not refitted). Only
+/// two-thread runs back the value.
 pub const DIRECT_PARALLEL_EFFICIENCY: f64 = 0.8;
 /// Flops per second of a sparse mat-vec (`2 nnz(A)` flops).
 pub const SPARSE_FLOPS_PER_SECOND: f64 = 2.6e9;
@@ -50,10 +66,23 @@ pub const SPARSE_FLOPS_PER_SECOND: f64 = 2.6e9;
 pub const AMG_BUILD_MATVECS: f64 = 450.0;
 /// Mat-vec equivalents of a value-only AMG refresh (Galerkin values, coarse factor).
 pub const AMG_REFRESH_MATVECS: f64 = 140.0;
+/// Mat-vec equivalents of a lagged refresh (the finest level's values and diagonal only,
+/// [`AmgSettings::galerkin_every`]): a gather of the matrix's values.
+pub const AMG_LAGGED_MATVECS: f64 = 2.0;
 /// Mat-vec equivalents per AMG-preconditioned CG iteration (V-cycle plus CG's own).
 pub const MATVECS_PER_ITERATION: f64 = 12.0;
-/// CG iterations expected per Newton solve at the default tolerance with AMG.
-pub const CG_ITERATIONS: f64 = 30.0;
+/// CG iterations expected per Newton solve with AMG and inexact Newton directions
+/// (`newton.forcing_max = 0.1`): 5.0–6.0 per solve on the boxes and balls of 12k–236k tets of
+/// the solver-scaling study and 5.2 on step_49k (d15dfe3).
+pub const CG_ITERATIONS: f64 = 6.0;
+/// Newton iterations of a solve with inexact (CG) directions per iteration of one with exact
+/// (Cholesky) ones: 4.0 against 2.6 per step on step_49k, 8 against 5 (two steps) on the 49k
+/// box of the solver-scaling study (d15dfe3).
+pub const INEXACT_NEWTON_ITERATIONS: f64 = 1.5;
+/// Speed-up of CG + AMG per thread beyond the first, on a system of at least
+/// [`AmgSettings::parallel_min_rows`] rows: its steady step ran 1.62× faster on two threads
+/// than on one on the 49k box (step_49k, d15dfe3), assembly included.
+pub const ITERATIVE_PARALLEL_EFFICIENCY: f64 = 0.5;
 
 /// What the rule predicts for one pattern (seconds per Newton iteration).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -64,33 +93,40 @@ pub struct AutoPrediction {
 
 impl AutoPrediction {
     /// The prediction from the factor's cost and `nnz(A)` (both triangles), with AMG's
-    /// default hierarchy reuse.
+    /// default hierarchy reuse, on one thread.
     pub fn new(factor_nnz: usize, factor_flops: f64, matrix_nnz: usize) -> Self {
-        Self::with_rebuild_every(
+        Self::with_amg(
             factor_nnz,
             factor_flops,
             matrix_nnz,
-            AmgSettings::DEFAULT_REBUILD_EVERY,
+            &AmgSettings::default(),
         )
     }
 
     /// As [`AutoPrediction::new`] with AMG rebuilding its hierarchy every `rebuild_every`
-    /// setups (0: once per pattern, counted as every 100).
-    pub fn with_rebuild_every(
+    /// setups (0: once per pattern, counted as every 100) and recomputing its coarse
+    /// operators every `galerkin_every` setups in between (lagged refreshes otherwise).
+    pub fn with_amg(
         factor_nnz: usize,
         factor_flops: f64,
         matrix_nnz: usize,
-        rebuild_every: usize,
+        amg: &AmgSettings,
     ) -> Self {
         let direct = (factor_flops + 4.0 * factor_nnz as f64) / DIRECT_FLOPS_PER_SECOND;
         let matvec = 2.0 * matrix_nnz as f64 / SPARSE_FLOPS_PER_SECOND;
-        let k = if rebuild_every == 0 {
-            100.0
+        let k = if amg.rebuild_every == 0 {
+            100
         } else {
-            rebuild_every as f64
+            amg.rebuild_every
         };
-        let setup = (AMG_BUILD_MATVECS + (k - 1.0) * AMG_REFRESH_MATVECS) / k;
-        let iterative = matvec * (setup + CG_ITERATIONS * MATVECS_PER_ITERATION);
+        let galerkin = (k - 1) / amg.galerkin_every.max(1);
+        let lagged = k - 1 - galerkin;
+        let setup = (AMG_BUILD_MATVECS
+            + galerkin as f64 * AMG_REFRESH_MATVECS
+            + lagged as f64 * AMG_LAGGED_MATVECS)
+            / k as f64;
+        let iterative =
+            INEXACT_NEWTON_ITERATIONS * matvec * (setup + CG_ITERATIONS * MATVECS_PER_ITERATION);
         Self {
             direct_seconds: direct,
             iterative_seconds: iterative,
@@ -102,6 +138,14 @@ impl AutoPrediction {
     pub fn with_factor_threads(mut self, threads: usize) -> Self {
         let extra = threads.saturating_sub(1) as f64;
         self.direct_seconds /= 1.0 + DIRECT_PARALLEL_EFFICIENCY * extra;
+        self
+    }
+
+    /// The prediction when CG + AMG runs on `threads` threads (see
+    /// [`ITERATIVE_PARALLEL_EFFICIENCY`]); one thread leaves it unchanged.
+    pub fn with_iterative_threads(mut self, threads: usize) -> Self {
+        let extra = threads.saturating_sub(1) as f64;
+        self.iterative_seconds /= 1.0 + ITERATIVE_PARALLEL_EFFICIENCY * extra;
         self
     }
 
@@ -160,17 +204,24 @@ impl LinearSolver for AutoSolver {
             return self.inner("analyze")?.analyze(pattern);
         }
         let choice = OrderingChoice::new(pattern, &self.settings.direct)?;
-        let prediction = AutoPrediction::with_rebuild_every(
+        let iterative_threads = match self.settings.cg.parallelism {
+            Parallelism::Rayon if pattern.dim() >= self.settings.cg.amg.parallel_min_rows => {
+                rayon::current_num_threads()
+            }
+            _ => 1,
+        };
+        let prediction = AutoPrediction::with_amg(
             choice.cost.nnz,
             choice.cost.flops,
             pattern.nnz(),
-            self.settings.cg.amg.rebuild_every,
+            &self.settings.cg.amg,
         )
         .with_factor_threads(factor_threads(
             &self.settings.direct,
             choice.cost.flops,
             self.settings.direct.scheduler == Scheduler::Faer,
-        ));
+        ))
+        .with_iterative_threads(iterative_threads);
         let solver: Box<dyn LinearSolver> = if prediction.direct() {
             let analysis = SymbolicAnalysis::from_choice(pattern, &self.settings.direct, choice)?;
             let mut s = CholeskySolver::new(self.settings.direct);
