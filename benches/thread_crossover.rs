@@ -260,7 +260,7 @@ fn matvec(rounds: usize) {
 /// iteration, not only its speed).
 fn amg(rounds: usize) {
     println!(
-        "\n## CG + AMG solve (library rule: levels of {AMG_PARALLEL_MIN_ROWS} rows or more parallel)\n\n         | matrix (box), rows | DOF-order GS, 1 thread | multicolour, 1 thread | multicolour, 2 threads | speed-up (2 vs 1) | iterations DOF-order / multicolour |\n|---|---|---|---|---|---|"
+        "\n## CG + AMG solve (library rule: levels of {AMG_PARALLEL_MIN_ROWS} rows or more parallel)\n\n| matrix (box), rows | DOF-order GS, 1 thread | multicolour, 1 thread | multicolour, 2 threads | speed-up (2 vs 1) | iterations DOF-order / multicolour |\n|---|---|---|---|---|---|"
     );
     let mut table_rows = Vec::new();
     for cells in sizes(&[

@@ -384,3 +384,26 @@ fn the_multicolour_smoother_is_thread_count_independent_and_close_to_dof_order_g
         "multicolour {it1} against DOF order {it_dof}"
     );
 }
+
+/// A forcing term set before `auto` has chosen (Newton sets it before the first factorization)
+/// reaches the CG it builds: the first solve stops at the forcing term, not at `cg.tolerance`.
+#[test]
+fn auto_passes_a_forcing_term_set_before_its_choice_to_the_cg_it_builds() {
+    let system = fem_box([40, 20, 20]);
+    let a = &system.matrix;
+    let solve = |forcing: Option<f64>| {
+        let mut s = AutoSolver::new(SolverSettings::default());
+        s.set_forcing(forcing);
+        s.analyze(a.pattern()).unwrap();
+        s.set_coordinates(&system.positions);
+        s.factor(a).unwrap();
+        assert_eq!(s.stats().chosen, "cg");
+        let mut x = vec![1.0; a.dim()];
+        s.solve(&mut x).unwrap()
+    };
+    let exact = solve(None);
+    let forced = solve(Some(0.1));
+    assert!(exact.relative_residual <= 1e-8);
+    assert!(forced.relative_residual <= 0.1 && forced.relative_residual > 1e-8);
+    assert!(forced.iterations < exact.iterations);
+}

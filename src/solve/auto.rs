@@ -161,6 +161,9 @@ pub struct AutoSolver {
     inner: Option<Box<dyn LinearSolver>>,
     pattern: Option<Arc<SparsityPattern>>,
     prediction: Option<AutoPrediction>,
+    /// The caller's forcing term, kept for a solver built after it was set (Newton sets it
+    /// before the first factorization, which is when the choice is made).
+    forcing: Option<f64>,
     empty: SolverStats,
 }
 
@@ -173,6 +176,7 @@ impl AutoSolver {
             inner: None,
             pattern: None,
             prediction: None,
+            forcing: None,
             empty: SolverStats::default(),
         }
     }
@@ -235,6 +239,8 @@ impl LinearSolver for AutoSolver {
             s.analyze(pattern)?;
             Box::new(s)
         };
+        let mut solver = solver;
+        solver.set_forcing(self.forcing);
         self.inner = Some(solver);
         self.pattern = Some(pattern.clone());
         self.prediction = Some(prediction);
@@ -254,6 +260,7 @@ impl LinearSolver for AutoSolver {
     }
 
     fn set_forcing(&mut self, forcing: Option<f64>) {
+        self.forcing = forcing;
         if let Some(s) = self.inner.as_mut() {
             s.set_forcing(forcing);
         }
