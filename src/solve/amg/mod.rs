@@ -250,7 +250,9 @@ impl Amg {
         let k = self.settings.rebuild_every;
         let due = k != 0 && self.since_build + 1 >= k;
         let g = self.settings.galerkin_every;
-        let galerkin_due = g <= 1 || (self.since_build + 1).is_multiple_of(g);
+        // A one-level hierarchy is the finest level's dense factor: nothing to lag.
+        let galerkin_due =
+            g <= 1 || self.levels.len() < 2 || (self.since_build + 1).is_multiple_of(g);
         if same_pattern && !due && !self.levels.is_empty() {
             let mut lagged = false;
             let refreshed = if galerkin_due {
@@ -711,5 +713,18 @@ mod tests {
         amg.setup(&chain(400, 1.7)).unwrap();
         assert_eq!((amg.stats.reuses, amg.stats.lagged), (2, 1));
         assert_ne!(amg.levels[1].a.val, coarse, "coarse operators recomputed");
+        // One level (the dense factor of the matrix itself) is never lagged.
+        let mut small = Amg::new(
+            AmgSettings {
+                rebuild_every: 0,
+                galerkin_every: 10,
+                ..AmgSettings::default()
+            },
+            Parallelism::Sequential,
+        );
+        small.setup(&chain(100, 1.0)).unwrap();
+        assert_eq!(small.levels.len(), 1);
+        small.setup(&chain(100, 1.005)).unwrap();
+        assert_eq!((small.stats.reuses, small.stats.lagged), (1, 0));
     }
 }
