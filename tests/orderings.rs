@@ -104,6 +104,26 @@ fn auto_keeps_the_ordering_with_fewer_predicted_flops() {
     }
 }
 
+/// On a run with threads `auto` computes AMD and METIS side by side; it keeps the same
+/// ordering, with the same cost, as one thread does.
+#[test]
+fn auto_orders_on_two_threads_as_on_one() {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .unwrap();
+    for a in [fem_box([12, 6, 6]).matrix, fem_ball(4).matrix] {
+        let one = analyzed(&a, Ordering::Auto, Parallelism::Sequential);
+        let two = pool.install(|| analyzed(&a, Ordering::Auto, Parallelism::Rayon));
+        let (one, two) = (one.stats(), two.stats());
+        assert_eq!(one.ordering, two.ordering);
+        assert_eq!(
+            (one.factor_flops, one.factor_nnz),
+            (two.factor_flops, two.factor_nnz)
+        );
+    }
+}
+
 /// Column counts of L (diagonal included) in the identity ordering, by the elimination game
 /// on a dense boolean pattern.
 fn column_counts(a: &SymmetricMatrix) -> Vec<usize> {

@@ -62,7 +62,8 @@ pub struct OrderingChoice {
 }
 
 impl OrderingChoice {
-    /// Orders `pattern` as `settings` asks; `Auto` keeps the cheaper of AMD and METIS.
+    /// Orders `pattern` as `settings` asks; `Auto` keeps the cheaper of AMD and METIS
+    /// (computed on two threads when the run's parallelism has them).
     pub fn new(pattern: &SparsityPattern, settings: &DirectSettings) -> Result<Self, SolveError> {
         let single = |ordering| -> Result<Self, SolveError> {
             let perm = permutation(pattern, ordering)?;
@@ -75,7 +76,15 @@ impl OrderingChoice {
         };
         match settings.ordering {
             Ordering::Auto => {
-                let (amd, nd) = (single(Ordering::Amd)?, single(Ordering::Metis)?);
+                // Both orderings side by side when the run has threads (each is sequential
+                // and deterministic: the same choice on any thread count).
+                let (amd, nd) = match settings.parallelism {
+                    Parallelism::Rayon if rayon::current_num_threads() > 1 => {
+                        rayon::join(|| single(Ordering::Amd), || single(Ordering::Metis))
+                    }
+                    _ => (single(Ordering::Amd), single(Ordering::Metis)),
+                };
+                let (amd, nd) = (amd?, nd?);
                 Ok(if nd.cost.flops < amd.cost.flops {
                     nd
                 } else {

@@ -8,6 +8,78 @@ use crate::parallel::Parallelism;
 
 /// Rows per task of a parallel mat-vec.
 const ROWS_PER_TASK: usize = 1024;
+/// Rows (or nodes) per task of a parallel hierarchy build step: a symbolic product, a
+/// renumbering, the strength graph.
+pub(super) const BUILD_ROWS_PER_TASK: usize = 2048;
+
+/// `f` on contiguous ranges covering `0..items` (`per_task` items each), in parallel with
+/// [`Parallelism::Rayon`], each task with scratch from `init`; the outputs in range order.
+/// Sequentially (or on a pool of one thread), one range. When `f`'s output for an item does not depend on the range it
+/// falls in, concatenating the outputs gives the same result for any thread count.
+pub(super) fn map_ranges<S, T>(
+    items: usize,
+    per_task: usize,
+    par: Parallelism,
+    init: impl Fn() -> S + Sync + Send,
+    f: impl Fn(Range<usize>, &mut S) -> T + Sync + Send,
+) -> Vec<T>
+where
+    T: Send,
+{
+    if par == Parallelism::Sequential || items <= per_task || rayon::current_num_threads() < 2 {
+        return vec![f(0..items, &mut init())];
+    }
+    use rayon::prelude::*;
+    let tasks = items.div_ceil(per_task);
+    (0..tasks)
+        .into_par_iter()
+        .map_init(init, |scratch, t| {
+            f(t * per_task..((t + 1) * per_task).min(items), scratch)
+        })
+        .collect()
+}
+
+/// Rows of a matrix under construction (a range of them, in [`map_ranges`]): each row's
+/// entries pushed, then [`RowChunk::end_row`]; `src` optionally records, per entry, where it
+/// came from.
+#[derive(Default)]
+pub(super) struct RowChunk {
+    /// End of each row's entries within this chunk.
+    pub ends: Vec<usize>,
+    pub idx: Vec<usize>,
+    pub val: Vec<f64>,
+    pub src: Vec<usize>,
+}
+
+impl RowChunk {
+    pub fn end_row(&mut self) {
+        self.ends.push(self.idx.len());
+    }
+
+    /// The chunks' rows one after the other: a matrix of `ncols` columns, and the
+    /// concatenated `src`.
+    pub fn concat(chunks: Vec<RowChunk>, ncols: usize) -> (Csr, Vec<usize>) {
+        let rows: usize = chunks.iter().map(|c| c.ends.len()).sum();
+        let nnz: usize = chunks.iter().map(|c| c.idx.len()).sum();
+        let mut c = Csr {
+            nrows: rows,
+            ncols,
+            ptr: Vec::with_capacity(rows + 1),
+            idx: Vec::with_capacity(nnz),
+            val: Vec::with_capacity(nnz),
+        };
+        let mut src = Vec::with_capacity(chunks.iter().map(|c| c.src.len()).sum());
+        c.ptr.push(0);
+        for chunk in chunks {
+            let base = c.idx.len();
+            c.ptr.extend(chunk.ends.iter().map(|e| base + e));
+            c.idx.extend_from_slice(&chunk.idx);
+            c.val.extend_from_slice(&chunk.val);
+            src.extend_from_slice(&chunk.src);
+        }
+        (c, src)
+    }
+}
 
 /// A sparse matrix in CSR (for a symmetric matrix, also its CSC); columns sorted per row.
 #[derive(Clone, Debug, Default)]
@@ -85,38 +157,36 @@ impl Csr {
         }
     }
 
-    /// `A B`: the pattern (Gustavson, sorted rows), then the values through
-    /// [`Csr::matmul_values`]. `marker` is scratch of length ≥ `b.ncols`, all `usize::MAX`
-    /// on entry and on return.
-    pub fn matmul(&self, b: &Csr, marker: &mut Vec<usize>) -> Csr {
-        if marker.len() < b.ncols {
-            marker.resize(b.ncols, usize::MAX);
-        }
-        let mut ptr = Vec::with_capacity(self.nrows + 1);
-        ptr.push(0);
-        let mut idx = Vec::new();
-        for i in 0..self.nrows {
-            let start = idx.len();
-            for &k in self.row(i).0 {
-                for &j in b.row(k).0 {
-                    if marker[j] != i {
-                        marker[j] = i;
-                        idx.push(j);
+    /// `A B`: the pattern (Gustavson, sorted rows; row ranges on every thread with
+    /// [`Parallelism::Rayon`]), then the values through [`Csr::matmul_values_par`].
+    /// `markers` as for that function.
+    pub fn matmul(&self, b: &Csr, markers: &mut [Vec<usize>], par: Parallelism) -> Csr {
+        let chunks = map_ranges(
+            self.nrows,
+            BUILD_ROWS_PER_TASK,
+            par,
+            || vec![usize::MAX; b.ncols],
+            |rows, marker| {
+                let mut chunk = RowChunk::default();
+                for i in rows {
+                    let start = chunk.idx.len();
+                    for &k in self.row(i).0 {
+                        for &j in b.row(k).0 {
+                            if marker[j] != i {
+                                marker[j] = i;
+                                chunk.idx.push(j);
+                            }
+                        }
                     }
+                    chunk.idx[start..].sort_unstable();
+                    chunk.end_row();
                 }
-            }
-            idx[start..].sort_unstable();
-            ptr.push(idx.len());
-        }
-        marker[..b.ncols].fill(usize::MAX);
-        let mut c = Csr {
-            nrows: self.nrows,
-            ncols: b.ncols,
-            ptr,
-            val: vec![0.0; idx.len()],
-            idx,
-        };
-        self.matmul_values(b, &mut c, marker);
+                chunk.val.resize(chunk.idx.len(), 0.0);
+                chunk
+            },
+        );
+        let mut c = RowChunk::concat(chunks, b.ncols).0;
+        self.matmul_values_par(b, &mut c, markers, par);
         c
     }
 
@@ -206,30 +276,38 @@ impl Csr {
 
     /// `Π_r A Π_cᵀ`: row `r` of the result is row `rows[r]` of `A`, column `j` becomes
     /// `new_col[j]` (columns sorted again). Also returns, per stored entry of the result, its
-    /// position in `A` (to gather new values of the same pattern).
-    pub fn permuted(&self, rows: &[usize], new_col: &[usize]) -> (Csr, Vec<usize>) {
-        let mut c = Csr {
-            nrows: rows.len(),
-            ncols: self.ncols,
-            ptr: Vec::with_capacity(rows.len() + 1),
-            idx: Vec::with_capacity(self.nnz()),
-            val: Vec::with_capacity(self.nnz()),
-        };
-        let mut src = Vec::with_capacity(self.nnz());
-        let mut entries: Vec<(usize, usize)> = Vec::new();
-        c.ptr.push(0);
-        for &old in rows {
-            entries.clear();
-            entries.extend((self.ptr[old]..self.ptr[old + 1]).map(|p| (new_col[self.idx[p]], p)));
-            entries.sort_unstable();
-            for &(j, p) in &entries {
-                c.idx.push(j);
-                c.val.push(self.val[p]);
-                src.push(p);
-            }
-            c.ptr.push(c.idx.len());
-        }
-        (c, src)
+    /// position in `A` (to gather new values of the same pattern). Row ranges on every thread
+    /// with [`Parallelism::Rayon`].
+    pub fn permuted(
+        &self,
+        rows: &[usize],
+        new_col: &[usize],
+        par: Parallelism,
+    ) -> (Csr, Vec<usize>) {
+        let chunks = map_ranges(
+            rows.len(),
+            BUILD_ROWS_PER_TASK,
+            par,
+            Vec::<(usize, usize)>::new,
+            |range, entries| {
+                let mut chunk = RowChunk::default();
+                for &old in &rows[range] {
+                    entries.clear();
+                    entries.extend(
+                        (self.ptr[old]..self.ptr[old + 1]).map(|p| (new_col[self.idx[p]], p)),
+                    );
+                    entries.sort_unstable();
+                    for &(j, p) in entries.iter() {
+                        chunk.idx.push(j);
+                        chunk.val.push(self.val[p]);
+                        chunk.src.push(p);
+                    }
+                    chunk.end_row();
+                }
+                chunk
+            },
+        );
+        RowChunk::concat(chunks, self.ncols)
     }
 
     /// The diagonal entries (0 where none is stored).
@@ -280,14 +358,14 @@ mod tests {
             3,
         );
         let b = csr(&[&[(1, 5.0)], &[(0, -2.0), (1, 1.0)], &[(0, 7.0)]], 2);
-        let mut marker = Vec::new();
-        let c = a.matmul(&b, &mut marker);
+        let mut markers = vec![Vec::new()];
+        let c = a.matmul(&b, &mut markers, Parallelism::Sequential);
         // [2 0 -1; 0 3 0; 1 4 0] [0 5; -2 1; 7 0]
         assert_eq!(
             dense(&c),
             vec![vec![-7.0, 10.0], vec![-6.0, 3.0], vec![-8.0, 9.0]]
         );
-        assert!(marker.iter().all(|&m| m == usize::MAX));
+        assert!(markers[0].iter().all(|&m| m == usize::MAX));
         let t = c.transpose();
         assert_eq!(
             dense(&t),
@@ -297,8 +375,62 @@ mod tests {
         let mut a2 = a.clone();
         a2.val.iter_mut().for_each(|v| *v *= 2.0);
         let mut c2 = c.clone();
-        a2.matmul_values(&b, &mut c2, &mut marker);
+        a2.matmul_values(&b, &mut c2, &mut markers[0]);
         assert_eq!(c2.idx, c.idx);
         assert!(c2.val.iter().zip(&c.val).all(|(x, y)| *x == 2.0 * y));
+    }
+
+    /// A banded matrix of `n` rows with a row-dependent pattern and irrational-ish values.
+    fn banded(n: usize, ncols: usize) -> Csr {
+        let mut c = Csr {
+            nrows: n,
+            ncols,
+            ptr: vec![0],
+            ..Csr::default()
+        };
+        for i in 0..n {
+            let mut cols: Vec<usize> = (0..1 + i % 5).map(|k| (i * 7 + k * 13) % ncols).collect();
+            cols.sort_unstable();
+            cols.dedup();
+            for j in cols {
+                c.idx.push(j);
+                c.val.push(((i * 31 + j) as f64).sin());
+            }
+            c.ptr.push(c.idx.len());
+        }
+        c
+    }
+
+    /// The row-parallel symbolic product and renumbering give the matrices the sequential
+    /// ones do, bit for bit, on a pool of three threads (ranges of `BUILD_ROWS_PER_TASK`).
+    #[test]
+    fn parallel_products_and_renumberings_are_the_sequential_ones() {
+        let n = 5 * BUILD_ROWS_PER_TASK + 17;
+        let a = banded(n, n);
+        let b = banded(n, 900);
+        let rows: Vec<usize> = (0..n).map(|i| (i * 7919) % n).collect();
+        let cols: Vec<usize> = (0..n).rev().collect();
+        let run = |par| {
+            let mut markers = vec![Vec::new(); 3];
+            let c = a.matmul(&b, &mut markers, par);
+            let (p, src) = a.permuted(&rows, &cols, par);
+            (c, p, src)
+        };
+        let (c1, p1, s1) = run(Parallelism::Sequential);
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(3)
+            .build()
+            .unwrap();
+        let (c3, p3, s3) = pool.install(|| run(Parallelism::Rayon));
+        assert_eq!((&c1.ptr, &c1.idx, &c1.val), (&c3.ptr, &c3.idx, &c3.val));
+        assert_eq!(
+            (&p1.ptr, &p1.idx, &p1.val, &s1),
+            (&p3.ptr, &p3.idx, &p3.val, &s3)
+        );
+        // The renumbering is a renumbering: entry k of the result is entry src[k] of `a`.
+        for (k, &p) in s1.iter().enumerate() {
+            assert_eq!(p1.val[k], a.val[p]);
+        }
+        assert_eq!(c1.nnz(), c1.val.len());
     }
 }

@@ -18,8 +18,10 @@
 //!
 //! Threads: on a level of at least [`AmgSettings::parallel_min_rows`] rows (with
 //! [`Parallelism::Rayon`]) the smoother's colours, the mat-vecs and the Galerkin products'
-//! rows run in parallel; every entry is computed in the same order whoever computes it, so
-//! results are the same for any thread count.
+//! rows run in parallel, and so do a build's strength graph, symbolic products, renumberings
+//! and power iterations (ranges of rows, concatenated in order); every entry is computed in
+//! the same order whoever computes it, so results are the same for any thread count. The
+//! aggregation and the colouring (greedy) stay sequential.
 //!
 //! Reuse: a Newton iteration changes the matrix's values, not its pattern. Within
 //! [`AmgSettings::rebuild_every`] setups of a full build, a setup keeps the aggregates and
@@ -166,20 +168,34 @@ struct Transfer {
     p: Csr,
     pt: Csr,
     ap: Csr,
+    /// This level's renumbering (new → old), applied to the rows of `p` in
+    /// [`Level::finish_transfer`] (a build forms `P` before the level is renumbered).
+    rows: Option<Vec<usize>>,
 }
 
 impl Level {
     /// Completes this level's transfer once the next coarser level's numbering is final:
-    /// renumbers the prolongator's columns by `inverse` (old → new coarse DOF) if the coarser
-    /// level was renumbered, then forms `Pᵀ` and `A P`.
-    fn finish_transfer(&mut self, inverse: Option<&[usize]>, marker: &mut Vec<usize>) {
+    /// renumbers the rows of `P` by this level's renumbering and its columns by `inverse`
+    /// (old → new coarse DOF), then forms `Pᵀ` and `A P` (recomputed: renumbering the
+    /// build's `A P`, whose rows are long, costs more than the product).
+    fn finish_transfer(&mut self, inverse: Option<&[usize]>, markers: &mut [Vec<usize>]) {
+        let par = self.par;
         let t = self.p.as_mut().expect("a finer level has a transfer");
-        if let Some(inverse) = inverse {
-            let rows: Vec<usize> = (0..t.p.nrows).collect();
-            t.p = t.p.permuted(&rows, inverse).0;
+        let rows = t.rows.take();
+        if rows.is_some() || inverse.is_some() {
+            let rows = rows.unwrap_or_else(|| (0..t.p.nrows).collect());
+            let identity: Vec<usize>;
+            let cols = match inverse {
+                Some(inverse) => inverse,
+                None => {
+                    identity = (0..t.p.ncols).collect();
+                    &identity
+                }
+            };
+            t.p = t.p.permuted(&rows, cols, par).0;
         }
         t.pt = t.p.transpose();
-        t.ap = self.a.matmul(&t.p, marker);
+        t.ap = self.a.matmul(&t.p, markers, par);
     }
 }
 
@@ -202,9 +218,8 @@ pub(crate) struct Amg {
     fine_order: Option<(Vec<usize>, Vec<usize>)>,
     /// The finest level's inverse diagonal when the coarse operators were last computed.
     galerkin_diagonal: Vec<f64>,
-    /// Scratch for products (all `usize::MAX` between calls).
-    marker: Vec<usize>,
-    /// One marker per task of a parallel Galerkin product (one per pool thread).
+    /// Scratch of the products' values: one marker per task of a parallel product (one per
+    /// pool thread), all `usize::MAX` between calls.
     markers: Vec<Vec<usize>>,
     pub stats: AmgStats,
 }
@@ -303,9 +318,10 @@ impl Amg {
         loop {
             let inv_diag = inverse_diagonal(&current)?;
             let dofs = current.nrows;
+            let par = self.level_parallelism(dofs);
             let coarsen = dofs > COARSE_DOFS && self.levels.len() + 1 < MAX_LEVELS;
             let next = if coarsen {
-                let strong = strength(&current, &nodes, self.settings.strength_threshold);
+                let strong = strength(&current, &nodes, self.settings.strength_threshold, par);
                 let aggregates = aggregate(&strong);
                 let (tentative, coarse_b, coarse_nodes) =
                     tentative_prolongator(&aggregates, &nodes, &b, dofs);
@@ -316,11 +332,12 @@ impl Amg {
                         &strong.filtered,
                         &inv_diag,
                         &tentative,
-                        &mut self.marker,
+                        &mut self.markers,
+                        par,
                     );
                     drop(strong);
-                    let ap = current.matmul(&p, &mut self.marker);
-                    let coarse = p.transpose().matmul(&ap, &mut self.marker);
+                    let ap = current.matmul(&p, &mut self.markers, par);
+                    let coarse = p.transpose().matmul(&ap, &mut self.markers, par);
                     Some((p, coarse, coarse_b, coarse_nodes))
                 }
             } else {
@@ -336,7 +353,7 @@ impl Amg {
                 for (new, &old) in perm.iter().enumerate() {
                     inverse[old] = new;
                 }
-                let (renumbered, src) = current.permuted(&perm, &inverse);
+                let (renumbered, src) = current.permuted(&perm, &inverse, par);
                 current = renumbered;
                 if self.levels.is_empty() {
                     self.fine_order = Some((perm.clone(), src));
@@ -351,24 +368,21 @@ impl Amg {
             };
             if let Some(finer) = self.levels.last_mut() {
                 let inverse = order.as_ref().map(|(_, inverse)| &inverse[..]);
-                finer.finish_transfer(inverse, &mut self.marker);
+                finer.finish_transfer(inverse, &mut self.markers);
             }
+            let (next, perm) = match order {
+                Some((perm, _)) => (next, Some(perm)),
+                None => (next, None),
+            };
             let next = next.map(|(p, coarse, coarse_b, coarse_nodes)| {
-                let p = match &order {
-                    Some((perm, _)) => {
-                        let identity: Vec<usize> = (0..p.ncols).collect();
-                        p.permuted(perm, &identity).0
-                    }
-                    None => p,
-                };
                 let transfer = Transfer {
                     p,
                     pt: Csr::default(),
                     ap: Csr::default(),
+                    rows: perm,
                 };
                 (transfer, coarse, coarse_b, coarse_nodes)
             });
-            let par = self.level_parallelism(dofs);
             let level = |a: Csr, p| Level {
                 inv_diag,
                 sweep,
@@ -579,7 +593,8 @@ fn smooth_prolongator(
     filtered: &Csr,
     inv_diag: &[f64],
     tentative: &Csr,
-    marker: &mut Vec<usize>,
+    markers: &mut [Vec<usize>],
+    par: Parallelism,
 ) -> Csr {
     let mut inv_df = vec![0.0; filtered.nrows];
     filtered.diagonal_into(&mut inv_df);
@@ -590,7 +605,7 @@ fn smooth_prolongator(
             *fallback
         };
     }
-    let rho = spectral_radius(filtered, &inv_df);
+    let rho = spectral_radius(filtered, &inv_df, par);
     let omega = 4.0 / (3.0 * rho);
     // S = I − ω D_F⁻¹ A_F, then S P_tent.
     let mut s = filtered.clone();
@@ -601,12 +616,12 @@ fn smooth_prolongator(
             s.val[k] = if s.idx[k] == i { 1.0 + v } else { v };
         }
     }
-    s.matmul(tentative, marker)
+    s.matmul(tentative, markers, par)
 }
 
 /// ρ(D⁻¹A) by power iteration from a fixed vector, with a 10 % margin (an underestimate
 /// would make the smoothed prolongator amplify the highest modes).
-fn spectral_radius(a: &Csr, inv_diag: &[f64]) -> f64 {
+fn spectral_radius(a: &Csr, inv_diag: &[f64], par: Parallelism) -> f64 {
     let n = a.nrows;
     let mut x: Vec<f64> = (0..n)
         .map(|i| 1.0 + ((i * 7919) % 17) as f64 / 17.0)
@@ -614,7 +629,7 @@ fn spectral_radius(a: &Csr, inv_diag: &[f64]) -> f64 {
     let mut y = vec![0.0; n];
     let mut rho = 1.0;
     for _ in 0..POWER_ITERATIONS {
-        a.mul(&x, &mut y);
+        a.mul_par(&x, &mut y, par);
         y.iter_mut().zip(inv_diag).for_each(|(v, d)| *v *= d);
         let norm = y.iter().map(|v| v * v).sum::<f64>().sqrt();
         let xnorm = x.iter().map(|v| v * v).sum::<f64>().sqrt();
@@ -680,11 +695,17 @@ mod tests {
             .expect("renumbered colour by colour");
         let gathered: Vec<f64> = src.iter().map(|&k| b.values()[k]).collect();
         assert_eq!(amg.levels[0].a.val, gathered);
-        let mut marker = Vec::new();
+        let mut markers = vec![Vec::new()];
+        let seq = Parallelism::Sequential;
         for l in 0..amg.levels.len() - 1 {
             let t = amg.levels[l].p.as_ref().unwrap();
-            let expected =
-                t.pt.matmul(&amg.levels[l].a.matmul(&t.p, &mut marker), &mut marker);
+            let ap = amg.levels[l].a.matmul(&t.p, &mut markers, seq);
+            assert_eq!(
+                (&ap.ptr, &ap.idx),
+                (&t.ap.ptr, &t.ap.idx),
+                "kept A P pattern"
+            );
+            let expected = t.pt.matmul(&ap, &mut markers, seq);
             assert_eq!(expected.idx, amg.levels[l + 1].a.idx);
             for (x, y) in expected.val.iter().zip(&amg.levels[l + 1].a.val) {
                 assert!((x - y).abs() <= 1e-12 * x.abs().max(1.0));

@@ -237,7 +237,7 @@ mod tests {
         for (new, &old) in perm.iter().enumerate() {
             inverse[old] = new;
         }
-        let (a, _) = natural.permuted(&perm, &inverse);
+        let (a, _) = natural.permuted(&perm, &inverse, Parallelism::Sequential);
         let n = a.nrows;
         let node_of = |i: usize| new_nodes.partition_point(|&s| s <= i) - 1;
         let colour_of = |k: usize| start.partition_point(|&s| s <= k) - 1;

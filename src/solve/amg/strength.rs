@@ -10,7 +10,8 @@
 //! smoothed prolongator reaches two rings of nodes, and the Galerkin operators densify level
 //! after level (operator complexity grows with the mesh). θ = 0 restores that.
 
-use super::csr::Csr;
+use super::csr::{BUILD_ROWS_PER_TASK, Csr, RowChunk, map_ranges};
+use crate::parallel::Parallelism;
 
 /// The strong node graph (CSR over nodes, no self loops) and the filtered matrix.
 pub(super) struct Strength {
@@ -25,9 +26,19 @@ impl Strength {
     }
 }
 
+/// Per-task scratch of [`strength`]: `‖A_km‖²_F` accumulated in `block_sq[m]`, the
+/// neighbours met in `touched` (`seen` marks them), `strong[m]` for the current node.
+struct Scratch {
+    block_sq: Vec<f64>,
+    strong: Vec<bool>,
+    seen: Vec<usize>,
+    touched: Vec<usize>,
+}
+
 /// Strong connections of `a` over the node ranges `nodes` (`nodes[k]..nodes[k + 1]` are node
-/// k's DOFs) at threshold `theta`, and `A_F`.
-pub(super) fn strength(a: &Csr, nodes: &[usize], theta: f64) -> Strength {
+/// k's DOFs) at threshold `theta`, and `A_F`. Node ranges on every thread with
+/// [`Parallelism::Rayon`] (each node's output is the same whichever task computes it).
+pub(super) fn strength(a: &Csr, nodes: &[usize], theta: f64, par: Parallelism) -> Strength {
     let count = nodes.len() - 1;
     let mut node_of = vec![0; a.nrows];
     for k in 0..count {
@@ -47,88 +58,91 @@ pub(super) fn strength(a: &Csr, nodes: &[usize], theta: f64) -> Strength {
         }
     }
     let theta_sq = theta * theta;
-    // Per node: ‖A_km‖²_F accumulated in `block_sq[m]`, neighbours in `touched`.
-    let mut block_sq = vec![0.0; count];
-    let mut strong = vec![false; count];
-    let mut touched = Vec::new();
-    let mut seen = vec![usize::MAX; count];
-    let mut adj_ptr = Vec::with_capacity(count + 1);
-    adj_ptr.push(0);
-    let mut adj = Vec::new();
-    let mut filtered = Csr {
-        nrows: a.nrows,
-        ncols: a.ncols,
-        ptr: Vec::with_capacity(a.nrows + 1),
-        idx: Vec::with_capacity(a.nnz()),
-        val: Vec::with_capacity(a.nnz()),
+    let per_task = (BUILD_ROWS_PER_TASK * count / a.nrows.max(1)).max(1);
+    let init = || Scratch {
+        block_sq: vec![0.0; count],
+        strong: vec![false; count],
+        seen: vec![usize::MAX; count],
+        touched: Vec::new(),
     };
-    filtered.ptr.push(0);
-    for k in 0..count {
-        for i in nodes[k]..nodes[k + 1] {
-            let (idx, val) = a.row(i);
-            for (&j, &v) in idx.iter().zip(val) {
-                let m = node_of[j];
-                if m != k {
-                    if seen[m] != k {
-                        seen[m] = k;
-                        touched.push(m);
+    let chunks = map_ranges(count, per_task, par, init, |range, scratch| {
+        let Scratch {
+            block_sq,
+            strong,
+            seen,
+            touched,
+        } = scratch;
+        let (mut graph, mut filtered) = (RowChunk::default(), RowChunk::default());
+        for k in range {
+            for i in nodes[k]..nodes[k + 1] {
+                let (idx, val) = a.row(i);
+                for (&j, &v) in idx.iter().zip(val) {
+                    let m = node_of[j];
+                    if m != k {
+                        if seen[m] != k {
+                            seen[m] = k;
+                            touched.push(m);
+                        }
+                        block_sq[m] += v * v;
                     }
-                    block_sq[m] += v * v;
                 }
             }
-        }
-        touched.sort_unstable();
-        for &m in &touched {
-            // ‖A_km‖² ≥ θ² ‖A_kk‖ ‖A_mm‖ (θ = 0: every neighbour is strong).
-            strong[m] = block_sq[m] >= theta_sq * (diag_sq[k] * diag_sq[m]).sqrt();
-            if strong[m] {
-                adj.push(m);
-            }
-        }
-        adj_ptr.push(adj.len());
-        // Rows of A_F: strong blocks and the diagonal block kept, weak blocks lumped.
-        let size = nodes[k + 1] - nodes[k];
-        for i in nodes[k]..nodes[k + 1] {
-            let start = filtered.idx.len();
-            let (idx, val) = a.row(i);
-            for (&j, &v) in idx.iter().zip(val) {
-                let m = node_of[j];
-                if m == k || strong[m] {
-                    filtered.idx.push(j);
-                    filtered.val.push(v);
+            touched.sort_unstable();
+            for &m in touched.iter() {
+                // ‖A_km‖² ≥ θ² ‖A_kk‖ ‖A_mm‖ (θ = 0: every neighbour is strong).
+                strong[m] = block_sq[m] >= theta_sq * (diag_sq[k] * diag_sq[m]).sqrt();
+                if strong[m] {
+                    graph.idx.push(m);
                 }
             }
-            for (&j, &v) in idx.iter().zip(val) {
-                let m = node_of[j];
-                if m == k || strong[m] {
-                    continue;
+            graph.end_row();
+            // Rows of A_F: strong blocks and the diagonal block kept, weak blocks lumped.
+            let size = nodes[k + 1] - nodes[k];
+            for i in nodes[k]..nodes[k + 1] {
+                let start = filtered.idx.len();
+                let (idx, val) = a.row(i);
+                for (&j, &v) in idx.iter().zip(val) {
+                    let m = node_of[j];
+                    if m == k || strong[m] {
+                        filtered.idx.push(j);
+                        filtered.val.push(v);
+                    }
                 }
-                let same_shape = nodes[m + 1] - nodes[m] == size;
-                let target = if same_shape {
-                    nodes[k] + (j - nodes[m])
-                } else {
-                    i
-                };
-                let row = &filtered.idx[start..];
-                if let Ok(p) = row
-                    .binary_search(&target)
-                    .or_else(|_| row.binary_search(&i))
-                {
-                    filtered.val[start + p] += v;
+                for (&j, &v) in idx.iter().zip(val) {
+                    let m = node_of[j];
+                    if m == k || strong[m] {
+                        continue;
+                    }
+                    let same_shape = nodes[m + 1] - nodes[m] == size;
+                    let target = if same_shape {
+                        nodes[k] + (j - nodes[m])
+                    } else {
+                        i
+                    };
+                    let row = &filtered.idx[start..];
+                    if let Ok(p) = row
+                        .binary_search(&target)
+                        .or_else(|_| row.binary_search(&i))
+                    {
+                        filtered.val[start + p] += v;
+                    }
                 }
+                filtered.end_row();
             }
-            filtered.ptr.push(filtered.idx.len());
+            for &m in touched.iter() {
+                block_sq[m] = 0.0;
+                strong[m] = false;
+            }
+            touched.clear();
         }
-        for &m in &touched {
-            block_sq[m] = 0.0;
-            strong[m] = false;
-        }
-        touched.clear();
-    }
+        (graph, filtered)
+    });
+    let (graphs, filtered): (Vec<_>, Vec<_>) = chunks.into_iter().unzip();
+    let graph = RowChunk::concat(graphs, count).0;
     Strength {
-        adj_ptr,
-        adj,
-        filtered,
+        adj_ptr: graph.ptr,
+        adj: graph.idx,
+        filtered: RowChunk::concat(filtered, a.ncols).0,
     }
 }
 
@@ -151,7 +165,7 @@ mod tests {
     #[test]
     fn weak_links_are_dropped_and_lumped_keeping_row_sums() {
         let a = chain();
-        let s = strength(&a, &[0, 1, 2, 3], 0.1);
+        let s = strength(&a, &[0, 1, 2, 3], 0.1, Parallelism::Sequential);
         assert_eq!(s.neighbours(0), &[1]);
         assert_eq!(s.neighbours(1), &[0]);
         assert!(s.neighbours(2).is_empty());
@@ -163,7 +177,7 @@ mod tests {
         }
         assert_eq!(f.nnz(), 5);
         // θ = 0 keeps everything.
-        let all = strength(&a, &[0, 1, 2, 3], 0.0);
+        let all = strength(&a, &[0, 1, 2, 3], 0.0, Parallelism::Sequential);
         assert_eq!(all.neighbours(1), &[0, 2]);
         assert_eq!(all.filtered.val, a.val);
     }
