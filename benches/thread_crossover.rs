@@ -10,7 +10,8 @@
 //! The defaults in the library are set from this output on a quiet two-core machine.
 //!
 //! `cargo bench --bench thread_crossover` (add `-- --quick` for fewer rounds; `-- xpbd`,
-//! `elements`, `matvec`, `amg` or `factor` for one table).
+//! `elements`, `matvec`, `amg`, `factor` or `step` for one table). The `step` table is the
+//! whole converged backward-Euler step, one thread against two (issue 31's 49k box).
 
 #[path = "support/clamped_box.rs"]
 mod clamped_box;
@@ -23,14 +24,14 @@ use fem_system::{fem_ball, fem_box};
 use nalgebra::Vector3;
 use softbench::fem::TetRest;
 use softbench::integrate::xpbd::{PARALLEL_MIN_TETS, Xpbd, XpbdSettings};
-use softbench::integrate::{Integrator, State};
+use softbench::integrate::{Integrator, IntegratorSettings, State};
 use softbench::material::{LameParameters, Material, StableNeoHookean};
 use softbench::mesh::generate::box_mesh;
 use softbench::parallel::{Parallelism, for_each_chunk_from};
 use softbench::solve::symmetric_mul_vec;
 use softbench::solve::{
     AMG_PARALLEL_MIN_ROWS, AmgSettings, AmgSmoother, CgSettings, CgSolver, CholeskySolver,
-    DirectSettings, LinearSolver, Ordering, PARALLEL_MIN_FLOPS, Preconditioner,
+    DirectSettings, LinearSolver, LinearSolverKind, Ordering, PARALLEL_MIN_FLOPS, Preconditioner,
 };
 use std::hint::black_box;
 use std::time::Instant;
@@ -337,6 +338,85 @@ fn amg(rounds: usize) {
     }
 }
 
+/// Steps per round of the `step` table: with 2.6–4 Newton iterations per step a round holds
+/// about ten factorizations or AMG setups (one full AMG build every ten).
+const STEPS_PER_ROUND: usize = 3;
+
+/// Converged backward-Euler steps of the clamped box (Stable Neo-Hookean, dt = 0.01 s, Newton
+/// to 1e-8, required), as `softbench run` takes them on one thread (`RAYON_NUM_THREADS=1`: a
+/// pool of one) and on two: two simulations of the same trajectory advance in lockstep,
+/// [`STEPS_PER_ROUND`] steps each per round, one thread then two. After the first step (its
+/// ordering, symbolic analysis or AMG build, timed apart) every round does the same steps on
+/// both sides; the speed-up is the median of the per-round ratios, with their range. The two
+/// states must agree bit for bit after every round (results do not depend on the threads).
+fn step(rounds: usize) {
+    println!(
+        "\n## step (backward Euler, whole converged steps; the ratio is the median of per-round ratios)\n\n| solver, box | first step, 1 / 2 threads | step, 1 thread | step, 2 threads | speed-up | per-round range |\n|---|---|---|---|---|---|"
+    );
+    let one_thread = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    for (label, solver) in [
+        ("cholesky (the default), full Newton", "cholesky"),
+        ("auto", "auto"),
+    ] {
+        for cells in sizes(&[[8, 4, 4], [16, 8, 8], [32, 16, 16]]) {
+            let mut settings = IntegratorSettings::default();
+            settings.linear_solver = LinearSolverKind::from_name(solver).unwrap();
+            settings.newton.tolerance = 1e-8;
+            settings.newton.max_iterations = 50;
+            settings.newton.require_convergence = true;
+            let settings = settings.with_parallelism(Parallelism::Rayon);
+            let sim = || {
+                let model = clamped_box("stable-neo-hookean", cells);
+                let state = State::at_rest(&model);
+                (settings.build(), model, state)
+            };
+            let (mut i1, mut m1, mut s1) = sim();
+            let (mut i2, mut m2, mut s2) = sim();
+            let tets = m1.elastic_elements().unwrap().tets.len();
+            let advance = |i: &mut Box<dyn Integrator>, m: &mut _, s: &mut State, steps| {
+                let t = Instant::now();
+                for _ in 0..steps {
+                    i.step(m, s, 0.01).unwrap();
+                }
+                t.elapsed().as_secs_f64() / steps as f64
+            };
+            let first1 = one_thread.install(|| advance(&mut i1, &mut m1, &mut s1, 1));
+            let first2 = advance(&mut i2, &mut m2, &mut s2, 1);
+            let (mut t1, mut t2, mut ratios) = (Vec::new(), Vec::new(), Vec::new());
+            for _ in 0..rounds {
+                let a = one_thread.install(|| advance(&mut i1, &mut m1, &mut s1, STEPS_PER_ROUND));
+                let b = advance(&mut i2, &mut m2, &mut s2, STEPS_PER_ROUND);
+                let diff =
+                    s1.q.iter()
+                        .zip(&s2.q)
+                        .map(|(x, y)| (x - y).abs())
+                        .fold(0.0, f64::max);
+                assert!(
+                    s1.q == s2.q && s1.v == s2.v,
+                    "the threads changed the trajectory: {label} {cells:?} {diff:e}"
+                );
+                t1.push(a);
+                t2.push(b);
+                ratios.push(a / b);
+            }
+            let (lo, hi) = ratios
+                .iter()
+                .fold((f64::INFINITY, 0.0f64), |(l, h), &r| (l.min(r), h.max(r)));
+            println!(
+                "| {label}, {tets} tets | {:.0} / {:.0} ms | {:.1} ms | {:.1} ms | {:.2}x | {lo:.2}–{hi:.2}x |",
+                first1 * 1e3,
+                first2 * 1e3,
+                median(t1) * 1e3,
+                median(t2) * 1e3,
+                median(ratios),
+            );
+        }
+    }
+}
+
 fn factor(rounds: usize) {
     let mut table = Table::new(
         "Cholesky factorization (METIS, subtree schedule)",
@@ -430,6 +510,9 @@ fn main() {
     }
     if wanted("factor") {
         factor(rounds);
+    }
+    if wanted("step") {
+        step(rounds);
     }
     let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
     println!("\nload average at end: {}", load.trim());

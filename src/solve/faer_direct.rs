@@ -36,6 +36,12 @@ use super::{
 };
 use crate::sparse::{SparsityPattern, SymmetricMatrix};
 
+/// The triangular solves run on one thread: faer's parallel supernodal solve sums in an order
+/// that depends on the pool (15,593 of the 49k-tet box's 27,744 solution entries changed
+/// between one thread and two) and gained only 1.12x from a second thread on that box (they
+/// are bound by reading the factor, see `results/README.md#step_49k`).
+const SOLVE_PAR: faer::Par = faer::Par::Seq;
+
 /// A numeric factorization of faer's symbolic Cholesky structure.
 pub trait Factorization: Send + 'static {
     /// The solver's name (as in the registry).
@@ -87,7 +93,7 @@ impl Factorization for Llt {
         LltRef::new(&f.symbolic, &f.values).solve_in_place_with_conj(
             Conj::No,
             x,
-            f.par,
+            SOLVE_PAR,
             MemStack::new(&mut f.mem),
         );
     }
@@ -126,7 +132,7 @@ impl Factorization for Ldlt {
         LdltRef::new(&f.symbolic, &f.values).solve_in_place_with_conj(
             Conj::No,
             x,
-            f.par,
+            SOLVE_PAR,
             MemStack::new(&mut f.mem),
         );
     }
