@@ -396,8 +396,10 @@ fn step_case(solver: &str, cells: [usize; 3], rounds: usize) {
         .num_threads(1)
         .build()
         .unwrap();
-    let mut settings = IntegratorSettings::default();
-    settings.linear_solver = LinearSolverKind::from_name(solver).unwrap();
+    let mut settings = IntegratorSettings {
+        linear_solver: LinearSolverKind::from_name(solver).unwrap(),
+        ..Default::default()
+    };
     settings.newton.tolerance = 1e-8;
     settings.newton.max_iterations = 50;
     settings.newton.require_convergence = true;
