@@ -36,11 +36,17 @@ use super::{
 };
 use crate::sparse::{SparsityPattern, SymmetricMatrix};
 
-/// The triangular solves run on one thread: faer's parallel supernodal solve sums in an order
-/// that depends on the pool (15,593 of the 49k-tet box's 27,744 solution entries changed
-/// between one thread and two) and gained only 1.12x from a second thread on that box (they
-/// are bound by reading the factor, see `results/README.md#step_49k`).
-const SOLVE_PAR: faer::Par = faer::Par::Seq;
+/// Tasks of a triangular solve. faer's parallel supernodal solve splits its sums by the task
+/// count it is given, so a count tied to the pool (`Par::rayon(0)`) changed the last bits of
+/// 15,593 of the 49k-tet box's 27,744 solution entries between one thread and two. A fixed
+/// count gives the same bits on any pool and in sequential runs (on one thread the tasks run
+/// one after the other) and keeps what a second thread gives the solve (1.12x on that box in
+/// `results/README.md#step_49k`).
+const SOLVE_TASKS: usize = 2;
+
+fn solve_par() -> faer::Par {
+    faer::Par::rayon(SOLVE_TASKS)
+}
 
 /// A numeric factorization of faer's symbolic Cholesky structure.
 pub trait Factorization: Send + 'static {
@@ -93,7 +99,7 @@ impl Factorization for Llt {
         LltRef::new(&f.symbolic, &f.values).solve_in_place_with_conj(
             Conj::No,
             x,
-            SOLVE_PAR,
+            solve_par(),
             MemStack::new(&mut f.mem),
         );
     }
@@ -132,7 +138,7 @@ impl Factorization for Ldlt {
         LdltRef::new(&f.symbolic, &f.values).solve_in_place_with_conj(
             Conj::No,
             x,
-            SOLVE_PAR,
+            solve_par(),
             MemStack::new(&mut f.mem),
         );
     }
