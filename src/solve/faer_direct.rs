@@ -40,7 +40,8 @@ use crate::sparse::{SparsityPattern, SymmetricMatrix};
 /// count it is given, so a count tied to the pool (`Par::rayon(0)`) changed the last bits of
 /// 15,593 of the 49k-tet box's 27,744 solution entries between one thread and two. A fixed
 /// count gives the same bits on any pool and in sequential runs (on one thread the tasks run
-/// one after the other) and keeps what a second thread gives the solve (1.12x on that box in
+/// one after the other; a sequential run of `--jobs` > 1 lends its solves to the pool) and
+/// keeps what a second thread gives the solve (about 1.1x on that box, see
 /// `results/README.md#step_49k`).
 const SOLVE_TASKS: usize = 2;
 

@@ -14,8 +14,9 @@ pub(super) const BUILD_ROWS_PER_TASK: usize = 2048;
 
 /// `f` on contiguous ranges covering `0..items` (`per_task` items each), in parallel with
 /// [`Parallelism::Rayon`], each task with scratch from `init`; the outputs in range order.
-/// Sequentially (or on a pool of one thread), one range. When `f`'s output for an item does not depend on the range it
-/// falls in, concatenating the outputs gives the same result for any thread count.
+/// Sequentially (or on a pool of one thread), one range. When `f`'s output for an item does
+/// not depend on the range it falls in, concatenating the outputs gives the same result for
+/// any thread count.
 pub(super) fn map_ranges<S, T>(
     items: usize,
     per_task: usize,

@@ -370,10 +370,7 @@ impl Amg {
                 let inverse = order.as_ref().map(|(_, inverse)| &inverse[..]);
                 finer.finish_transfer(inverse, &mut self.markers);
             }
-            let (next, perm) = match order {
-                Some((perm, _)) => (next, Some(perm)),
-                None => (next, None),
-            };
+            let perm = order.map(|(perm, _)| perm);
             let next = next.map(|(p, coarse, coarse_b, coarse_nodes)| {
                 let transfer = Transfer {
                     p,
