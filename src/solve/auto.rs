@@ -226,7 +226,7 @@ impl LinearSolver for AutoSolver {
             self.settings.direct.scheduler == Scheduler::Faer,
         ))
         .with_iterative_threads(iterative_threads);
-        let solver: Box<dyn LinearSolver> = if prediction.direct() {
+        let mut solver: Box<dyn LinearSolver> = if prediction.direct() {
             let analysis = SymbolicAnalysis::from_choice(pattern, &self.settings.direct, choice)?;
             let mut s = CholeskySolver::new(self.settings.direct);
             s.analyze_with(pattern, Some(analysis))?;
@@ -239,7 +239,6 @@ impl LinearSolver for AutoSolver {
             s.analyze(pattern)?;
             Box::new(s)
         };
-        let mut solver = solver;
         solver.set_forcing(self.forcing);
         self.inner = Some(solver);
         self.pattern = Some(pattern.clone());
