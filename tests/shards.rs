@@ -374,3 +374,48 @@ reference = { method = "implicit-midpoint", dt_factor = 8 }
         assert_same_study(&fresh.join("template"), &other.join("template"));
     }
 }
+
+/// Regression (CI, 2026-11-28): a shard merged as soon as every run was in some shard's
+/// table, while another shard had written its table but not yet its end record, so the
+/// merged `meta.json` listed that shard as `running`. A shard now merges only when every
+/// shard of its N has recorded its end; here shard 1's record is set back to `running` as
+/// if it were still writing it (or had been killed).
+#[test]
+fn a_shard_that_has_not_recorded_its_end_is_waited_for_not_merged_as_running() {
+    let tmp = TempDir::new("shards-unended");
+    let file = study("quickstart.toml");
+    let out = tmp.path();
+    let dir = out.join("quickstart");
+    run_shards(&file, out, &[0], 2, &["--quick"]);
+    run_shards(&file, out, &[1], 2, &["--quick"]);
+    assert!(meta(&dir)["shards"].as_array().unwrap().len() == 2);
+    let record = dir.join("shards/1-of-2/shard.json");
+    let mut r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&record).unwrap()).unwrap();
+    r["status"] = "running".into();
+    std::fs::write(&record, serde_json::to_string_pretty(&r).unwrap()).unwrap();
+    std::fs::remove_file(dir.join("meta.json")).unwrap();
+
+    let o = run_study_ok(&file, out, &["--quick", "--shard", "0/2"]);
+    let said = text(&o.stdout);
+    assert!(
+        said.contains("every run of the study is done, but shard 1/2 has not recorded its end"),
+        "{said}"
+    );
+    assert!(!said.contains("merged"), "{said}");
+    assert!(
+        !dir.join("meta.json").exists(),
+        "no merge while shard 1 is unended"
+    );
+
+    // Shard 1 ends (run again: it reuses its runs) and merges; every record says finished.
+    let o = run_study_ok(&file, out, &["--quick", "--shard", "1/2"]);
+    assert!(
+        text(&o.stdout).contains("merged 12 runs"),
+        "{}",
+        text(&o.stdout)
+    );
+    for r in meta(&dir)["shards"].as_array().unwrap() {
+        assert_eq!(r["status"], "finished", "{r}");
+    }
+}

@@ -597,6 +597,13 @@ fn run_study(args: &RunArgs) -> anyhow::Result<ExitCode> {
                 study.file.name,
                 done.dir.display()
             )),
+            Some(study::MergeOutcome::Unended(shards)) => console::out(&format!(
+                "{}: every run of the study is done, but shard {} has not recorded its end \
+                 (still ending: it merges when it does; or killed: run `softbench merge {}`)",
+                study.file.name,
+                shards.join(", "),
+                done.dir.display()
+            )),
             None => console::out(&format!(
                 "{}: other shards' runs are not all done yet; the last shard to finish merges \
                  (or run `softbench merge {}`)",

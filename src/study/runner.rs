@@ -74,6 +74,9 @@ pub enum MergeOutcome {
     Merged(super::merge::Merged),
     /// Another process (e.g. another shard merging) holds the study folder.
     Busy(String),
+    /// Every run is done but these shards (`K/N`) have not recorded their end yet: each is
+    /// still writing (it merges when it ends) or was killed (`softbench merge` then).
+    Unended(Vec<String>),
 }
 
 /// Whether a run id matches `--only`.
@@ -331,7 +334,18 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
         drop(_lock);
         // The last shard to finish merges (any shard that finds every run done does; a merge
         // is idempotent).
-        let merged = if super::merge::is_complete(study, dir)? {
+        // Each shard records its end before it looks, so the last to end sees every record
+        // ended: a merge never lists a shard as `running` that only had its record to write.
+        let unended = match options.shard {
+            Some(shard) => ShardRecord::unended(dir, shard.count, study.quick)
+                .map_err(io(&dir.join("shards")))?,
+            None => Vec::new(),
+        };
+        let merged = if !super::merge::is_complete(study, dir)? {
+            None
+        } else if !unended.is_empty() {
+            Some(MergeOutcome::Unended(unended))
+        } else {
             match super::merge::merge_study(study, dir, Wait::No, options.progress) {
                 Ok(m) => Some(MergeOutcome::Merged(m)),
                 Err(RunError::Lock(crate::lock::LockError::Held { holder, .. })) => {
@@ -339,8 +353,6 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
                 }
                 Err(e) => return Err(e),
             }
-        } else {
-            None
         };
         return Ok(StudyRun {
             dir: dir.clone(),

@@ -121,6 +121,16 @@ impl ShardRecord {
         Ok(folders)
     }
 
+    /// The shards (`K/N`) of `count` shards in `quick` mode whose record says `running`:
+    /// still at work, writing their end, or killed.
+    pub(super) fn unended(dir: &Path, count: usize, quick: bool) -> std::io::Result<Vec<String>> {
+        Ok(Self::read_all(dir)?
+            .into_iter()
+            .filter(|r| r.of == count && r.quick == quick && r.status == "running")
+            .map(|r| format!("{}/{}", r.shard, r.of))
+            .collect())
+    }
+
     /// Every shard record of a study folder, by N then K (a folder without a readable
     /// record is skipped: its shard never got past its start).
     pub(super) fn read_all(dir: &Path) -> std::io::Result<Vec<Self>> {
