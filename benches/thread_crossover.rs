@@ -10,7 +10,7 @@
 //! The defaults in the library are set from this output on a quiet two-core machine.
 //!
 //! `cargo bench --bench thread_crossover` (add `-- --quick` for fewer rounds; `-- xpbd`,
-//! `elements`, `matvec`, `amg`, `factor` or `step` for one table). The `step` table is the
+//! `elements`, `matvec`, `amg`, `factor`, `bandwidth`, `solve` or `step` for one table). The `step` table is the
 //! whole converged backward-Euler step, one thread against two (issue 31's 49k box).
 
 #[path = "support/clamped_box.rs"]
@@ -352,10 +352,11 @@ const STEP_CASES: [(&str, &str); 2] = [
 /// to 1e-8, required), as `softbench run` takes them on one thread (`RAYON_NUM_THREADS=1`: a
 /// pool of one) and on two. Each case runs in a process of its own (a case run after a
 /// larger one inherited its allocator's state: `auto` on the 49k box measured 1.07x after
-/// the Cholesky cases and 1.45x alone).
+/// the Cholesky cases and 1.45x alone). The last column splits each side's time by the
+/// integrator's phases (its `StepReport` times), to show which phase holds the speed-up back.
 fn step(rounds: usize) {
     println!(
-        "\n## step (backward Euler, whole converged steps; the ratio is the median of per-round ratios)\n\n| solver, box | first step, 1 / 2 threads | step, 1 thread | step, 2 threads | speed-up | per-round range |\n|---|---|---|---|---|---|"
+        "\n## step (backward Euler, whole converged steps; the ratio is the median of per-round ratios)\n\n| solver, box | first step, 1 / 2 threads | step, 1 thread | step, 2 threads | speed-up | per-round range | phases per step, 1 → 2 threads (all rounds) |\n|---|---|---|---|---|---|---|"
     );
     let exe = std::env::current_exe().expect("the bench's own path");
     let smoke = SMOKE.load(std::sync::atomic::Ordering::Relaxed);
@@ -412,19 +413,28 @@ fn step_case(solver: &str, cells: [usize; 3], rounds: usize) {
     let (mut i1, mut m1, mut s1) = sim();
     let (mut i2, mut m2, mut s2) = sim();
     let tets = m1.elastic_elements().unwrap().tets.len();
-    let advance = |i: &mut Box<dyn Integrator>, m: &mut _, s: &mut State, steps| {
-        let t = Instant::now();
-        for _ in 0..steps {
-            i.step(m, s, 0.01).unwrap();
-        }
-        t.elapsed().as_secs_f64() / steps as f64
-    };
-    let first1 = one_thread.install(|| advance(&mut i1, &mut m1, &mut s1, 1));
-    let first2 = advance(&mut i2, &mut m2, &mut s2, 1);
+    // Seconds per step, and the steps' phase times added to `phases` (assembly, factorization
+    // or preconditioner setup, solves, forces and energies, the rest).
+    let advance =
+        |i: &mut Box<dyn Integrator>, m: &mut _, s: &mut State, steps, phases: &mut [f64; 5]| {
+            let t = Instant::now();
+            for _ in 0..steps {
+                let r = i.step(m, s, 0.01).unwrap().times;
+                let known = [r.assemble, r.factor, r.solve, r.forces];
+                for (p, x) in phases.iter_mut().zip(known) {
+                    *p += x;
+                }
+                phases[4] += r.total - known.iter().sum::<f64>();
+            }
+            t.elapsed().as_secs_f64() / steps as f64
+        };
+    let (mut p1, mut p2) = ([0.0; 5], [0.0; 5]);
+    let first1 = one_thread.install(|| advance(&mut i1, &mut m1, &mut s1, 1, &mut [0.0; 5]));
+    let first2 = advance(&mut i2, &mut m2, &mut s2, 1, &mut [0.0; 5]);
     let (mut t1, mut t2, mut ratios) = (Vec::new(), Vec::new(), Vec::new());
     for _ in 0..rounds {
-        let a = one_thread.install(|| advance(&mut i1, &mut m1, &mut s1, STEPS_PER_ROUND));
-        let b = advance(&mut i2, &mut m2, &mut s2, STEPS_PER_ROUND);
+        let a = one_thread.install(|| advance(&mut i1, &mut m1, &mut s1, STEPS_PER_ROUND, &mut p1));
+        let b = advance(&mut i2, &mut m2, &mut s2, STEPS_PER_ROUND, &mut p2);
         assert!(
             s1.q == s2.q && s1.v == s2.v,
             "the threads changed the trajectory: {label}, {tets} tets"
@@ -436,13 +446,27 @@ fn step_case(solver: &str, cells: [usize; 3], rounds: usize) {
     let (lo, hi) = ratios
         .iter()
         .fold((f64::INFINITY, 0.0f64), |(l, h), &r| (l.min(r), h.max(r)));
+    let per_step = 1e3 / (rounds * STEPS_PER_ROUND) as f64;
+    let phases: Vec<String> = ["assembly", "factor", "solve", "forces", "rest"]
+        .iter()
+        .zip(p1.iter().zip(&p2))
+        .map(|(name, (a, b))| {
+            format!(
+                "{name} {:.1} → {:.1} ms ({:.2}x)",
+                a * per_step,
+                b * per_step,
+                a / b
+            )
+        })
+        .collect();
     println!(
-        "| {label}, {tets} tets | {:.0} / {:.0} ms | {:.1} ms | {:.1} ms | {:.2}x | {lo:.2}–{hi:.2}x |",
+        "| {label}, {tets} tets | {:.0} / {:.0} ms | {:.1} ms | {:.1} ms | {:.2}x | {lo:.2}–{hi:.2}x | {} |",
         first1 * 1e3,
         first2 * 1e3,
         median(t1) * 1e3,
         median(t2) * 1e3,
         median(ratios),
+        phases.join(" · "),
     );
 }
 
@@ -492,6 +516,102 @@ fn factor(rounds: usize) {
             },
         );
         table.row(&format!("{label}, {flops:.2e}"), flops, times);
+    }
+    table.crossover();
+}
+
+/// Streaming reads of an array far larger than the caches (a sum over 32 MiB to 256 MiB, in
+/// two halves on two threads): the memory bandwidth one thread and two get, the ceiling of
+/// every memory-bound phase (triangular solves, mat-vecs, scatters).
+fn bandwidth(rounds: usize) {
+    let mut table = Table::new(
+        "memory bandwidth (streaming sum)",
+        "MiB",
+        "array, GB/s on 1 / 2 threads",
+    );
+    for mib in sizes(&[32usize, 64, 128, 256]) {
+        let n = mib << 17;
+        let data: Vec<f64> = (0..n).map(|i| (i % 13) as f64).collect();
+        // Eight independent partial sums: limited by memory, not by the adds' latency.
+        let sum = |xs: &[f64]| {
+            let mut acc = [0.0f64; 8];
+            for c in xs.chunks_exact(8) {
+                for (a, x) in acc.iter_mut().zip(c) {
+                    *a += x;
+                }
+            }
+            acc.iter().sum::<f64>()
+        };
+        let (mut s1, mut s2) = (0.0, 0.0);
+        let times = interleaved(
+            rounds,
+            2,
+            || s1 = sum(black_box(&data)),
+            || {
+                let (a, b) = data.split_at(n / 2);
+                let (x, y) = rayon::join(|| sum(black_box(a)), || sum(black_box(b)));
+                s2 = x + y;
+            },
+        );
+        assert!(s1 > 0.0 && s2 > 0.0);
+        let gbs = |t: f64| (n * 8) as f64 / t / 1e9;
+        table.row(
+            &format!("{mib} MiB, {:.1} / {:.1}", gbs(times.0), gbs(times.1)),
+            mib as f64,
+            times,
+        );
+    }
+    table.crossover();
+}
+
+/// The triangular solves with a factor of the subtree schedule (forward and backward, the
+/// permutation and the residual check of a `solve` call), one thread against two, on the
+/// factorization table's largest boxes and ball.
+fn solve(rounds: usize) {
+    let mut table = Table::new(
+        "Cholesky solve (METIS, subtree schedule, one right-hand side)",
+        "factor entries",
+        "matrix, factor entries",
+    );
+    let settings = |par| DirectSettings {
+        ordering: Ordering::Metis,
+        parallelism: par,
+        parallel_min_flops: 0.0,
+        ..DirectSettings::default()
+    };
+    let mut systems = Vec::new();
+    for cells in sizes(&[[8, 4, 4], [16, 8, 8], [24, 12, 12], [32, 16, 16]]) {
+        systems.push((format!("box {cells:?}"), fem_box(cells).matrix));
+    }
+    for n in sizes(&[8, 10]) {
+        systems.push((format!("ball {n}"), fem_ball(n).matrix));
+    }
+    for (label, a) in &systems {
+        let mut one = CholeskySolver::new(settings(Parallelism::Sequential));
+        let mut two = CholeskySolver::new(settings(Parallelism::Rayon));
+        for s in [&mut one, &mut two] {
+            s.analyze(a.pattern()).unwrap();
+            s.factor(a).unwrap();
+        }
+        let nnz = one.stats().factor_nnz as f64;
+        let rhs: Vec<f64> = (0..a.dim())
+            .map(|i| ((i % 7) as f64 - 3.0) * 1e-3)
+            .collect();
+        let (mut x1, mut x2) = (rhs.clone(), rhs.clone());
+        let times = interleaved(
+            rounds,
+            (2e7 / nnz).clamp(1.0, 200.0) as usize,
+            || {
+                x1.copy_from_slice(&rhs);
+                one.solve(&mut x1).unwrap();
+            },
+            || {
+                x2.copy_from_slice(&rhs);
+                two.solve(&mut x2).unwrap();
+            },
+        );
+        assert!(x1 == x2, "{label}: the threads changed the solution");
+        table.row(&format!("{label}, {nnz:.2e}"), nnz, times);
     }
     table.crossover();
 }
@@ -550,6 +670,12 @@ fn main() {
     }
     if wanted("factor") {
         factor(rounds);
+    }
+    if wanted("bandwidth") {
+        bandwidth(rounds);
+    }
+    if wanted("solve") {
+        solve(rounds);
     }
     if wanted("step") {
         step(rounds);

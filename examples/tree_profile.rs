@@ -2,8 +2,11 @@
 //! (METIS composed with its postorder, as the solver orders them): the estimated flops in
 //! sequential subtree tasks and in the supernodes above them that wait for their children
 //! ("split" supernodes, whose only parallelism when they have no concurrent sibling is their
-//! dense kernels), per thread count, and the heaviest supernodes by left-looking work (the
-//! updates they receive plus their own dense LLᵀ and triangular solve).
+//! dense kernels), per thread count; the share of L's values in split supernodes (what a
+//! subtree-parallel triangular solve would still do on one thread); the updates the last
+//! root receives, by size against the kernels' parallel threshold; and the heaviest
+//! supernodes by left-looking work (the updates they receive plus their own dense LLᵀ and
+//! triangular solve).
 //!
 //! `cargo run --release --example tree_profile -- [mesh ...]` (box_12k, box_49k, ball_83k;
 //! default box_49k). Counts only, no timing.
@@ -59,6 +62,30 @@ fn left_looking_work(sn: &SymbolicSupernodalCholesky<usize>) -> Vec<f64> {
     work
 }
 
+/// The updates supernode `s` receives, split at 1e7 flops (2 m k n, the kernels' threshold).
+fn root_updates(sn: &SymbolicSupernodalCholesky<usize>, s: usize) -> (f64, f64, usize, usize) {
+    let (begin, end) = (sn.supernode_begin(), sn.supernode_end());
+    let (mut small, mut large, mut ns, mut nl) = (0.0, 0.0, 0, 0);
+    for d in 0..s {
+        let start = sn.col_ptr_for_row_idx()[d];
+        let p = &sn.row_idx()[start..start + sn.nnz_per_super()[d]];
+        let first = p.partition_point(|&r| r < begin[s]);
+        let k = p[first..].partition_point(|&r| r < end[s]);
+        if k == 0 {
+            continue;
+        }
+        let f = 2.0 * ((p.len() - first) * k * (end[d] - begin[d])) as f64;
+        if f >= 1e7 {
+            large += f;
+            nl += 1;
+        } else {
+            small += f;
+            ns += 1;
+        }
+    }
+    (small, large, ns, nl)
+}
+
 fn profile(name: &str) -> anyhow::Result<()> {
     let a = system(name);
     let p = a.pattern();
@@ -94,6 +121,22 @@ fn profile(name: &str) -> anyhow::Result<()> {
             100.0 * in_split / total
         );
     }
+    for threads in [2, 4] {
+        let split = schedule.split_supernodes(threads);
+        let vals = |s: usize| (sn.col_ptr_for_val()[s + 1] - sn.col_ptr_for_val()[s]) as f64;
+        let in_split: f64 = split.iter().map(|&s| vals(s)).sum();
+        println!(
+            "  {threads} threads: {:.0} % of L's values in split supernodes (the solves' \
+             sequential part)",
+            100.0 * in_split / sn.len_val() as f64
+        );
+    }
+    let root = sn.n_supernodes() - 1;
+    let (small, large, count_small, count_large) = root_updates(sn, root);
+    println!(
+        "  updates into the last root: {count_large} of >= 1e7 flops ({large:.3e}), \
+         {count_small} smaller ({small:.3e})"
+    );
     let work = left_looking_work(sn);
     let all: f64 = work.iter().sum();
     let mut order: Vec<usize> = (0..work.len()).collect();

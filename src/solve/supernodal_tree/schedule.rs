@@ -239,6 +239,22 @@ impl TreeSchedule {
         (in_tasks, in_split, tasks, split)
     }
 
+    /// The split supernodes of [`Self::split_profile`] (those above the sequential subtree
+    /// tasks on `threads`), ascending.
+    pub fn split_supernodes(&self, threads: usize) -> Vec<usize> {
+        let grain = self.grain(threads);
+        let mut split = Vec::new();
+        let mut stack: Vec<usize> = self.roots.clone();
+        while let Some(r) = stack.pop() {
+            if self.subtree_flops[r] > grain && !self.children(r).is_empty() {
+                split.push(r);
+                stack.extend_from_slice(self.children(r));
+            }
+        }
+        split.sort_unstable();
+        split
+    }
+
     /// Subtrees with at most this many flops run as one sequential task on `threads`.
     pub(super) fn grain(&self, threads: usize) -> f64 {
         (self.total_flops() / (threads as f64 * TASKS_PER_THREAD)).max(MIN_TASK_FLOPS)
