@@ -470,18 +470,23 @@ fn step_case(solver: &str, cells: [usize; 3], rounds: usize) {
     );
 }
 
+/// The Cholesky settings of the factorization and solve tables: METIS, the subtree schedule,
+/// on the pool from any size (`parallelism` decides).
+fn always_parallel(parallelism: Parallelism) -> DirectSettings {
+    DirectSettings {
+        ordering: Ordering::Metis,
+        parallelism,
+        parallel_min_flops: 0.0,
+        ..DirectSettings::default()
+    }
+}
+
 fn factor(rounds: usize) {
     let mut table = Table::new(
         "Cholesky factorization (METIS, subtree schedule)",
         "flops",
         &format!("matrix, predicted flops (library rule: {PARALLEL_MIN_FLOPS:.0e})"),
     );
-    let settings = |par| DirectSettings {
-        ordering: Ordering::Metis,
-        parallelism: par,
-        parallel_min_flops: 0.0,
-        ..DirectSettings::default()
-    };
     let mut systems = Vec::new();
     for cells in sizes(&[
         [6, 3, 3],
@@ -500,9 +505,9 @@ fn factor(rounds: usize) {
         systems.push((format!("ball {n}"), fem_ball(n).matrix));
     }
     for (label, a) in &systems {
-        let mut one = CholeskySolver::new(settings(Parallelism::Sequential));
+        let mut one = CholeskySolver::new(always_parallel(Parallelism::Sequential));
         one.analyze(a.pattern()).unwrap();
-        let mut two = CholeskySolver::new(settings(Parallelism::Rayon));
+        let mut two = CholeskySolver::new(always_parallel(Parallelism::Rayon));
         two.analyze(a.pattern()).unwrap();
         let flops = one.stats().factor_flops;
         let times = interleaved(
@@ -573,12 +578,6 @@ fn solve(rounds: usize) {
         "factor entries",
         "matrix, factor entries",
     );
-    let settings = |par| DirectSettings {
-        ordering: Ordering::Metis,
-        parallelism: par,
-        parallel_min_flops: 0.0,
-        ..DirectSettings::default()
-    };
     let mut systems = Vec::new();
     for cells in sizes(&[[8, 4, 4], [16, 8, 8], [24, 12, 12], [32, 16, 16]]) {
         systems.push((format!("box {cells:?}"), fem_box(cells).matrix));
@@ -587,8 +586,8 @@ fn solve(rounds: usize) {
         systems.push((format!("ball {n}"), fem_ball(n).matrix));
     }
     for (label, a) in &systems {
-        let mut one = CholeskySolver::new(settings(Parallelism::Sequential));
-        let mut two = CholeskySolver::new(settings(Parallelism::Rayon));
+        let mut one = CholeskySolver::new(always_parallel(Parallelism::Sequential));
+        let mut two = CholeskySolver::new(always_parallel(Parallelism::Rayon));
         for s in [&mut one, &mut two] {
             s.analyze(a.pattern()).unwrap();
             s.factor(a).unwrap();
