@@ -10,8 +10,9 @@
 //! The defaults in the library are set from this output on a quiet two-core machine.
 //!
 //! `cargo bench --bench thread_crossover` (add `-- --quick` for fewer rounds; `-- xpbd`,
-//! `elements`, `matvec`, `amg`, `factor`, `bandwidth`, `solve` or `step` for one table). The `step` table is the
-//! whole converged backward-Euler step, one thread against two (issue 31's 49k box).
+//! `elements`, `matvec`, `amg`, `factor`, `bandwidth`, `solve` or `step` for one table). The
+//! `step` table is the whole converged backward-Euler step, one thread against two (issue
+//! 31's 49k box).
 
 #[path = "support/clamped_box.rs"]
 mod clamped_box;
@@ -571,19 +572,28 @@ fn bandwidth(rounds: usize) {
 
 /// The triangular solves with a factor of the subtree schedule (forward and backward, the
 /// permutation and the residual check of a `solve` call), one thread against two, on the
-/// factorization table's largest boxes and ball.
+/// factorization table's largest boxes and ball. The one-thread side runs on a pool of one,
+/// as `RAYON_NUM_THREADS=1` does: faer's solve takes a fixed two tasks whatever the solver's
+/// parallelism (`SOLVE_TASKS`), which outside such a pool run on the global pool's two threads.
 fn solve(rounds: usize) {
     let mut table = Table::new(
         "Cholesky solve (METIS, subtree schedule, one right-hand side)",
         "factor entries",
         "matrix, factor entries",
     );
+    let one_thread = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
     let mut systems = Vec::new();
     for cells in sizes(&[[8, 4, 4], [16, 8, 8], [24, 12, 12], [32, 16, 16]]) {
         systems.push((format!("box {cells:?}"), fem_box(cells).matrix));
     }
     for n in sizes(&[8, 10]) {
-        systems.push((format!("ball {n}"), fem_ball(n).matrix));
+        systems.push((
+            format!("ball {n}, {} tets", 48 * n * n * n),
+            fem_ball(n).matrix,
+        ));
     }
     for (label, a) in &systems {
         let mut one = CholeskySolver::new(always_parallel(Parallelism::Sequential));
@@ -602,7 +612,7 @@ fn solve(rounds: usize) {
             (2e7 / nnz).clamp(1.0, 200.0) as usize,
             || {
                 x1.copy_from_slice(&rhs);
-                one.solve(&mut x1).unwrap();
+                one_thread.install(|| one.solve(&mut x1).unwrap());
             },
             || {
                 x2.copy_from_slice(&rhs);
