@@ -607,18 +607,22 @@ fn solve(rounds: usize) {
             .map(|i| ((i % 7) as f64 - 3.0) * 1e-3)
             .collect();
         let (mut x1, mut x2) = (rhs.clone(), rhs.clone());
-        let times = interleaved(
+        // The repetitions inside one `install`: entering the pool costs tens of microseconds,
+        // the time of a whole solve on the smallest boxes.
+        let reps = (2e7 / nnz).clamp(1.0, 200.0) as usize;
+        let solves = |s: &mut CholeskySolver, x: &mut Vec<f64>| {
+            for _ in 0..reps {
+                x.copy_from_slice(&rhs);
+                s.solve(x).unwrap();
+            }
+        };
+        let (t1, t2) = interleaved(
             rounds,
-            (2e7 / nnz).clamp(1.0, 200.0) as usize,
-            || {
-                x1.copy_from_slice(&rhs);
-                one_thread.install(|| one.solve(&mut x1).unwrap());
-            },
-            || {
-                x2.copy_from_slice(&rhs);
-                two.solve(&mut x2).unwrap();
-            },
+            1,
+            || one_thread.install(|| solves(&mut one, &mut x1)),
+            || solves(&mut two, &mut x2),
         );
+        let times = (t1 / reps as f64, t2 / reps as f64);
         assert!(x1 == x2, "{label}: the threads changed the solution");
         table.row(&format!("{label}, {nnz:.2e}"), nnz, times);
     }
