@@ -447,3 +447,54 @@ fn the_49k_box_solves_to_the_same_bits_on_one_thread_and_two() {
         assert_eq!(differing, 0, "{threads} threads: of {} entries", x.len());
     }
 }
+
+/// The split supernodes and the profile built on them describe one partition: every
+/// supernode is split or in exactly one task subtree (headed by a root or a split node's
+/// child), the flops add up, and a split node is never inside a task.
+#[test]
+fn the_split_profile_partitions_the_supernodes_into_tasks_and_split_nodes() {
+    for (name, a) in bodies() {
+        let sym = symbolic(&a, Ordering::Metis);
+        let SymbolicCholeskyRaw::Supernodal(sn) = sym.raw() else {
+            panic!("forced supernodal");
+        };
+        let schedule = TreeSchedule::new(sn, a.pattern(), sym.perm().map(|p| p.arrays())).unwrap();
+        let ns = sn.n_supernodes();
+        // Parent of each supernode: the one holding the first row below its diagonal block.
+        let parent = |s: usize| -> Option<usize> {
+            let start = sn.col_ptr_for_row_idx()[s];
+            let first = *sn.row_idx()[start..start + sn.nnz_per_super()[s]].first()?;
+            Some(sn.supernode_end().partition_point(|&e| e <= first))
+        };
+        for threads in [1, 2, 4] {
+            let split = schedule.split_supernodes(threads);
+            let (in_tasks, in_split, tasks, split_count) = schedule.split_profile(threads);
+            assert_eq!(split_count, split.len(), "{name}, {threads} threads");
+            let total = schedule.total_flops();
+            assert!(
+                (in_tasks + in_split - total).abs() <= 1e-9 * total,
+                "{name}, {threads} threads"
+            );
+            let is_split = |s: usize| split.binary_search(&s).is_ok();
+            // A task head is a non-split supernode whose parent is split or absent.
+            let heads: Vec<usize> = (0..ns)
+                .filter(|&s| !is_split(s) && parent(s).is_none_or(is_split))
+                .collect();
+            assert_eq!(tasks, heads.len(), "{name}, {threads} threads");
+            // Above a split node only split nodes: its ancestors all wait for it.
+            for &s in &split {
+                let mut p = parent(s);
+                while let Some(q) = p {
+                    assert!(is_split(q), "{name}: split {s} under task node {q}");
+                    p = parent(q);
+                }
+            }
+        }
+        // More threads, a finer grain: at least as many split nodes, and some on four.
+        let (two, four) = (schedule.split_supernodes(2), schedule.split_supernodes(4));
+        assert!(
+            !four.is_empty() && four.len() >= two.len(),
+            "{name}: {two:?} {four:?}"
+        );
+    }
+}

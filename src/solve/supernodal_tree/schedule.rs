@@ -219,28 +219,24 @@ impl TreeSchedule {
 
     /// The work of one factorization by where it runs with `threads`: estimated flops in
     /// sequential subtree tasks, and in the supernodes above them that wait for their
-    /// children (split nodes), whose dense kernels are the only parallelism left when their
-    /// subtree has no concurrent sibling. Returns `(in_tasks, in_split_nodes, tasks,
-    /// split_nodes)`.
+    /// children (split nodes, [`Self::split_supernodes`]), whose dense kernels are the only
+    /// parallelism left when their subtree has no concurrent sibling. Returns `(in_tasks,
+    /// in_split_nodes, tasks, split_nodes)`.
     pub fn split_profile(&self, threads: usize) -> (f64, f64, usize, usize) {
-        let grain = self.grain(threads);
-        let (mut in_tasks, mut in_split, mut tasks, mut split) = (0.0, 0.0, 0, 0);
-        let mut stack: Vec<usize> = self.roots.clone();
-        while let Some(r) = stack.pop() {
-            if self.subtree_flops[r] <= grain || self.children(r).is_empty() {
-                in_tasks += self.subtree_flops[r];
-                tasks += 1;
-            } else {
-                in_split += self.node_flops[r];
-                split += 1;
-                stack.extend_from_slice(self.children(r));
-            }
-        }
-        (in_tasks, in_split, tasks, split)
+        let split = self.split_supernodes(threads);
+        let in_split: f64 = split.iter().map(|&s| self.node_flops[s]).sum();
+        // Every root and every child of a split node heads a task unless split itself.
+        let heads = self.roots.len() + split.iter().map(|&s| self.children(s).len()).sum::<usize>();
+        (
+            self.total_flops() - in_split,
+            in_split,
+            heads - split.len(),
+            split.len(),
+        )
     }
 
-    /// The split supernodes of [`Self::split_profile`] (those above the sequential subtree
-    /// tasks on `threads`), ascending.
+    /// The split supernodes (those above the sequential subtree tasks on `threads`: a subtree
+    /// with children and more than the grain's flops), ascending.
     pub fn split_supernodes(&self, threads: usize) -> Vec<usize> {
         let grain = self.grain(threads);
         let mut split = Vec::new();
