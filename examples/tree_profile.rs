@@ -20,7 +20,9 @@ use faer::sparse::linalg::cholesky::{
     SymbolicCholeskyRaw, SymmetricOrdering, factorize_symbolic_cholesky,
 };
 use softbench::solve::ordering::nested_dissection;
-use softbench::solve::supernodal_tree::{TreeSchedule, postorder_permutation};
+use softbench::solve::supernodal_tree::{
+    KERNEL_PARALLEL_FLOPS, TreeSchedule, postorder_permutation,
+};
 use softbench::sparse::SymmetricMatrix;
 
 const MESHES: [&str; 3] = ["box_12k", "box_49k", "ball_83k"];
@@ -33,22 +35,24 @@ fn system(name: &str) -> SymmetricMatrix {
     }
 }
 
+/// The rows of supernode `s` below its diagonal block.
+fn pattern(sn: &SymbolicSupernodalCholesky<usize>, s: usize) -> &[usize] {
+    let start = sn.col_ptr_for_row_idx()[s];
+    &sn.row_idx()[start..start + sn.nnz_per_super()[s]]
+}
+
 /// Left-looking work of each supernode in flops: 2 m k n per update it receives, plus
 /// c³/3 (dense LLᵀ) and c² r (triangular solve) of its own.
 fn left_looking_work(sn: &SymbolicSupernodalCholesky<usize>) -> Vec<f64> {
     let ns = sn.n_supernodes();
     let (begin, end) = (sn.supernode_begin(), sn.supernode_end());
-    let pattern = |s: usize| {
-        let start = sn.col_ptr_for_row_idx()[s];
-        &sn.row_idx()[start..start + sn.nnz_per_super()[s]]
-    };
     let mut col_to_super = vec![0; sn.nrows()];
     for s in 0..ns {
         col_to_super[begin[s]..end[s]].fill(s);
     }
     let mut work = vec![0.0; ns];
     for d in 0..ns {
-        let p = pattern(d);
+        let p = pattern(sn, d);
         let c = (end[d] - begin[d]) as f64;
         let mut i = 0;
         while i < p.len() {
@@ -62,20 +66,20 @@ fn left_looking_work(sn: &SymbolicSupernodalCholesky<usize>) -> Vec<f64> {
     work
 }
 
-/// The updates supernode `s` receives, split at 1e7 flops (2 m k n, the kernels' threshold).
+/// The updates supernode `s` receives (2 m k n flops each), split at the flops from which a
+/// kernel call runs on the pool: `(small flops, large flops, small count, large count)`.
 fn root_updates(sn: &SymbolicSupernodalCholesky<usize>, s: usize) -> (f64, f64, usize, usize) {
     let (begin, end) = (sn.supernode_begin(), sn.supernode_end());
     let (mut small, mut large, mut ns, mut nl) = (0.0, 0.0, 0, 0);
     for d in 0..s {
-        let start = sn.col_ptr_for_row_idx()[d];
-        let p = &sn.row_idx()[start..start + sn.nnz_per_super()[d]];
+        let p = pattern(sn, d);
         let first = p.partition_point(|&r| r < begin[s]);
         let k = p[first..].partition_point(|&r| r < end[s]);
         if k == 0 {
             continue;
         }
         let f = 2.0 * ((p.len() - first) * k * (end[d] - begin[d])) as f64;
-        if f >= 1e7 {
+        if f >= KERNEL_PARALLEL_FLOPS {
             large += f;
             nl += 1;
         } else {
@@ -126,15 +130,15 @@ fn profile(name: &str) -> anyhow::Result<()> {
         let vals = |s: usize| (sn.col_ptr_for_val()[s + 1] - sn.col_ptr_for_val()[s]) as f64;
         let in_split: f64 = split.iter().map(|&s| vals(s)).sum();
         println!(
-            "  {threads} threads: {:.0} % of L's values in split supernodes (the solves' \
-             sequential part)",
+            "  {threads} threads: {:.0} % of L's values in split supernodes (what a \
+             subtree-parallel solve would leave on one thread)",
             100.0 * in_split / sn.len_val() as f64
         );
     }
     let root = sn.n_supernodes() - 1;
     let (small, large, count_small, count_large) = root_updates(sn, root);
     println!(
-        "  updates into the last root: {count_large} of >= 1e7 flops ({large:.3e}), \
+        "  updates into the last root: {count_large} of >= {KERNEL_PARALLEL_FLOPS:.0e} flops ({large:.3e}), \
          {count_small} smaller ({small:.3e})"
     );
     let work = left_looking_work(sn);
