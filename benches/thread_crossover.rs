@@ -10,7 +10,7 @@
 //! The defaults in the library are set from this output on a quiet two-core machine.
 //!
 //! `cargo bench --bench thread_crossover` (add `-- --quick` for fewer rounds; `-- xpbd`,
-//! `elements`, `matvec`, `amg`, `factor`, `bandwidth`, `solve` or `step` for one table). The
+//! `elements`, `matvec`, `amg`, `factor`, `dense`, `bandwidth`, `solve` or `step` for one table). The
 //! `step` table is the whole converged backward-Euler step, one thread against two (issue
 //! 31's 49k box).
 
@@ -51,32 +51,83 @@ fn sizes<T: Clone>(all: &[T]) -> Vec<T> {
 }
 
 /// Median seconds of `rounds` interleaved runs of `one` and `two` (each run `reps` calls).
-fn interleaved(
+fn interleaved(rounds: usize, reps: usize, one: impl FnMut(), two: impl FnMut()) -> (f64, f64) {
+    interleaved_cpu(rounds, reps, one, two).0
+}
+
+/// What [`interleaved_cpu`] measures besides the times: the medians over the rounds of each
+/// side's CPU time per wall time and of the two-thread side's CPU time against the one-thread
+/// side's (see [`process_cpu_seconds`]).
+struct CpuUse {
+    per_wall: (f64, f64),
+    work: f64,
+}
+
+impl CpuUse {
+    /// `CPU/wall a → b, work ×w`: with a about 1, the speed-up is about b / w.
+    fn describe(&self) -> String {
+        format!(
+            "CPU/wall {:.2} → {:.2}, work ×{:.2}",
+            self.per_wall.0, self.per_wall.1, self.work
+        )
+    }
+}
+
+/// [`interleaved`], and each round's CPU time on both sides.
+fn interleaved_cpu(
     rounds: usize,
     reps: usize,
     mut one: impl FnMut(),
     mut two: impl FnMut(),
-) -> (f64, f64) {
+) -> ((f64, f64), CpuUse) {
+    // Seconds of wall and CPU time of `reps` calls.
     let time = |f: &mut dyn FnMut()| {
-        let t = Instant::now();
+        let (t, cpu) = (Instant::now(), process_cpu_seconds());
         for _ in 0..reps {
             f();
         }
-        t.elapsed().as_secs_f64() / reps as f64
+        let cpu = process_cpu_seconds() - cpu;
+        (t.elapsed().as_secs_f64(), cpu)
     };
     one();
     two();
     let (mut a, mut b) = (Vec::new(), Vec::new());
+    let (mut wall_a, mut wall_b, mut work) = (Vec::new(), Vec::new(), Vec::new());
     for _ in 0..rounds {
-        a.push(time(&mut one));
-        b.push(time(&mut two));
+        let (ta, ca) = time(&mut one);
+        let (tb, cb) = time(&mut two);
+        a.push(ta / reps as f64);
+        b.push(tb / reps as f64);
+        wall_a.push(ca / ta);
+        wall_b.push(cb / tb);
+        work.push(cb / ca);
     }
-    (median(a), median(b))
+    let cpu = CpuUse {
+        per_wall: (median(wall_a), median(wall_b)),
+        work: median(work),
+    };
+    ((median(a), median(b)), cpu)
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]
+}
+
+/// CPU seconds used so far by every thread of this process (`CLOCK_PROCESS_CPUTIME_ID`).
+/// Against wall time it separates the two reasons a second thread gains less than 2x: idle
+/// time (a thread waiting: CPU / wall below 2) and work that takes longer when both cores are
+/// busy (shared caches, memory bandwidth: more CPU time than on one thread). Rayon's idle
+/// workers spin briefly before sleeping; that spinning counts as busy.
+fn process_cpu_seconds() -> f64 {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: clock_gettime writes one plain struct we own.
+    let rc = unsafe { libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut ts) };
+    assert_eq!(rc, 0, "clock_gettime(CLOCK_PROCESS_CPUTIME_ID)");
+    ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9
 }
 
 /// Print a row and remember whether two threads won.
@@ -354,10 +405,12 @@ const STEP_CASES: [(&str, &str); 2] = [
 /// pool of one) and on two. Each case runs in a process of its own (a case run after a
 /// larger one inherited its allocator's state: `auto` on the 49k box measured 1.07x after
 /// the Cholesky cases and 1.45x alone). The last column splits each side's time by the
-/// integrator's phases (its `StepReport` times), to show which phase holds the speed-up back.
+/// integrator's phases (its `StepReport` times), to show which phase holds the speed-up back;
+/// the column before it says whether the second thread waits (CPU per wall time below 2) or
+/// its work takes longer with both cores busy (more CPU time than on one thread).
 fn step(rounds: usize) {
     println!(
-        "\n## step (backward Euler, whole converged steps; the ratio is the median of per-round ratios)\n\n| solver, box | first step, 1 / 2 threads | step, 1 thread | step, 2 threads | speed-up | per-round range | phases per step, 1 → 2 threads (all rounds) |\n|---|---|---|---|---|---|---|"
+        "\n## step (backward Euler, whole converged steps; the ratio is the median of per-round ratios)\n\n| solver, box | first step, 1 / 2 threads | step, 1 thread | step, 2 threads | speed-up | per-round range | CPU per wall time and CPU time, 1 → 2 threads (medians of rounds) | phases per step, 1 → 2 threads (all rounds) |\n|---|---|---|---|---|---|---|---|"
     );
     let exe = std::env::current_exe().expect("the bench's own path");
     let smoke = SMOKE.load(std::sync::atomic::Ordering::Relaxed);
@@ -419,6 +472,7 @@ fn step_case(solver: &str, cells: [usize; 3], rounds: usize) {
     let advance =
         |i: &mut Box<dyn Integrator>, m: &mut _, s: &mut State, steps, phases: &mut [f64; 5]| {
             let t = Instant::now();
+            let cpu = process_cpu_seconds();
             for _ in 0..steps {
                 let r = i.step(m, s, 0.01).unwrap().times;
                 let known = [r.assemble, r.factor, r.solve, r.forces];
@@ -427,15 +481,27 @@ fn step_case(solver: &str, cells: [usize; 3], rounds: usize) {
                 }
                 phases[4] += r.total - known.iter().sum::<f64>();
             }
-            t.elapsed().as_secs_f64() / steps as f64
+            (
+                t.elapsed().as_secs_f64() / steps as f64,
+                (process_cpu_seconds() - cpu) / steps as f64,
+            )
         };
     let (mut p1, mut p2) = ([0.0; 5], [0.0; 5]);
-    let first1 = one_thread.install(|| advance(&mut i1, &mut m1, &mut s1, 1, &mut [0.0; 5]));
-    let first2 = advance(&mut i2, &mut m2, &mut s2, 1, &mut [0.0; 5]);
+    let first1 = one_thread
+        .install(|| advance(&mut i1, &mut m1, &mut s1, 1, &mut [0.0; 5]))
+        .0;
+    let first2 = advance(&mut i2, &mut m2, &mut s2, 1, &mut [0.0; 5]).0;
     let (mut t1, mut t2, mut ratios) = (Vec::new(), Vec::new(), Vec::new());
+    // Per round: each side's CPU time per wall time, and the CPU time of two threads
+    // against one.
+    let (mut per_wall1, mut per_wall2, mut work) = (Vec::new(), Vec::new(), Vec::new());
     for _ in 0..rounds {
-        let a = one_thread.install(|| advance(&mut i1, &mut m1, &mut s1, STEPS_PER_ROUND, &mut p1));
-        let b = advance(&mut i2, &mut m2, &mut s2, STEPS_PER_ROUND, &mut p2);
+        let (a, cpu_a) =
+            one_thread.install(|| advance(&mut i1, &mut m1, &mut s1, STEPS_PER_ROUND, &mut p1));
+        let (b, cpu_b) = advance(&mut i2, &mut m2, &mut s2, STEPS_PER_ROUND, &mut p2);
+        per_wall1.push(cpu_a / a);
+        per_wall2.push(cpu_b / b);
+        work.push(cpu_b / cpu_a);
         assert!(
             s1.q == s2.q && s1.v == s2.v,
             "the threads changed the trajectory: {label}, {tets} tets"
@@ -461,12 +527,17 @@ fn step_case(solver: &str, cells: [usize; 3], rounds: usize) {
         })
         .collect();
     println!(
-        "| {label}, {tets} tets | {:.0} / {:.0} ms | {:.1} ms | {:.1} ms | {:.2}x | {lo:.2}–{hi:.2}x | {} |",
+        "| {label}, {tets} tets | {:.0} / {:.0} ms | {:.1} ms | {:.1} ms | {:.2}x | {lo:.2}–{hi:.2}x | {} | {} |",
         first1 * 1e3,
         first2 * 1e3,
         median(t1) * 1e3,
         median(t2) * 1e3,
         median(ratios),
+        CpuUse {
+            per_wall: (median(per_wall1), median(per_wall2)),
+            work: median(work),
+        }
+        .describe(),
         phases.join(" · "),
     );
 }
@@ -486,7 +557,9 @@ fn factor(rounds: usize) {
     let mut table = Table::new(
         "Cholesky factorization (METIS, subtree schedule)",
         "flops",
-        &format!("matrix, predicted flops (library rule: {PARALLEL_MIN_FLOPS:.0e})"),
+        &format!(
+            "matrix, predicted flops (library rule: {PARALLEL_MIN_FLOPS:.0e}), CPU per wall time and CPU time 1 → 2 threads"
+        ),
     );
     let mut systems = Vec::new();
     for cells in sizes(&[
@@ -511,7 +584,7 @@ fn factor(rounds: usize) {
         let mut two = CholeskySolver::new(always_parallel(Parallelism::Rayon));
         two.analyze(a.pattern()).unwrap();
         let flops = one.stats().factor_flops;
-        let times = interleaved(
+        let (times, cpu) = interleaved_cpu(
             rounds,
             (1e8 / flops).clamp(1.0, 50.0) as usize,
             || {
@@ -521,7 +594,11 @@ fn factor(rounds: usize) {
                 two.factor(a).unwrap();
             },
         );
-        table.row(&format!("{label}, {flops:.2e}"), flops, times);
+        table.row(
+            &format!("{label}, {flops:.2e}, {}", cpu.describe()),
+            flops,
+            times,
+        );
     }
     table.crossover();
 }
@@ -570,16 +647,146 @@ fn bandwidth(rounds: usize) {
     table.crossover();
 }
 
+/// The compute ceiling of a second core: work that touches no memory (independent FMA chains
+/// in registers, one chain set per thread) and faer's dense kernels at the sizes of the 49k
+/// box's root supernode (`examples/tree_profile`): a square product, a rank-64 update (a
+/// descendant's update of a front) and a dense LLᵀ, each on one thread (`Par::Seq`) against
+/// two (`Par::rayon(2)`). No schedule of the same arithmetic gains more than these.
+fn dense(rounds: usize) {
+    use faer::dyn_stack::{MemBuffer, MemStack};
+    use faer::linalg::cholesky::llt::factor::{
+        LltRegularization, cholesky_in_place, cholesky_in_place_scratch,
+    };
+    use faer::linalg::matmul::matmul;
+    use faer::{Accum, Mat, Par};
+
+    let mut table = Table::new(
+        "dense compute (registers, faer kernels)",
+        "flops",
+        "work, flops, CPU per wall time and CPU time 1 → 2 threads",
+    );
+    // Registers only: eight independent multiply-add chains per thread.
+    let chains = |iters: usize| {
+        let mut acc = [1.0f64, 1.1, 1.2, 1.3, 1.4, 1.5, 1.6, 1.7];
+        for _ in 0..iters {
+            for a in acc.iter_mut() {
+                *a = a.mul_add(0.999_999_9, 1e-9);
+            }
+        }
+        black_box(acc).iter().sum::<f64>()
+    };
+    let iters = if SMOKE.load(std::sync::atomic::Ordering::Relaxed) {
+        1 << 16
+    } else {
+        1 << 24
+    };
+    let (times, cpu) = interleaved_cpu(
+        rounds,
+        1,
+        || {
+            black_box(chains(black_box(iters)) + chains(black_box(iters)));
+        },
+        || {
+            black_box(rayon::join(
+                || chains(black_box(iters)),
+                || chains(black_box(iters)),
+            ));
+        },
+    );
+    let flops = (2 * 2 * 8 * iters) as f64;
+    table.row(
+        &format!("FMA chains in registers, {flops:.2e}, {}", cpu.describe()),
+        flops,
+        times,
+    );
+
+    let filled =
+        |m: usize, n: usize| Mat::from_fn(m, n, |i, j| ((i * 7 + j * 13) % 17) as f64 / 17.0 - 0.5);
+    for (m, n, k) in sizes(&[(512, 512, 512), (2048, 2048, 64), (2048, 2048, 2048)]) {
+        let (a, b) = (filled(m, k), filled(k, n));
+        let (mut c1, mut c2) = (Mat::<f64>::zeros(m, n), Mat::<f64>::zeros(m, n));
+        let (times, cpu) = interleaved_cpu(
+            rounds,
+            1,
+            || {
+                matmul(
+                    c1.as_mut(),
+                    Accum::Replace,
+                    a.as_ref(),
+                    b.as_ref(),
+                    1.0,
+                    Par::Seq,
+                )
+            },
+            || {
+                matmul(
+                    c2.as_mut(),
+                    Accum::Replace,
+                    a.as_ref(),
+                    b.as_ref(),
+                    1.0,
+                    Par::rayon(2),
+                )
+            },
+        );
+        let flops = 2.0 * (m * n * k) as f64;
+        table.row(
+            &format!("product {m}×{k} · {k}×{n}, {flops:.2e}, {}", cpu.describe()),
+            flops,
+            times,
+        );
+    }
+    for n in sizes(&[512usize, 1024, 2048]) {
+        // Diagonally dominant, so SPD.
+        let spd = Mat::from_fn(n, n, |i, j| {
+            if i == j {
+                n as f64
+            } else {
+                ((i + j) % 5) as f64 / 10.0
+            }
+        });
+        let scratch =
+            |par| MemBuffer::new(cholesky_in_place_scratch::<f64>(n, par, Default::default()));
+        let (mut mem1, mut mem2) = (scratch(Par::Seq), scratch(Par::rayon(2)));
+        let (mut l1, mut l2) = (spd.clone(), spd.clone());
+        let factor = |l: &mut Mat<f64>, mem: &mut MemBuffer, par| {
+            l.copy_from(&spd);
+            cholesky_in_place(
+                l.as_mut(),
+                LltRegularization::default(),
+                par,
+                MemStack::new(mem),
+                Default::default(),
+            )
+            .expect("SPD");
+        };
+        let (times, cpu) = interleaved_cpu(
+            rounds,
+            1,
+            || factor(&mut l1, &mut mem1, Par::Seq),
+            || factor(&mut l2, &mut mem2, Par::rayon(2)),
+        );
+        let flops = (n * n * n) as f64 / 3.0;
+        table.row(
+            &format!("dense LLᵀ {n}×{n}, {flops:.2e}, {}", cpu.describe()),
+            flops,
+            times,
+        );
+    }
+    table.crossover();
+}
+
 /// The triangular solves with a factor of the subtree schedule (forward and backward, the
 /// permutation and the residual check of a `solve` call), one thread against two, on the
-/// factorization table's largest boxes and ball. The one-thread side runs on a pool of one,
+/// factorization table's largest boxes and ball, with the rate at which one thread reads L's
+/// storage (twice per solve) to set against the `bandwidth` table. The one-thread side runs on a pool of one,
 /// as `RAYON_NUM_THREADS=1` does: faer's solve takes a fixed two tasks whatever the solver's
 /// parallelism (`SOLVE_TASKS`), which outside such a pool run on the global pool's two threads.
 fn solve(rounds: usize) {
     let mut table = Table::new(
         "Cholesky solve (METIS, subtree schedule, one right-hand side)",
         "factor entries",
-        "matrix, factor entries",
+        "matrix, factor entries, L's storage read per time, CPU per wall time and CPU time 1 → 2 threads",
     );
     let one_thread = rayon::ThreadPoolBuilder::new()
         .num_threads(1)
@@ -603,6 +810,9 @@ fn solve(rounds: usize) {
             s.factor(a).unwrap();
         }
         let nnz = one.stats().factor_nnz as f64;
+        // Bytes of L's storage (explicit zeros of relaxed supernodes included) that a forward
+        // and a backward solve read.
+        let bytes = 2.0 * 8.0 * one.stats().factor_storage as f64;
         let rhs: Vec<f64> = (0..a.dim())
             .map(|i| ((i % 7) as f64 - 3.0) * 1e-3)
             .collect();
@@ -616,7 +826,7 @@ fn solve(rounds: usize) {
                 s.solve(x).unwrap();
             }
         };
-        let (t1, t2) = interleaved(
+        let ((t1, t2), cpu) = interleaved_cpu(
             rounds,
             1,
             || one_thread.install(|| solves(&mut one, &mut x1)),
@@ -624,7 +834,15 @@ fn solve(rounds: usize) {
         );
         let times = (t1 / reps as f64, t2 / reps as f64);
         assert!(x1 == x2, "{label}: the threads changed the solution");
-        table.row(&format!("{label}, {nnz:.2e}"), nnz, times);
+        table.row(
+            &format!(
+                "{label}, {nnz:.2e}, L read at {:.1} GB/s on one thread, {}",
+                bytes / times.0 / 1e9,
+                cpu.describe()
+            ),
+            nnz,
+            times,
+        );
     }
     table.crossover();
 }
@@ -683,6 +901,9 @@ fn main() {
     }
     if wanted("factor") {
         factor(rounds);
+    }
+    if wanted("dense") {
+        dense(rounds);
     }
     if wanted("bandwidth") {
         bandwidth(rounds);
