@@ -41,7 +41,7 @@ use crate::sparse::{SparsityPattern, SymmetricMatrix};
 /// 15,593 of the 49k-tet box's 27,744 solution entries between one thread and two. A fixed
 /// count gives the same bits on any pool and in sequential runs (on one thread the tasks run
 /// one after the other; a sequential run of `--jobs` > 1 lends its solves to the pool) and
-/// keeps what a second thread gives the solve (1.15x on that box in the `solve` table of
+/// keeps what a second thread gives the solve (1.15-1.18x on that box in the `solve` table of
 /// `cargo bench --bench thread_crossover`).
 const SOLVE_TASKS: usize = 2;
 
