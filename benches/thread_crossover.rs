@@ -117,8 +117,10 @@ fn median(mut v: Vec<f64>) -> f64 {
 /// CPU seconds used so far by every thread of this process (`CLOCK_PROCESS_CPUTIME_ID`).
 /// Against wall time it separates the two reasons a second thread gains less than 2x: idle
 /// time (a thread waiting: CPU / wall below 2) and work that takes longer when both cores are
-/// busy (shared caches, memory bandwidth: more CPU time than on one thread). Rayon's idle
-/// workers spin briefly before sleeping; that spinning counts as busy.
+/// busy (shared caches, memory bandwidth: more CPU time than on one thread). Idle workers
+/// spin briefly before they sleep (rayon's, and faer's inside its parallel kernels), and that
+/// spinning counts as busy: CPU time above one thread's is an upper bound on how much the work
+/// slowed (a profile of the 49k box's step put 4.5 % of the workers' samples in those loops).
 fn process_cpu_seconds() -> f64 {
     let mut ts = libc::timespec {
         tv_sec: 0,
