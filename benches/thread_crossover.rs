@@ -10,9 +10,12 @@
 //! The defaults in the library are set from this output on a quiet two-core machine.
 //!
 //! `cargo bench --bench thread_crossover` (add `-- --quick` for fewer rounds; `-- xpbd`,
-//! `elements`, `matvec`, `amg`, `factor`, `dense`, `bandwidth`, `solve` or `step` for one table). The
-//! `step` table is the whole converged backward-Euler step, one thread against two (issue
-//! 31's 49k box).
+//! `elements`, `matvec`, `amg`, `factor`, `dense`, `bandwidth`, `solve` or `step` for one
+//! table). The `step` table is the whole converged backward-Euler step, one thread against
+//! two (issue 31's 49k box); the `dense` and `bandwidth` tables are the machine's ceilings
+//! for compute and memory traffic. The factorization, dense, solve and step tables also
+//! print each side's CPU time per wall time and the CPU time of two threads against one
+//! (see [`process_cpu_seconds`]).
 
 #[path = "support/clamped_box.rs"]
 mod clamped_box;
@@ -649,11 +652,11 @@ fn bandwidth(rounds: usize) {
     table.crossover();
 }
 
-/// The compute ceiling of a second core: work that touches no memory (independent FMA chains
-/// in registers, one chain set per thread) and faer's dense kernels at the sizes of the 49k
-/// box's root supernode (`examples/tree_profile`): a square product, a rank-64 update (a
-/// descendant's update of a front) and a dense LLᵀ, each on one thread (`Par::Seq`) against
-/// two (`Par::rayon(2)`). No schedule of the same arithmetic gains more than these.
+/// What a second core gives compute: work that touches no memory (independent FMA chains in
+/// registers, one set per thread: the ceiling of any schedule) and faer's dense kernels at the
+/// sizes of the 49k box's root supernode (`examples/tree_profile`): a square product, a
+/// rank-64 update (a descendant's update of a front) and a dense LLᵀ, each on one thread
+/// (`Par::Seq`) against two (`Par::rayon(2)`), as the factorization calls them.
 fn dense(rounds: usize) {
     use faer::dyn_stack::{MemBuffer, MemStack};
     use faer::linalg::cholesky::llt::factor::{
@@ -781,9 +784,10 @@ fn dense(rounds: usize) {
 /// The triangular solves with a factor of the subtree schedule (forward and backward, the
 /// permutation and the residual check of a `solve` call), one thread against two, on the
 /// factorization table's largest boxes and ball, with the rate at which one thread reads L's
-/// storage (twice per solve) to set against the `bandwidth` table. The one-thread side runs on a pool of one,
-/// as `RAYON_NUM_THREADS=1` does: faer's solve takes a fixed two tasks whatever the solver's
-/// parallelism (`SOLVE_TASKS`), which outside such a pool run on the global pool's two threads.
+/// storage (twice per solve) to set against the `bandwidth` table. The one-thread side runs
+/// on a pool of one, as `RAYON_NUM_THREADS=1` does: faer's solve takes a fixed two tasks
+/// whatever the solver's parallelism (`SOLVE_TASKS`), which outside such a pool run on the
+/// global pool's two threads.
 fn solve(rounds: usize) {
     let mut table = Table::new(
         "Cholesky solve (METIS, subtree schedule, one right-hand side)",
