@@ -124,8 +124,19 @@ fn a_dependent_crate_started_from_the_lock_file_keeps_its_versions() {
     let ours = std::fs::read_to_string(manifest_dir().join("Cargo.lock")).unwrap();
     std::fs::write(dir.path().join("Cargo.lock"), &ours).unwrap();
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    // Resolved for this machine only (`host-tuple`): over every platform, cargo metadata
+    // wants the packages of the others too (Windows-only crates a Linux build never
+    // downloads), so `--offline` failed on a fresh machine whose cache held only what the
+    // build had fetched. The lock file it writes is the same either way.
     let status = std::process::Command::new(cargo)
-        .args(["metadata", "--offline", "--format-version", "1"])
+        .args([
+            "metadata",
+            "--offline",
+            "--format-version",
+            "1",
+            "--filter-platform",
+            "host-tuple",
+        ])
         .current_dir(dir.path())
         .stdout(std::process::Stdio::null())
         .status()
