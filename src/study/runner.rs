@@ -336,12 +336,13 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
         // is idempotent).
         // Each shard records its end before it looks, so the last to end sees every record
         // ended: a merge never lists a shard as `running` that only had its record to write.
+        let complete = super::merge::is_complete(study, dir)?;
         let unended = match options.shard {
-            Some(shard) => ShardRecord::unended(dir, shard.count, study.quick)
+            Some(shard) if complete => ShardRecord::unended(dir, shard.count, study.quick)
                 .map_err(io(&dir.join("shards")))?,
-            None => Vec::new(),
+            _ => Vec::new(),
         };
-        let merged = if !super::merge::is_complete(study, dir)? {
+        let merged = if !complete {
             None
         } else if !unended.is_empty() {
             Some(MergeOutcome::Unended(unended))

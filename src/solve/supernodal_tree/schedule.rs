@@ -224,15 +224,18 @@ impl TreeSchedule {
     /// in_split_nodes, tasks, split_nodes)`.
     pub fn split_profile(&self, threads: usize) -> (f64, f64, usize, usize) {
         let split = self.split_supernodes(threads);
+        let is_split = |s: usize| split.binary_search(&s).is_ok();
         let in_split: f64 = split.iter().map(|&s| self.node_flops[s]).sum();
         // Every root and every child of a split node heads a task unless split itself.
-        let heads = self.roots.len() + split.iter().map(|&s| self.children(s).len()).sum::<usize>();
-        (
-            self.total_flops() - in_split,
-            in_split,
-            heads - split.len(),
-            split.len(),
-        )
+        let heads: Vec<usize> = self
+            .roots
+            .iter()
+            .chain(split.iter().flat_map(|&s| self.children(s)))
+            .copied()
+            .filter(|&h| !is_split(h))
+            .collect();
+        let in_tasks = heads.iter().map(|&h| self.subtree_flops[h]).sum();
+        (in_tasks, in_split, heads.len(), split.len())
     }
 
     /// The split supernodes (those above the sequential subtree tasks on `threads`: a subtree
