@@ -170,7 +170,18 @@ pub trait Integrator: Send {
             dt,
             ..StepReport::default()
         };
-        self.advance(model, state, dt, &mut report)?;
+        if model.element_loops_split(!self.is_explicit())
+            && rayon::current_num_threads() > 1
+            && rayon::current_thread_index().is_none()
+        {
+            // One entry into rayon's pool per step rather than one per parallel call (tens of
+            // µs each: the caller queues the job, wakes a worker and sleeps until it is done,
+            // hundreds of times per Newton iteration in the factorization's kernels). On a
+            // pool thread the step's parallel calls are pushes onto its own queue.
+            rayon::scope(|_| self.advance(model, state, dt, &mut report))?;
+        } else {
+            self.advance(model, state, dt, &mut report)?;
+        }
         let after = model.counters();
         report.evaluations.potential = after.potential - before.potential;
         report.evaluations.gradient = after.gradient - before.gradient;

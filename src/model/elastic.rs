@@ -14,7 +14,8 @@ pub(crate) const CHUNK: usize = 256;
 
 /// Chunks from which each element loop runs on threads, from `cargo bench --bench
 /// thread_crossover -- elements` on a quiet two-core machine, called from outside rayon's pool
-/// as a run calls them (waking the pool costs ~20 µs): the energy loop (~20 ns per tet) paid
+/// (waking the pool costs ~20 µs; a step past these rules enters the pool once and calls them
+/// from a pool thread, see `Model::element_loops_split`): the energy loop (~20 ns per tet) paid
 /// from 2048–4096 tets (1.19–1.34x at 4096 in three runs, 0.4–0.8x at 512–1024), the gradient
 /// loop (~25 ns per tet) from 4096–16384 (0.96–1.44x at 4096–8192, 1.12–1.23x at 16384); the
 /// Hessian loop (~80 ns per tet) from 1024 tets (1.08–1.38x).

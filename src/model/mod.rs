@@ -360,6 +360,20 @@ impl Model {
         self.parallelism
     }
 
+    /// Whether the elastic element loops a step calls run on rayon's pool: the Hessian loop's
+    /// rule when the step assembles Hessians (`hessians`), else the gradient loop's. A step
+    /// moves onto the pool only when this holds (`Integrator::step`), so a step too small for
+    /// threads never pays the entry.
+    pub fn element_loops_split(&self, hessians: bool) -> bool {
+        let tets = self.elastic.as_ref().map_or(0, |e| e.tets.len());
+        let min_chunks = if hessians {
+            elastic::HESSIAN_MIN_CHUNKS
+        } else {
+            elastic::GRADIENT_MIN_CHUNKS
+        };
+        self.parallelism == Parallelism::Rayon && tets.div_ceil(elastic::CHUNK) >= min_chunks
+    }
+
     /// Change how element loops run (results do not change).
     pub fn set_parallelism(&mut self, par: Parallelism) {
         self.parallelism = par;
