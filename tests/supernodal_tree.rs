@@ -19,7 +19,8 @@ use fem_system::{fem_ball, fem_box};
 use softbench::parallel::Parallelism;
 use softbench::solve::ordering::nested_dissection;
 use softbench::solve::supernodal_tree::{
-    ScratchPool, TreeSchedule, factorize, is_postordered, postorder_permutation,
+    DIAGONAL_BLOCK, SOLVE_SPLIT_ENTRIES, ScratchPool, TreeSchedule, factorize, is_postordered,
+    postorder_permutation, solve_in_place,
 };
 use softbench::solve::{
     CholeskySolver, DirectSettings, LinearSolver, Ordering, Scheduler, SolveError,
@@ -94,12 +95,15 @@ fn tree_factor(
     let schedule = TreeSchedule::new(sn, a.pattern(), sym.perm().map(|p| p.arrays())).unwrap();
     let scratch = ScratchPool::new(&schedule, threads);
     let mut values = vec![f64::NAN; sym.len_val()];
-    let par = if threads > 1 {
-        faer::Par::rayon(0)
-    } else {
-        faer::Par::Seq
-    };
     pool(threads).install(|| {
+        // Made inside the pool: `Par::rayon(0)` takes the current pool's size where it is made
+        // (outside, the global pool's, so 3 and 4 threads would have run as 2).
+        let par = if threads > 1 {
+            faer::Par::rayon(0)
+        } else {
+            faer::Par::Seq
+        };
+        assert_eq!(par.degree(), threads);
         factorize(&mut values, a.values(), sn, &schedule, &scratch, par)
             .map(|()| values)
             .map_err(|e| e.index)
@@ -322,6 +326,101 @@ fn a_dense_matrix_in_one_supernode_factors() {
     for threads in [1, 2] {
         let values = tree_factor(&a, &sym, threads).unwrap();
         assert!(relative_difference(&values, &reference) < 1e-14);
+    }
+}
+
+/// A dense SPD matrix of order `n`, every entry stored (one supernode).
+fn dense(n: usize) -> SymmetricMatrix {
+    let col_ptr: Vec<usize> = (0..=n).map(|j| j * n).collect();
+    let row_idx: Vec<usize> = (0..n * n).map(|k| k % n).collect();
+    let mut a = SymmetricMatrix::zeros(Arc::new(SparsityPattern::from_csc(n, col_ptr, row_idx)));
+    for j in 0..n {
+        for i in 0..n {
+            let slot = a.pattern().find(i, j).unwrap();
+            a.values_mut()[slot] = if i == j {
+                n as f64
+            } else {
+                1.0 / (1 + i + j) as f64
+            };
+        }
+    }
+    a
+}
+
+/// The tree solve against faer's solve with the same factor values (round-off), and its bits
+/// on pools of 1–4 threads against the sequential solve: on FEM bodies in both orderings, and
+/// on a dense matrix wide enough that its diagonal block is solved in several column blocks
+/// whose rectangles split over the pool.
+#[test]
+fn the_tree_solve_agrees_with_faers_and_gives_the_same_bits_on_any_pool() {
+    let wide = 2 * DIAGONAL_BLOCK + SOLVE_SPLIT_ENTRIES / DIAGONAL_BLOCK + 7;
+    let mut systems = bodies();
+    systems.push(("box 16x8x8", fem_box([16, 8, 8]).matrix));
+    systems.push(("dense", dense(wide)));
+    for (name, a) in systems {
+        for ordering in [Ordering::Amd, Ordering::Metis] {
+            let sym = symbolic(&a, ordering);
+            let SymbolicCholeskyRaw::Supernodal(sn) = sym.raw() else {
+                unreachable!()
+            };
+            let schedule =
+                TreeSchedule::new(sn, a.pattern(), sym.perm().map(|p| p.arrays())).unwrap();
+            let values = tree_factor(&a, &sym, 1).unwrap();
+            let b: Vec<f64> = (0..a.dim()).map(|i| ((i * 31) % 17) as f64 - 8.0).collect();
+            // faer's solve in the permuted order: permute b in, solve, compare there.
+            let fwd = sym.perm().map(|p| p.arrays().0.to_vec());
+            let at = |i: usize| fwd.as_ref().map_or(i, |f| f[i]);
+            let permuted: Vec<f64> = (0..a.dim()).map(|i| b[at(i)]).collect();
+            let mut reference = permuted.clone();
+            let mut mem = MemBuffer::new(sn.solve_in_place_scratch::<f64>(1, faer::Par::Seq));
+            faer::sparse::linalg::cholesky::supernodal::SupernodalLltRef::new(sn, &values)
+                .solve_in_place_with_conj(
+                    faer::Conj::No,
+                    faer::MatMut::from_column_major_slice_mut(&mut reference, a.dim(), 1),
+                    faer::Par::Seq,
+                    MemStack::new(&mut mem),
+                );
+            let solve = |threads: usize| {
+                let scratch = ScratchPool::new(&schedule, threads);
+                let mut x = permuted.clone();
+                pool(threads).install(|| {
+                    // `Par::rayon(0)` is the current pool's size where it is made.
+                    let par = if threads > 1 {
+                        faer::Par::rayon(0)
+                    } else {
+                        faer::Par::Seq
+                    };
+                    assert_eq!(par.degree(), threads);
+                    solve_in_place(&mut x, &values, sn, &schedule, &scratch, par)
+                });
+                x
+            };
+            let sequential = solve(1);
+            let diff = relative_difference(&sequential, &reference);
+            assert!(diff < 1e-12, "{name}, {ordering:?}: {diff:e} from faer's");
+            assert_ne!(sequential, permuted, "{name}: the solve changed nothing");
+            for threads in 2..=4 {
+                let x = solve(threads);
+                assert!(
+                    x.iter()
+                        .zip(&sequential)
+                        .all(|(p, q)| p.to_bits() == q.to_bits()),
+                    "{name}, {ordering:?}, {threads} threads"
+                );
+            }
+            // From outside any pool (the solve enters the global pool itself).
+            let scratch = ScratchPool::new(&schedule, 2);
+            let mut x = permuted.clone();
+            solve_in_place(
+                &mut x,
+                &values,
+                sn,
+                &schedule,
+                &scratch,
+                faer::Par::rayon(2),
+            );
+            assert_eq!(x, sequential, "{name}, {ordering:?}, from outside the pool");
+        }
     }
 }
 

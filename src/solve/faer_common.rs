@@ -46,6 +46,8 @@ pub struct FaerFactor {
 pub struct SubtreeFactor {
     pub schedule: TreeSchedule,
     pub pool: ScratchPool,
+    /// One right-hand side in the permuted order, for the solve.
+    pub work: Vec<f64>,
 }
 
 /// A fill-reducing permutation of a pattern and the exact cost of factoring in it, found
@@ -193,6 +195,7 @@ impl FaerFactor {
                     .ok()
                     .map(|schedule| SubtreeFactor {
                         pool: ScratchPool::new(&schedule, rayon::current_num_threads()),
+                        work: vec![0.0; schedule.dim()],
                         schedule,
                     })
             }
@@ -266,6 +269,35 @@ impl FaerFactor {
             )
             .map_err(|e| e.index),
         )
+    }
+
+    /// Solves `A x = b` in place (each column of `x`) with the subtree-scheduled factor;
+    /// `false` when this factor has none (then faer's solve applies).
+    pub fn solve_subtrees(&mut self, mut x: faer::MatMut<'_, f64>) -> bool {
+        let (Some(tree), SymbolicCholeskyRaw::Supernodal(supernodal)) =
+            (self.tree.as_mut(), self.symbolic.raw())
+        else {
+            return false;
+        };
+        let fwd = self.symbolic.perm().map(|p| p.arrays().0);
+        let at = |i: usize| fwd.map_or(i, |f| f[i]);
+        for j in 0..x.ncols() {
+            for (i, w) in tree.work.iter_mut().enumerate() {
+                *w = x[(at(i), j)];
+            }
+            supernodal_tree::solve_in_place(
+                &mut tree.work,
+                &self.values,
+                supernodal,
+                &tree.schedule,
+                &tree.pool,
+                self.par,
+            );
+            for (i, &w) in tree.work.iter().enumerate() {
+                x[(at(i), j)] = w;
+            }
+        }
+        true
     }
 
     /// The original column of the failed pivot reported as `index` by faer. faer 0.24.4

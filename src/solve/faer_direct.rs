@@ -25,6 +25,7 @@ use std::time::Instant;
 use faer::dyn_stack::MemStack;
 use faer::linalg::cholesky::ldlt::factor::{LdltError, LdltRegularization};
 use faer::linalg::cholesky::llt::factor::{LltError, LltRegularization};
+use faer::reborrow::ReborrowMut;
 use faer::sparse::linalg::cholesky::supernodal::SupernodalLdltRef;
 use faer::sparse::linalg::cholesky::{LdltRef, LltRef, SymbolicCholeskyRaw};
 use faer::{Conj, MatMut, Side};
@@ -41,8 +42,9 @@ use crate::sparse::{SparsityPattern, SymmetricMatrix};
 /// 15,593 of the 49k-tet box's 27,744 solution entries between one thread and two. A fixed
 /// count gives the same bits on any pool and in sequential runs (on one thread the tasks run
 /// one after the other; a sequential run of `--jobs` > 1 lends its solves to the pool) and
-/// keeps what a second thread gives the solve (1.15-1.18x on that box in the `solve` table of
-/// `cargo bench --bench thread_crossover`).
+/// keeps what a second thread gives faer's solve (1.15-1.18x on that box in the `solve` table of
+/// `cargo bench --bench thread_crossover` at f591ffd, before the subtree-scheduled factor got
+/// its own solve). Used by LDLᵀ and factors on faer's loop.
 const SOLVE_TASKS: usize = 2;
 
 fn solve_par() -> faer::Par {
@@ -96,7 +98,12 @@ impl Factorization for Llt {
         }
     }
 
-    fn solve(f: &mut FaerFactor, x: MatMut<'_, f64>) {
+    fn solve(f: &mut FaerFactor, mut x: MatMut<'_, f64>) {
+        // A subtree-scheduled factor has its own solve (parallel over subtrees, the same bits
+        // on any thread count); faer's otherwise.
+        if f.solve_subtrees(x.rb_mut()) {
+            return;
+        }
         LltRef::new(&f.symbolic, &f.values).solve_in_place_with_conj(
             Conj::No,
             x,

@@ -9,7 +9,7 @@
 //! its own dense kernels, on the pool when its front is large (the separators near the root).
 //!
 //! The values are written in exactly faer's layout (each supernode a column-major block of
-//! `ncols + pattern` rows), so faer's solve reads them unchanged. Every supernode applies its
+//! `ncols + pattern` rows), so faer's solve could read them unchanged. Every supernode applies its
 //! descendants' updates in ascending order with the same kernels whatever the schedule, so
 //! the factor is bit-identical for any thread count.
 //!
@@ -18,19 +18,22 @@
 //! buffers that persist across factorizations, so the numeric phase allocates nothing once
 //! every worker has run.
 //!
-//! The module is in three parts: `etree` (the elimination tree, the postorder that makes
-//! every subtree contiguous, and L's column counts), `schedule` (what the numeric phase needs per symbolic analysis)
-//! and `numeric` (the factorization itself).
+//! The module is in four parts: `etree` (the elimination tree, the postorder that makes every
+//! subtree contiguous, and L's column counts), `schedule` (what the numeric phase needs per
+//! symbolic analysis), `numeric` (the factorization itself) and `solve` (the triangular solves
+//! with the factor, scheduled the same way).
 
 mod etree;
 mod numeric;
 mod schedule;
+mod solve;
 
 pub use etree::{column_counts, elimination_tree, postorder, postorder_permutation};
 pub use numeric::{
     KERNEL_PARALLEL_FLOPS, NonPositivePivot, PARALLEL_MEMORY_ENTRIES, ScratchPool, factorize,
 };
 pub use schedule::{MIN_TASK_FLOPS, ScheduleError, TASKS_PER_THREAD, TreeSchedule, is_postordered};
+pub use solve::{DIAGONAL_BLOCK, SOLVE_SPLIT_ENTRIES, solve_in_place};
 
 /// "No parent" in an elimination tree; "no failure yet" in a factorization.
 const NONE: usize = usize::MAX;

@@ -45,12 +45,15 @@ pub struct NonPositivePivot {
 }
 
 /// One worker's buffers: the global-to-local row map of the supernode being factored, an
-/// update block, its row map and the dense LLᵀ scratch.
-struct Scratch {
+/// update block, its row map, the dense LLᵀ scratch and the solve's buffer.
+pub(super) struct Scratch {
     global_to_local: Vec<usize>,
     update: Vec<f64>,
     rows: Vec<usize>,
     stack: MemBuffer,
+    /// The solve's: a supernode's update of its pattern rows, or its pattern's entries and
+    /// its own.
+    pub(super) solve: Vec<f64>,
 }
 
 impl Scratch {
@@ -60,12 +63,13 @@ impl Scratch {
             update: vec![0.0; schedule.max_update],
             rows: vec![0; schedule.max_update_rows],
             stack: MemBuffer::new(schedule.cholesky_scratch),
+            solve: vec![0.0; schedule.max_block_rows],
         }
     }
 }
 
-/// Per-worker scratch kept across factorizations. A task takes one for as long as it factors
-/// (a supernode, or a whole sequential subtree) and gives it back; a thread that steals a
+/// Per-worker scratch kept across factorizations and solves. A task takes one for as long as
+/// it factors or solves (a supernode, or a whole sequential subtree) and gives it back; a thread that steals a
 /// task while its own supernode waits in a parallel kernel takes a second one, so the pool
 /// may grow past the thread count during the first factorizations and then stays put.
 pub struct ScratchPool {
@@ -90,7 +94,7 @@ impl ScratchPool {
         self.len() == 0
     }
 
-    fn with<R>(&self, schedule: &TreeSchedule, f: impl FnOnce(&mut Scratch) -> R) -> R {
+    pub(super) fn with<R>(&self, schedule: &TreeSchedule, f: impl FnOnce(&mut Scratch) -> R) -> R {
         let taken = self.free.lock().ok().and_then(|mut free| free.pop());
         let mut scratch = taken.unwrap_or_else(|| Scratch::new(schedule));
         let result = f(&mut scratch);
@@ -146,6 +150,10 @@ pub fn factorize(
         if ns > 0 {
             factor_sequential(&job, 0..ns, l_values, 0);
         }
+    } else if rayon::current_thread_index().is_none() {
+        // From outside the pool: enter it once, so the kernels of the supernodes after the
+        // last join (the root's) do not each enter it from this thread.
+        rayon::scope(|_| factor_forest(&job, &schedule.roots, l_values, 0));
     } else {
         factor_forest(&job, &schedule.roots, l_values, 0);
     }

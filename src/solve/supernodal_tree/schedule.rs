@@ -57,6 +57,8 @@ pub struct TreeSchedule {
     /// dense LLᵀ scratch of the widest supernode.
     pub(super) max_update: usize,
     pub(super) max_update_rows: usize,
+    /// The most rows of any supernode's block (columns plus pattern): the solve's scratch.
+    pub(super) max_block_rows: usize,
     pub(super) cholesky_scratch: StackReq,
 }
 
@@ -181,6 +183,10 @@ impl TreeSchedule {
         let assembly_offset = entries.iter().map(|e| e.2).collect();
 
         let widest = (0..ns).map(|s| end[s] - begin[s]).max().unwrap_or(0);
+        let max_block_rows = (0..ns)
+            .map(|s| end[s] - begin[s] + pattern_of(s).len())
+            .max()
+            .unwrap_or(0);
         let cholesky_scratch = StackReq::or(
             faer::linalg::cholesky::llt::factor::cholesky_in_place_scratch::<f64>(
                 widest,
@@ -208,8 +214,14 @@ impl TreeSchedule {
             assembly_offset,
             max_update,
             max_update_rows,
+            max_block_rows,
             cholesky_scratch,
         })
+    }
+
+    /// The matrix dimension.
+    pub fn dim(&self) -> usize {
+        self.n
     }
 
     /// Estimated flops of one factorization (sum over supernodes).
