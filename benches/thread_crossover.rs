@@ -785,9 +785,8 @@ fn dense(rounds: usize) {
 /// permutation and the residual check of a `solve` call), one thread against two, on the
 /// factorization table's largest boxes and ball, with the rate at which one thread reads L's
 /// storage (twice per solve) to set against the `bandwidth` table. The one-thread side runs
-/// on a pool of one, as `RAYON_NUM_THREADS=1` does: faer's solve takes a fixed two tasks
-/// whatever the solver's parallelism (`SOLVE_TASKS`), which outside such a pool run on the
-/// global pool's two threads.
+/// on a pool of one, as `RAYON_NUM_THREADS=1` does; the two-thread side inside the global
+/// pool (`rayon::scope`), as a step large enough for threads calls it.
 fn solve(rounds: usize) {
     let mut table = Table::new(
         "Cholesky solve (METIS, subtree schedule, one right-hand side)",
