@@ -34,6 +34,18 @@ fn pool(threads: usize) -> rayon::ThreadPool {
         .unwrap()
 }
 
+/// The parallelism of a pool of `threads`, called inside it: `Par::rayon(0)` takes the current
+/// pool's size where it is made (outside, the global pool's, so 3 and 4 threads would run as 2).
+fn current_par(threads: usize) -> faer::Par {
+    let par = if threads > 1 {
+        faer::Par::rayon(0)
+    } else {
+        faer::Par::Seq
+    };
+    assert_eq!(par.degree(), threads, "made outside the pool of {threads}");
+    par
+}
+
 /// faer's supernodal symbolic analysis of `a` in `ordering` (METIS composed with a postorder,
 /// as the solver does; AMD as faer returns it).
 fn symbolic(a: &SymmetricMatrix, ordering: Ordering) -> SymbolicCholesky<usize> {
@@ -96,14 +108,7 @@ fn tree_factor(
     let scratch = ScratchPool::new(&schedule, threads);
     let mut values = vec![f64::NAN; sym.len_val()];
     pool(threads).install(|| {
-        // Made inside the pool: `Par::rayon(0)` takes the current pool's size where it is made
-        // (outside, the global pool's, so 3 and 4 threads would have run as 2).
-        let par = if threads > 1 {
-            faer::Par::rayon(0)
-        } else {
-            faer::Par::Seq
-        };
-        assert_eq!(par.degree(), threads);
+        let par = current_par(threads);
         factorize(&mut values, a.values(), sn, &schedule, &scratch, par)
             .map(|()| values)
             .map_err(|e| e.index)
@@ -303,20 +308,7 @@ fn an_indefinite_matrix_fails_at_faers_column() {
 #[test]
 fn a_dense_matrix_in_one_supernode_factors() {
     // 6×6 SPD, every entry stored: one supernode, no tree.
-    let n = 6;
-    let col_ptr: Vec<usize> = (0..=n).map(|j| j * n).collect();
-    let row_idx: Vec<usize> = (0..n * n).map(|k| k % n).collect();
-    let mut a = SymmetricMatrix::zeros(Arc::new(SparsityPattern::from_csc(n, col_ptr, row_idx)));
-    for j in 0..n {
-        for i in 0..n {
-            let slot = a.pattern().find(i, j).unwrap();
-            a.values_mut()[slot] = if i == j {
-                10.0
-            } else {
-                1.0 / (1 + i + j) as f64
-            };
-        }
-    }
+    let a = dense(6);
     let sym = symbolic(&a, Ordering::Amd);
     let SymbolicCholeskyRaw::Supernodal(sn) = sym.raw() else {
         unreachable!()
@@ -329,7 +321,7 @@ fn a_dense_matrix_in_one_supernode_factors() {
     }
 }
 
-/// A dense SPD matrix of order `n`, every entry stored (one supernode).
+/// A dense SPD matrix of order `n` (diagonally dominant), every entry stored (one supernode).
 fn dense(n: usize) -> SymmetricMatrix {
     let col_ptr: Vec<usize> = (0..=n).map(|j| j * n).collect();
     let row_idx: Vec<usize> = (0..n * n).map(|k| k % n).collect();
@@ -380,21 +372,13 @@ fn the_tree_solve_agrees_with_faers_and_gives_the_same_bits_on_any_pool() {
                     faer::Par::Seq,
                     MemStack::new(&mut mem),
                 );
-            let solve = |threads: usize| {
-                let scratch = ScratchPool::new(&schedule, threads);
+            let solve_with = |par: faer::Par| {
+                let scratch = ScratchPool::new(&schedule, par.degree());
                 let mut x = permuted.clone();
-                pool(threads).install(|| {
-                    // `Par::rayon(0)` is the current pool's size where it is made.
-                    let par = if threads > 1 {
-                        faer::Par::rayon(0)
-                    } else {
-                        faer::Par::Seq
-                    };
-                    assert_eq!(par.degree(), threads);
-                    solve_in_place(&mut x, &values, sn, &schedule, &scratch, par)
-                });
+                solve_in_place(&mut x, &values, sn, &schedule, &scratch, par);
                 x
             };
+            let solve = |threads: usize| pool(threads).install(|| solve_with(current_par(threads)));
             let sequential = solve(1);
             let diff = relative_difference(&sequential, &reference);
             assert!(diff < 1e-12, "{name}, {ordering:?}: {diff:e} from faer's");
@@ -409,16 +393,7 @@ fn the_tree_solve_agrees_with_faers_and_gives_the_same_bits_on_any_pool() {
                 );
             }
             // From outside any pool (the solve enters the global pool itself).
-            let scratch = ScratchPool::new(&schedule, 2);
-            let mut x = permuted.clone();
-            solve_in_place(
-                &mut x,
-                &values,
-                sn,
-                &schedule,
-                &scratch,
-                faer::Par::rayon(2),
-            );
+            let x = solve_with(faer::Par::rayon(2));
             assert_eq!(x, sequential, "{name}, {ordering:?}, from outside the pool");
         }
     }

@@ -71,6 +71,32 @@ impl SolveJob<'_> {
     }
 }
 
+/// Calls `f(part, first)` on parts of `entries` (whose first entry is number `first`):
+/// `entries` itself, or — when the product over it is large (`per_entry` entries of L each)
+/// and there are threads left — its halves at once, recursively, down to one part per thread
+/// of `whole` entries. Each entry is computed by one call either way.
+fn in_parts<F>(
+    job: &SolveJob<'_>,
+    entries: &mut [f64],
+    first: usize,
+    whole: usize,
+    per_entry: usize,
+    f: &F,
+) where
+    F: Fn(&mut [f64], usize) + Sync,
+{
+    if job.splits(entries.len(), whole, entries.len() * per_entry) {
+        let mid = entries.len() / 2;
+        let (left, right) = entries.split_at_mut(mid);
+        rayon::join(
+            || in_parts(job, left, first, whole, per_entry, f),
+            || in_parts(job, right, first + mid, whole, per_entry, f),
+        );
+        return;
+    }
+    f(entries, first);
+}
+
 /// Solves `L Lᵀ x = b` in place (`x` holds `b` in the permuted order) with the factor
 /// `l_values` that [`super::factorize`] wrote for `symbolic`. `Par::Seq` runs on the calling
 /// thread, `Par::Rayon` on rayon's current pool; the bits of `x` are the same either way.
@@ -154,7 +180,7 @@ fn forward_subtree(job: &SolveJob<'_>, root: usize, x: &mut [f64], base: usize) 
     let (below, rest) = x.split_at_mut(start - base);
     forward_forest(job, children, below, base);
     let own = &mut rest[..job.ncols(root)];
-    pull_updates(job, root, below, base, own, start);
+    pull_updates(job, root, below, base, own);
     solve_diagonal(job, root, own);
 }
 
@@ -195,50 +221,36 @@ fn update(job: &SolveJob<'_>, d: usize, first: usize, y: &[f64], u: &mut [f64]) 
     let (block, nrows) = job.block(d);
     let at = job.ncols(d) + first;
     u.fill(0.0);
-    kernels::accumulate(job.avx2, block, nrows, at, y, u, 1.0);
+    kernels::accumulate(job.avx2, (block, nrows, at), y, u, 1.0);
 }
 
-/// Subtracts from `own` (the entries of columns `row0..row0 + own.len()`, within `s`) the
-/// update of every descendant, in ascending order. `below` (starting at column `base`) holds
-/// the descendants' solved entries. A large supernode splits `own` in halves over the pool,
-/// down to one part per thread; each entry sees the same operations either way.
-fn pull_updates(
-    job: &SolveJob<'_>,
-    s: usize,
-    below: &[f64],
-    base: usize,
-    own: &mut [f64],
-    row0: usize,
-) {
+/// Subtracts from `own` (the entries of `s`'s columns) the update of every descendant, in
+/// ascending order. `below` (starting at column `base`) holds the descendants' solved
+/// entries. A large supernode splits its rows over the pool ([`in_parts`]); each entry sees
+/// the same operations either way.
+fn pull_updates(job: &SolveJob<'_>, s: usize, below: &[f64], base: usize, own: &mut [f64]) {
     let ncols = job.ncols(s);
-    // The updates pulled into a supernode's rows scale with its diagonal block (a proxy:
-    // the exact count is a sum over the descendants).
-    if job.splits(own.len(), ncols, own.len() * ncols) {
-        let mid = own.len() / 2;
-        let (left, right) = own.split_at_mut(mid);
-        rayon::join(
-            || pull_updates(job, s, below, base, left, row0),
-            || pull_updates(job, s, below, base, right, row0 + mid),
-        );
-        return;
-    }
     let (begin, end) = (job.symbolic.supernode_begin(), job.symbolic.supernode_end());
-    let row_end = row0 + own.len();
     let schedule = job.schedule;
-    job.pool.with(schedule, |scratch| {
-        for &d in &schedule.desc_idx[schedule.desc_ptr[s]..schedule.desc_ptr[s + 1]] {
-            let pattern = supernode_pattern(job.symbolic, d);
-            let first = pattern.partition_point(|&r| r < row0);
-            let k = pattern[first..].partition_point(|&r| r < row_end);
-            if k == 0 {
-                continue;
+    // The updates pulled into a row scale with the supernode's width (a proxy: the exact
+    // count is a sum over the descendants).
+    in_parts(job, own, begin[s], ncols, ncols, &|own, row0| {
+        let row_end = row0 + own.len();
+        job.pool.with(schedule, |scratch| {
+            for &d in &schedule.desc_idx[schedule.desc_ptr[s]..schedule.desc_ptr[s + 1]] {
+                let pattern = supernode_pattern(job.symbolic, d);
+                let first = pattern.partition_point(|&r| r < row0);
+                let k = pattern[first..].partition_point(|&r| r < row_end);
+                if k == 0 {
+                    continue;
+                }
+                let u = &mut scratch.solve[..k];
+                update(job, d, first, &below[begin[d] - base..end[d] - base], u);
+                for (&v, &row) in u.iter().zip(&pattern[first..first + k]) {
+                    own[row - row0] -= v;
+                }
             }
-            let u = &mut scratch.solve[..k];
-            update(job, d, first, &below[begin[d] - base..end[d] - base], u);
-            for (&v, &row) in u.iter().zip(&pattern[first..first + k]) {
-                own[row - row0] -= v;
-            }
-        }
+        });
     });
 }
 
@@ -260,14 +272,13 @@ fn solve_diagonal(job: &SolveJob<'_>, s: usize, own: &mut [f64]) {
         }
         let (head, tail) = own.split_at_mut(j1);
         let columns = &block[j0 * nrows..];
-        subtract_below(job, columns, nrows, j1, &head[j0..], tail, n - j1);
+        subtract_below(job, columns, nrows, j1, &head[j0..], tail);
         j0 = j1;
     }
 }
 
 /// `tail −= L[at.., cols] · y`: `columns` starts at the first of `y.len()` columns of
-/// `nrows` rows, `tail` holds rows `at..`; rows in halves over the pool, down to one part
-/// per thread, when the rectangle is large (`whole`: the rows at the top call).
+/// `nrows` rows, `tail` holds rows `at..`; its rows split over the pool when large.
 fn subtract_below(
     job: &SolveJob<'_>,
     columns: &[f64],
@@ -275,18 +286,11 @@ fn subtract_below(
     at: usize,
     y: &[f64],
     tail: &mut [f64],
-    whole: usize,
 ) {
-    if job.splits(tail.len(), whole, tail.len() * y.len()) {
-        let mid = tail.len() / 2;
-        let (upper, lower) = tail.split_at_mut(mid);
-        rayon::join(
-            || subtract_below(job, columns, nrows, at, y, upper, whole),
-            || subtract_below(job, columns, nrows, at + mid, y, lower, whole),
-        );
-        return;
-    }
-    kernels::accumulate(job.avx2, columns, nrows, at, y, tail, -1.0);
+    let whole = tail.len();
+    in_parts(job, tail, at, whole, y.len(), &|tail, at| {
+        kernels::accumulate(job.avx2, (columns, nrows, at), y, tail, -1.0);
+    });
 }
 
 /// The backward solve of the consecutive subtrees rooted at `roots`, concurrently.
@@ -351,14 +355,14 @@ fn backward_supernode(
         // SAFETY: `s`'s columns are this task's alone.
         *o = unsafe { x.read(start + c) };
     }
-    subtract_dots(job, block, nrows, ncols, xp, own, 0, ncols);
+    subtract_dots(job, (block, nrows), ncols, xp, own, 0);
     // The diagonal block by blocks of columns, the last first: each block's columns minus
     // their dot products with the solved rows after the block, then the block's triangle.
     let mut j1 = ncols;
     while j1 > 0 {
         let j0 = j1.saturating_sub(DIAGONAL_BLOCK);
         let (head, solved) = own.split_at_mut(j1);
-        subtract_dots(job, block, nrows, j1, solved, &mut head[j0..], j0, j1 - j0);
+        subtract_dots(job, (block, nrows), j1, solved, &mut head[j0..], j0);
         for c in (j0..j1).rev() {
             let col = &block[c * nrows..c * nrows + j1];
             let t = head[c] - kernels::dot(job.avx2, &col[c + 1..], &head[c + 1..j1]);
@@ -372,44 +376,34 @@ fn backward_supernode(
     }
 }
 
-/// `own_c −= L[at..at + xs.len(), c]ᵀ xs` for the columns `c0..c0 + own.len()` (dot
-/// products down each column, contiguous), halves of the columns over the pool, down to one
-/// part per thread, when large (`whole`: the columns at the top call).
-#[allow(clippy::too_many_arguments)]
+/// `own_c −= L[at..at + xs.len(), c]ᵀ xs` for `s`'s columns `c0..c0 + own.len()` of `block`
+/// (dot products down each column, contiguous); the columns split over the pool when large.
 fn subtract_dots(
     job: &SolveJob<'_>,
-    block: &[f64],
-    nrows: usize,
+    (block, nrows): (&[f64], usize),
     at: usize,
     xs: &[f64],
     own: &mut [f64],
     c0: usize,
-    whole: usize,
 ) {
     if xs.is_empty() {
         return;
     }
-    if job.splits(own.len(), whole, own.len() * xs.len()) {
-        let mid = own.len() / 2;
-        let (left, right) = own.split_at_mut(mid);
-        rayon::join(
-            || subtract_dots(job, block, nrows, at, xs, left, c0, whole),
-            || subtract_dots(job, block, nrows, at, xs, right, c0 + mid, whole),
-        );
-        return;
-    }
-    let column = |c: usize| &block[c * nrows + at..][..xs.len()];
-    let mut pairs = own.chunks_exact_mut(2);
-    let mut c = c0;
-    for pair in &mut pairs {
-        let (a, b) = kernels::dot2(job.avx2, column(c), column(c + 1), xs);
-        pair[0] -= a;
-        pair[1] -= b;
-        c += 2;
-    }
-    for o in pairs.into_remainder() {
-        *o -= kernels::dot(job.avx2, column(c), xs);
-    }
+    let whole = own.len();
+    in_parts(job, own, c0, whole, xs.len(), &|own, c0| {
+        let column = |c: usize| &block[c * nrows + at..][..xs.len()];
+        let mut pairs = own.chunks_exact_mut(2);
+        let mut c = c0;
+        for pair in &mut pairs {
+            let (a, b) = kernels::dot2(job.avx2, column(c), column(c + 1), xs);
+            pair[0] -= a;
+            pair[1] -= b;
+            c += 2;
+        }
+        for o in pairs.into_remainder() {
+            *o -= kernels::dot(job.avx2, column(c), xs);
+        }
+    });
 }
 
 /// The solve's inner loops, each compiled twice on x86-64 (baseline and AVX2) from one body:
@@ -427,49 +421,31 @@ mod kernels {
         }
     }
 
+    /// Columns of L: a column-major block from its first column, its row count, and the
+    /// first row used.
+    pub type Columns<'a> = (&'a [f64], usize, usize);
+
     /// `u[i] += sign · Σ_c L[at + i, c] y[c]`, one term at a time in column order, for the
     /// `y.len()` columns of `block` (column-major, `nrows` rows) from its first. Four columns
     /// per pass over `u`, so four streams of L are read at once.
-    pub fn accumulate(
-        avx2: bool,
-        block: &[f64],
-        nrows: usize,
-        at: usize,
-        y: &[f64],
-        u: &mut [f64],
-        sign: f64,
-    ) {
+    pub fn accumulate(avx2: bool, l: Columns<'_>, y: &[f64], u: &mut [f64], sign: f64) {
         #[cfg(target_arch = "x86_64")]
         if avx2 {
             // SAFETY: the CPU has AVX2 (checked by `has_avx2`).
-            return unsafe { accumulate_avx2(block, nrows, at, y, u, sign) };
+            return unsafe { accumulate_avx2(l, y, u, sign) };
         }
         let _ = avx2;
-        accumulate_body(block, nrows, at, y, u, sign)
+        accumulate_body(l, y, u, sign)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn accumulate_avx2(
-        block: &[f64],
-        nrows: usize,
-        at: usize,
-        y: &[f64],
-        u: &mut [f64],
-        sign: f64,
-    ) {
-        accumulate_body(block, nrows, at, y, u, sign)
+    unsafe fn accumulate_avx2(l: Columns<'_>, y: &[f64], u: &mut [f64], sign: f64) {
+        accumulate_body(l, y, u, sign)
     }
 
     #[inline(always)]
-    fn accumulate_body(
-        block: &[f64],
-        nrows: usize,
-        at: usize,
-        y: &[f64],
-        u: &mut [f64],
-        sign: f64,
-    ) {
+    fn accumulate_body((block, nrows, at): Columns<'_>, y: &[f64], u: &mut [f64], sign: f64) {
         let m = u.len();
         let column = |c: usize| &block[c * nrows + at..][..m];
         let mut c = 0;
@@ -561,8 +537,8 @@ mod kernels {
                 let y: Vec<f64> = (0..cols).map(|i| value(i + 500)).collect();
                 for sign in [1.0, -1.0] {
                     let (mut u1, mut u2) = (vec![0.5; 30], vec![0.5; 30]);
-                    accumulate(false, &block, 37, 5, &y, &mut u1, sign);
-                    accumulate(true, &block, 37, 5, &y, &mut u2, sign);
+                    accumulate(false, (&block, 37, 5), &y, &mut u1, sign);
+                    accumulate(true, (&block, 37, 5), &y, &mut u2, sign);
                     assert_eq!(u1, u2);
                     assert_ne!(u1, vec![0.5; 30]);
                 }
