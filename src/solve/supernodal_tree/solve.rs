@@ -18,8 +18,8 @@
 //! diagonal blocks are solved by blocks of [`DIAGONAL_BLOCK`] columns, the rectangle below
 //! (forward) or beside (backward) each block split over the pool when large. Every entry sees
 //! the same operations in the same order whatever the schedule, and the kernels multiply and
-//! add without fused multiply-adds on every instruction set, so the solution has the same bits
-//! on any thread count and machine.
+//! add separately (no fused multiply-adds) in both their builds, so for a given factor the
+//! solution has the same bits on any thread count, with or without AVX2.
 
 use faer::Par;
 use faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky;
