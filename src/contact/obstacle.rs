@@ -20,6 +20,11 @@ pub fn query_count() -> u64 {
     QUERIES.with(Cell::get)
 }
 
+/// Count `n` queries made for this thread by another (a step that ran on rayon's pool).
+pub(crate) fn add_queries(n: u64) {
+    QUERIES.with(|q| q.set(q.get() + n));
+}
+
 fn count_query() {
     QUERIES.with(|q| q.set(q.get() + 1));
 }

@@ -67,6 +67,35 @@ pub fn arm(
     Armed(())
 }
 
+/// The guard armed on this thread (or none), to carry into a step that runs on another
+/// thread ([`super::on_pool`]): the guard lives in a thread-local, and a step that moves onto
+/// rayon's pool must still see its run's budget.
+#[derive(Clone, Copy, Debug)]
+pub struct Carried(Option<Guard>);
+
+/// What [`Carried::run`] sets back when it ends, even by a panic.
+struct Restore(Option<Guard>);
+
+impl Drop for Restore {
+    fn drop(&mut self) {
+        GUARD.with(|g| g.set(self.0));
+    }
+}
+
+/// This thread's guard, to carry to another thread.
+pub fn carry() -> Carried {
+    Carried(GUARD.with(Cell::get))
+}
+
+impl Carried {
+    /// Runs `f` with the carried guard armed on the current thread, then restores the
+    /// thread's own.
+    pub fn run<R>(self, f: impl FnOnce() -> R) -> R {
+        let _restore = Restore(GUARD.with(|g| g.replace(self.0)));
+        f()
+    }
+}
+
 /// Record what the run's steps so far have spent (the run loop's totals), before a step.
 pub fn before_step(factorizations: u64, linear_iterations: u64) {
     GUARD.with(|g| {

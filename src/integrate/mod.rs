@@ -92,6 +92,20 @@ impl State {
     }
 }
 
+/// Runs `f` on a thread of rayon's pool (the caller waits) with the caller's per-thread state:
+/// the run's cost guard goes in ([`cost_guard::carry`]), and the obstacle queries `f` made
+/// are counted back on the caller ([`crate::contact::query_count`]), as if it had run there.
+pub(crate) fn on_pool<R: Send>(f: impl FnOnce() -> R + Send) -> R {
+    let guard = cost_guard::carry();
+    let (result, queries) = rayon::scope(|_| {
+        let before = crate::contact::query_count();
+        let result = guard.run(f);
+        (result, crate::contact::query_count() - before)
+    });
+    crate::contact::add_queries(queries);
+    result
+}
+
 /// A time integrator. One instance serves one model (it may cache the model's mass
 /// factorization and sparsity analysis).
 pub trait Integrator: Send {
@@ -178,7 +192,7 @@ pub trait Integrator: Send {
             // µs each: the caller queues the job, wakes a worker and sleeps until it is done,
             // hundreds of times per Newton iteration in the factorization's kernels). On a
             // pool thread the step's parallel calls are pushes onto its own queue.
-            rayon::scope(|_| self.advance(model, state, dt, &mut report))?;
+            on_pool(|| self.advance(model, state, dt, &mut report))?;
         } else {
             self.advance(model, state, dt, &mut report)?;
         }

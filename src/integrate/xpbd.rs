@@ -404,7 +404,7 @@ impl Integrator for Xpbd {
             // One entry into rayon's pool per step rather than one per sweep (~20 µs each,
             // 50 sweeps per step by default): the step runs on a pool thread, whose sweeps
             // then start at the cost of a join.
-            rayon::scope(|_| self.substeps(model, state, dt, material))?;
+            super::on_pool(|| self.substeps(model, state, dt, material))?;
         } else {
             self.substeps(model, state, dt, material)?;
         }
