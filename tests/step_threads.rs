@@ -14,15 +14,29 @@ use softbench::mesh::generate::box_mesh;
 use softbench::model::{Model, ModelSpec};
 use softbench::parallel::Parallelism;
 
-/// Records the rayon thread index `advance` ran on; takes no step.
-struct WhereItRuns {
+/// Takes no step: records the rayon thread index `advance` ran on, queries an obstacle three
+/// times and asks whether the run's budget is passed.
+struct Probe {
     explicit: bool,
     seen: Mutex<Vec<Option<usize>>>,
 }
 
-impl Integrator for WhereItRuns {
+impl Probe {
+    fn new(explicit: bool) -> Self {
+        Self {
+            explicit,
+            seen: Mutex::new(Vec::new()),
+        }
+    }
+
+    fn last(&mut self) -> Option<usize> {
+        *self.seen.get_mut().unwrap().last().expect("a step")
+    }
+}
+
+impl Integrator for Probe {
     fn name(&self) -> &'static str {
-        "where-it-runs"
+        "probe"
     }
     fn order(&self) -> u32 {
         1
@@ -32,16 +46,23 @@ impl Integrator for WhereItRuns {
     }
     fn advance(
         &mut self,
-        _model: &mut Model,
+        model: &mut Model,
         _state: &mut State,
         _dt: f64,
-        _report: &mut StepReport,
+        report: &mut StepReport,
     ) -> Result<(), StepError> {
         self.seen
             .get_mut()
             .unwrap()
             .push(rayon::current_thread_index());
-        Ok(())
+        let plane = Obstacle::new(Shape::HalfSpace(HalfSpace::new(
+            Vector3::zeros(),
+            Vector3::new(0.0, 1.0, 0.0),
+        )));
+        for _ in 0..3 {
+            plane.sample(&Vector3::new(0.0, 1.0, 0.0), 0.0);
+        }
+        StepError::stop_if_over_budget(model, report)
     }
 }
 
@@ -60,16 +81,12 @@ fn block(cells: [usize; 3], par: Parallelism) -> Model {
 
 /// The thread index `advance` saw in one step called from this (non-pool) thread.
 fn stepped_on(model: &mut Model, explicit: bool) -> Option<usize> {
-    let mut integ = WhereItRuns {
-        explicit,
-        seen: Mutex::new(Vec::new()),
-    };
+    let mut integ = Probe::new(explicit);
     let mut state = State::at_rest(model);
     integ.step(model, &mut state, 0.01).unwrap();
     assert_eq!(state.t, 0.01, "the step's bookkeeping still runs");
-    let seen = integ.seen.into_inner().unwrap();
-    assert_eq!(seen.len(), 1);
-    seen[0]
+    assert_eq!(integ.seen.get_mut().unwrap().len(), 1);
+    integ.last()
 }
 
 #[test]
@@ -109,41 +126,6 @@ fn a_step_enters_the_pool_only_when_its_element_loops_split() {
     assert_eq!(inside, stepped);
 }
 
-/// Inside its step: queries an obstacle three times, then asks whether the run's budget is
-/// passed, recording the thread it ran on.
-struct BudgetProbe {
-    thread: Option<usize>,
-}
-
-impl Integrator for BudgetProbe {
-    fn name(&self) -> &'static str {
-        "budget-probe"
-    }
-    fn order(&self) -> u32 {
-        1
-    }
-    fn is_explicit(&self) -> bool {
-        false
-    }
-    fn advance(
-        &mut self,
-        model: &mut Model,
-        _state: &mut State,
-        _dt: f64,
-        report: &mut StepReport,
-    ) -> Result<(), StepError> {
-        self.thread = rayon::current_thread_index();
-        let plane = Obstacle::new(Shape::HalfSpace(HalfSpace::new(
-            Vector3::zeros(),
-            Vector3::new(0.0, 1.0, 0.0),
-        )));
-        for _ in 0..3 {
-            plane.sample(&Vector3::new(0.0, 1.0, 0.0), 0.0);
-        }
-        StepError::stop_if_over_budget(model, report)
-    }
-}
-
 #[test]
 fn the_runs_budget_and_its_obstacle_queries_follow_a_step_onto_the_pool() {
     let _ = rayon::ThreadPoolBuilder::new()
@@ -152,12 +134,12 @@ fn the_runs_budget_and_its_obstacle_queries_follow_a_step_onto_the_pool() {
     let mut model = block([8, 8, 8], Parallelism::Rayon);
     assert!(model.element_loops_split(true));
     let mut state = State::at_rest(&model);
-    let mut probe = BudgetProbe { thread: None };
+    let mut probe = Probe::new(false);
 
     // No budget armed: the step succeeds on a pool thread, its queries counted here.
     let before = query_count();
     probe.step(&mut model, &mut state, 0.01).unwrap();
-    assert!(probe.thread.is_some(), "the step ran on the pool");
+    assert!(probe.last().is_some(), "the step ran on the pool");
     assert_eq!(
         query_count(),
         before + 3,
@@ -171,7 +153,7 @@ fn the_runs_budget_and_its_obstacle_queries_follow_a_step_onto_the_pool() {
         Err(StepError::OverBudget { what, .. }) => assert_eq!(what, "wall_seconds"),
         other => panic!("the budget did not reach the pool thread: {other:?}"),
     }
-    assert!(probe.thread.is_some());
+    assert!(probe.last().is_some());
     drop(armed);
     // The pool threads keep no guard of their own afterwards.
     probe.step(&mut model, &mut state, 0.01).unwrap();
