@@ -127,6 +127,52 @@ where
     );
 }
 
+/// Per-thread event counts that follow work moved onto rayon's pool by [`counted_on_pool`]:
+/// what the work counted on the pool thread is added to the caller's count, as if it had run
+/// there. Kept here, below every module that counts or moves work.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ThreadCount {
+    /// Obstacle queries (`contact::query_count`): whether a run touched contact code.
+    ObstacleQueries,
+}
+
+const THREAD_COUNTS: usize = 1;
+
+thread_local! {
+    static COUNTS: [std::cell::Cell<u64>; THREAD_COUNTS] = const { [std::cell::Cell::new(0)] };
+}
+
+/// This thread's count of `which`.
+pub fn thread_count(which: ThreadCount) -> u64 {
+    COUNTS.with(|c| c[which as usize].get())
+}
+
+/// Adds `n` to this thread's count of `which`.
+pub fn add_to_thread_count(which: ThreadCount, n: u64) {
+    COUNTS.with(|c| c[which as usize].set(c[which as usize].get() + n));
+}
+
+/// Runs `f` on a thread of rayon's pool (the caller waits), then adds what `f` counted there
+/// ([`ThreadCount`]) to the caller's counts.
+pub fn counted_on_pool<R: Send>(f: impl FnOnce() -> R + Send) -> R {
+    let all = |c: &[std::cell::Cell<u64>; THREAD_COUNTS]| c.each_ref().map(|x| x.get());
+    let (result, counted) = rayon::scope(|_| {
+        let before = COUNTS.with(all);
+        let result = f();
+        let after = COUNTS.with(all);
+        (
+            result,
+            std::array::from_fn::<u64, THREAD_COUNTS, _>(|i| after[i] - before[i]),
+        )
+    });
+    COUNTS.with(|c| {
+        for (cell, n) in c.iter().zip(counted) {
+            cell.set(cell.get() + n);
+        }
+    });
+    result
+}
+
 /// A slice that parallel tasks read and write in place at indices the caller keeps disjoint:
 /// for a colour of a graph colouring, no two items of one colour touch the same entry, so
 /// they can all update it at once without a buffer (see [`crate::colouring`]).

@@ -54,7 +54,6 @@ pub use config::{ContactConfig, ContactResponse, ObstacleConfig, ObstacleKind};
 pub use constrained::ContactConstraints;
 pub use cuboid::Cuboid;
 pub use half_space::HalfSpace;
-pub(crate) use obstacle::add_queries;
 pub use obstacle::{ContactStats, Obstacle, ObstacleSample, Obstacles, Shape, query_count};
 pub use path::Path;
 pub use penalty::PenaltyContact;

@@ -5,28 +5,19 @@ use super::mesh_obstacle::MeshObstacle;
 use super::path::Path;
 use super::sdf::{Sdf, SdfValue};
 use super::{Capsule, Cuboid, HalfSpace, Sphere};
+use crate::parallel::{ThreadCount, add_to_thread_count, thread_count};
 use nalgebra::{Isometry3, Point3, Translation3, Vector3};
-use std::cell::Cell;
 
-thread_local! {
-    /// Obstacle queries made by this thread (each [`Obstacle::sample`] and
-    /// [`Obstacle::for_each_piece`] call counts one). Contact code runs on the thread that
-    /// steps the integrator, so this tells whether a run touched any contact code.
-    static QUERIES: Cell<u64> = const { Cell::new(0) };
-}
-
-/// How many obstacle queries the current thread has made.
+/// How many obstacle queries the current thread has made (each [`Obstacle::sample`] and
+/// [`Obstacle::for_each_piece`] call counts one). Contact code runs in the step of the thread
+/// that steps the integrator (or on the pool thread it moved to, whose count is added back:
+/// [`crate::parallel::counted_on_pool`]), so this tells whether a run touched any contact code.
 pub fn query_count() -> u64 {
-    QUERIES.with(Cell::get)
-}
-
-/// Count `n` queries made for this thread by another (a step that ran on rayon's pool).
-pub(crate) fn add_queries(n: u64) {
-    QUERIES.with(|q| q.set(q.get() + n));
+    thread_count(ThreadCount::ObstacleQueries)
 }
 
 fn count_query() {
-    QUERIES.with(|q| q.set(q.get() + 1));
+    add_to_thread_count(ThreadCount::ObstacleQueries, 1);
 }
 
 /// What an obstacle is made of. One variant per shape file, plus groups.

@@ -93,17 +93,11 @@ impl State {
 }
 
 /// Runs `f` on a thread of rayon's pool (the caller waits) with the caller's per-thread state:
-/// the run's cost guard goes in ([`cost_guard::carry`]), and the obstacle queries `f` made
-/// are counted back on the caller ([`crate::contact::query_count`]), as if it had run there.
+/// the run's cost guard goes in ([`cost_guard::carry`]), and what `f` counted there (obstacle
+/// queries) comes back ([`crate::parallel::counted_on_pool`]), as if it had run on the caller.
 pub(crate) fn on_pool<R: Send>(f: impl FnOnce() -> R + Send) -> R {
     let guard = cost_guard::carry();
-    let (result, queries) = rayon::scope(|_| {
-        let before = crate::contact::query_count();
-        let result = guard.run(f);
-        (result, crate::contact::query_count() - before)
-    });
-    crate::contact::add_queries(queries);
-    result
+    crate::parallel::counted_on_pool(|| guard.run(f))
 }
 
 /// A time integrator. One instance serves one model (it may cache the model's mass
