@@ -152,9 +152,14 @@ pub fn add_to_thread_count(which: ThreadCount, n: u64) {
     COUNTS.with(|c| c[which as usize].set(c[which as usize].get() + n));
 }
 
-/// Runs `f` on a thread of rayon's pool (the caller waits), then adds what `f` counted there
-/// ([`ThreadCount`]) to the caller's counts.
+/// Runs `f` on a thread of rayon's pool: right here on a pool thread, else by entering the
+/// pool once (the caller waits), so `f`'s parallel calls start at the cost of a join rather
+/// than each waking the pool from outside. What `f` counted on the pool thread
+/// ([`ThreadCount`]) is added to the caller's counts.
 pub fn counted_on_pool<R: Send>(f: impl FnOnce() -> R + Send) -> R {
+    if rayon::current_thread_index().is_some() {
+        return f();
+    }
     let all = |c: &[std::cell::Cell<u64>; THREAD_COUNTS]| c.each_ref().map(|x| x.get());
     let (result, counted) = rayon::scope(|_| {
         let before = COUNTS.with(all);

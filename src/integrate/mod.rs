@@ -178,10 +178,7 @@ pub trait Integrator: Send {
             dt,
             ..StepReport::default()
         };
-        if model.element_loops_split(!self.is_explicit())
-            && rayon::current_num_threads() > 1
-            && rayon::current_thread_index().is_none()
-        {
+        if model.element_loops_split(!self.is_explicit()) && rayon::current_num_threads() > 1 {
             // One entry into rayon's pool per step rather than one per parallel call (tens of
             // µs each: the caller queues the job, wakes a worker and sleeps until it is done,
             // hundreds of times per Newton iteration in the factorization's kernels). On a

@@ -397,10 +397,7 @@ impl Integrator for Xpbd {
             self.set_up(model, &state.q);
         }
         let par = model.parallelism();
-        if par == Parallelism::Rayon
-            && self.schedule.splits()
-            && rayon::current_thread_index().is_none()
-        {
+        if par == Parallelism::Rayon && self.schedule.splits() {
             // One entry into rayon's pool per step rather than one per sweep (~20 µs each,
             // 50 sweeps per step by default): the step runs on a pool thread, whose sweeps
             // then start at the cost of a join.

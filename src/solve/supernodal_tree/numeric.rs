@@ -150,12 +150,10 @@ pub fn factorize(
         if ns > 0 {
             factor_sequential(&job, 0..ns, l_values, 0);
         }
-    } else if rayon::current_thread_index().is_none() {
-        // From outside the pool: enter it once, so the kernels of the supernodes after the
-        // last join (the root's) do not each enter it from this thread.
-        rayon::scope(|_| factor_forest(&job, &schedule.roots, l_values, 0));
     } else {
-        factor_forest(&job, &schedule.roots, l_values, 0);
+        // On a pool thread, so the kernels of the supernodes after the last join (the
+        // root's) do not each enter the pool from outside.
+        crate::parallel::counted_on_pool(|| factor_forest(&job, &schedule.roots, l_values, 0));
     }
     match job.failed.load(AtomicOrdering::Relaxed) {
         NONE => Ok(()),

@@ -125,16 +125,11 @@ pub fn solve_in_place(
         return;
     }
     if threads > 1 {
-        let both = |x: &mut [f64]| {
+        // On a pool thread, entered once rather than at every join.
+        crate::parallel::counted_on_pool(|| {
             forward_forest(&job, &schedule.roots, x, 0);
             backward_forest(&job, &schedule.roots, &DisjointSlice::new(x));
-        };
-        // From outside the pool, enter it once rather than at every join.
-        if rayon::current_thread_index().is_none() {
-            rayon::scope(|_| both(x));
-        } else {
-            both(x);
-        }
+        });
     } else {
         pool.with(schedule, |scratch| {
             forward_task(&job, 0..ns, x, 0, &mut scratch.solve);
