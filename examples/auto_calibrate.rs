@@ -1,6 +1,6 @@
-//! Measures the rates behind `linear_solver = "auto"` (src/solve/auto.rs) on backward-Euler
-//! systems of generated boxes and balls (tests/support/fem_system.rs), and checks the rule's
-//! choice against the measured faster solver.
+//! Measures the rates behind `linear_solver = "auto"` (crates/core/src/solve/auto.rs) on
+//! backward-Euler systems of generated boxes and balls (tests/support/fem_system.rs), and checks
+//! the rule's choice against the measured faster solver.
 //!
 //! Per mesh, one thread, medians of `repeats`:
 //! - Cholesky (the `direct.ordering` auto uses, METIS here): numeric factorization + one
@@ -13,8 +13,9 @@
 //!
 //! Its CG solves go to 1e-8 (exact directions); the rule's iteration counts for inexact
 //! Newton directions (`CG_ITERATIONS`, `INEXACT_NEWTON_ITERATIONS`) and CG + AMG's parallel
-//! speed-up come from the solver-scaling study and step_49k instead (see src/solve/auto.rs), so
-//! the choices printed here lean towards Cholesky more than the rule does.
+//! speed-up come from the solver-scaling study and step_49k instead (see
+//! crates/core/src/solve/auto.rs), so the choices printed here lean towards Cholesky more than
+//! the rule does.
 //!
 //! `cargo run --release --example auto_calibrate -- [repeats]`
 

@@ -594,7 +594,15 @@ fn has_word(text: &str, word: &str) -> bool {
 fn design_md_names_every_module_of_the_crate() {
     let layout = design_layout();
     let mut missing = Vec::new();
-    let mut stack = vec![root().join("src")];
+    let mut stack: Vec<PathBuf> = [
+        "crates/core/src",
+        "crates/run/src",
+        "crates/study/src",
+        "src",
+    ]
+    .iter()
+    .map(|src| root().join(src))
+    .collect();
     let mut files = 0;
     while let Some(dir) = stack.pop() {
         for entry in std::fs::read_dir(&dir).unwrap() {

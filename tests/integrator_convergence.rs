@@ -147,7 +147,7 @@ fn bdf_k_reaches_order_k_up_to_5() {
     // Pre-asymptotic at 25 steps (pairwise 3.59, 3.85, 3.94): start at 50.
     assert_order(method("bdf4"), 4.0, 50);
     assert_order(method("bdf5"), 5.0, 50);
-    // BDF6 is not measured: its start-up is accurate enough for order 5 only (src/integrate/
+    // BDF6 is not measured: its start-up is accurate enough for order 5 only (crates/core/src/integrate/
     // bdf.rs), and from 100 steps on its errors reach rounding.
 }
 

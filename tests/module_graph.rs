@@ -1,8 +1,10 @@
-//! Module dependencies point one way: no file of a folder of `src/` reaches, through the
-//! modules it names, a file that names it back, and no folder of `src/` does that with
-//! another (`src/a/` -> `src/b/` -> `src/a/`). DESIGN.md promises it; this test holds it.
+//! Module dependencies point one way. Between the crates of the workspace Cargo holds it
+//! (softbench-core <- softbench-run <- softbench-study <- softbench, each crate depending only on
+//! those before it); inside each crate this test holds it: no file of a folder reaches, through
+//! the modules it names, a file that names it back, and no top-level module of a crate does
+//! that with another (`a/` -> `b/` -> `a/`). DESIGN.md promises both.
 //!
-//! The test reads the crate's source text, drops comments, string literals and
+//! The test reads each crate's source text, drops comments, string literals and
 //! `#[cfg(test)]` items, and collects every path that starts with `super`, `self` or `crate`
 //! (with `use` groups such as `use super::{a, b::{c, d}}` expanded), plus `child::...` paths
 //! in a file that declares `mod child;`. Each path is resolved against the file's module (and
@@ -22,7 +24,7 @@ struct Source {
     module: Module,
     is_mod_rs: bool,
     text: String,
-    /// Where it is, for messages (`src/mesh/read.rs`).
+    /// Where it is, for messages (`crates/core/src/mesh/read.rs`).
     shown: String,
 }
 
@@ -34,16 +36,55 @@ struct Arrow {
     at: String,
 }
 
+/// The source folders of the workspace's crates, lowest floor first.
+const CRATE_SOURCES: [&str; 4] = [
+    "crates/core/src",
+    "crates/run/src",
+    "crates/study/src",
+    "src",
+];
+
 #[test]
-fn no_folder_of_src_has_an_import_cycle_and_folders_point_one_way() {
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
-    let sources = read_tree(&src);
-    assert!(
-        sources.len() > 100,
-        "only {} files under src/",
-        sources.len()
-    );
-    let arrows = arrows(&sources);
+fn no_folder_of_a_crate_has_an_import_cycle_and_folders_point_one_way() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut failures = Vec::new();
+    let mut files = 0;
+    for crate_src in CRATE_SOURCES {
+        let sources = read_tree(&root.join(crate_src), crate_src);
+        files += sources.len();
+        failures.extend(crate_failures(&sources, crate_src));
+    }
+    assert!(files > 200, "only {files} files under the crates' sources");
+    assert!(failures.is_empty(), "{}", failures.join("\n\n"));
+}
+
+#[test]
+fn the_crates_depend_only_on_the_floors_below_them() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let floors = ["softbench-core", "softbench-run", "softbench-study"];
+    for (i, dir) in ["crates/core", "crates/run", "crates/study"]
+        .iter()
+        .enumerate()
+    {
+        let manifest = std::fs::read_to_string(root.join(dir).join("Cargo.toml")).unwrap();
+        let manifest: toml::Table = toml::from_str(&manifest).unwrap();
+        let deps = manifest["dependencies"].as_table().unwrap();
+        let named: Vec<&str> = floors
+            .iter()
+            .copied()
+            .filter(|f| deps.contains_key(*f))
+            .collect();
+        assert_eq!(
+            named,
+            floors[..i],
+            "{dir}/Cargo.toml names the floors {named:?}"
+        );
+    }
+}
+
+/// The cycles inside the folders of one crate and between its top-level modules.
+fn crate_failures(sources: &[Source], crate_src: &str) -> Vec<String> {
+    let arrows = arrows(sources);
     let mut failures = Vec::new();
     let folders: BTreeSet<String> = sources
         .iter()
@@ -58,7 +99,7 @@ fn no_folder_of_src_has_an_import_cycle_and_folders_point_one_way() {
             .cloned()
             .collect();
         for cycle in cycles(&inside) {
-            failures.push(format!("src/{folder}/: {cycle}"));
+            failures.push(format!("{crate_src}/{folder}/: {cycle}"));
         }
     }
     let top: Vec<Arrow> = arrows
@@ -71,9 +112,9 @@ fn no_folder_of_src_has_an_import_cycle_and_folders_point_one_way() {
         })
         .collect();
     for cycle in cycles(&top) {
-        failures.push(format!("between the modules of src/: {cycle}"));
+        failures.push(format!("between the modules of {crate_src}/: {cycle}"));
     }
-    assert!(failures.is_empty(), "{}", failures.join("\n\n"));
+    failures
 }
 
 #[test]
@@ -128,7 +169,7 @@ fn a_small_tree_with_a_cycle_fails_and_names_it() {
     ];
     let sources: Vec<Source> = tree
         .iter()
-        .filter_map(|(path, text)| source(path, text.clone()))
+        .filter_map(|(path, text)| source(path, text.clone(), "src"))
         .collect();
     let arrows = arrows(&sources);
     let shop: Vec<Arrow> = arrows
@@ -180,8 +221,8 @@ fn a_small_tree_with_a_cycle_fails_and_names_it() {
     assert!(cycles(&acyclic).is_empty());
 }
 
-/// Every `.rs` file under `src` except `src/bin/`, as [`Source`]s.
-fn read_tree(src: &Path) -> Vec<Source> {
+/// Every `.rs` file under `src` except `src/bin/`, as [`Source`]s (`shown` under `name`).
+fn read_tree(src: &Path, name: &str) -> Vec<Source> {
     let mut files = Vec::new();
     let mut stack = vec![src.to_path_buf()];
     while let Some(dir) = stack.pop() {
@@ -202,7 +243,7 @@ fn read_tree(src: &Path) -> Vec<Source> {
     files
         .into_iter()
         .filter(|(path, _)| !test_only.contains(path))
-        .filter_map(|(path, text)| source(&path, text))
+        .filter_map(|(path, text)| source(&path, text, name))
         .collect()
 }
 
@@ -222,8 +263,9 @@ fn test_only_files(files: &[(PathBuf, String)]) -> BTreeSet<PathBuf> {
     out
 }
 
-/// The [`Source`] of a file at `path` (relative to `src/`); `None` for `lib.rs`.
-fn source(path: &Path, text: String) -> Option<Source> {
+/// The [`Source`] of a file at `path` (relative to its crate's `src`, shown under `name`);
+/// `None` for `lib.rs`.
+fn source(path: &Path, text: String, name: &str) -> Option<Source> {
     let mut module: Module = path
         .with_extension("")
         .components()
@@ -240,7 +282,7 @@ fn source(path: &Path, text: String) -> Option<Source> {
         module,
         is_mod_rs,
         text,
-        shown: format!("src/{}", path.display()),
+        shown: format!("{name}/{}", path.display()),
     })
 }
 

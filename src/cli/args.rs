@@ -5,8 +5,8 @@ use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand};
 
-use crate::mesh::MeshFormat;
-use crate::study;
+use softbench_core::mesh::MeshFormat;
+use softbench_study::study;
 
 /// A harness for research on time integrators and solvers for deformable bodies.
 #[derive(Parser)]

@@ -5,7 +5,7 @@
 //! nothing is written; 130 or 143 after SIGINT or SIGTERM (what was done is written first).
 //!
 //! Nothing here uses `println!`/`eprintln!`: they panic on a closed pipe. Output goes through
-//! [`crate::console`], and a broken pipe ends the command quietly.
+//! [`softbench_run::console`], and a broken pipe ends the command quietly.
 //!
 //! It is a library module so that a program which registers its own methods, solvers or
 //! materials gets the whole command line with them: its `main` registers, then calls
@@ -25,31 +25,33 @@ use std::process::ExitCode;
 mod args;
 use args::*;
 
-use crate::console;
-use crate::contact::{ContactResponse, ObstacleKind};
-use crate::data::{DataError, DataPaths};
-use crate::export::{DisplayError, ExportFormat};
-use crate::fem::FilterSpace;
-use crate::integrate::HessianFilter;
-use crate::integrate::acceleration::Acceleration;
-use crate::integrate::methods::METHODS;
-use crate::integrate::newton;
-use crate::integrate::vbd::VbdSweep;
-use crate::interrupt::{self, Signal};
-use crate::lock::{FolderLock, LockError, Wait, Waiting};
-use crate::material::MaterialKind;
-use crate::mesh::{AnyMesh, MESH_FORMATS, MeshError, MeshFormat, MeshReport, read_mesh};
-use crate::parallel::Parallelism;
-use crate::pipeline::{RUN_SNAPSHOTS, SimulateError, SimulateOptions, Simulation, draw_pictures};
-use crate::registry::{Listing, NamedEnum};
-use crate::render::{Coloring, Snapshots};
-use crate::run::OutcomeKind;
-use crate::scene::{self, SceneError};
-use crate::solve::LINEAR_SOLVERS;
-use crate::study::{self, StudyError};
 use anyhow::Context;
 use clap::Parser;
 use serde::Serialize;
+use softbench_core::contact::{ContactResponse, ObstacleKind};
+use softbench_core::fem::FilterSpace;
+use softbench_core::integrate::HessianFilter;
+use softbench_core::integrate::acceleration::Acceleration;
+use softbench_core::integrate::methods::METHODS;
+use softbench_core::integrate::newton;
+use softbench_core::integrate::vbd::VbdSweep;
+use softbench_core::interrupt::{self, Signal};
+use softbench_core::material::MaterialKind;
+use softbench_core::mesh::{AnyMesh, MESH_FORMATS, MeshError, MeshFormat, MeshReport, read_mesh};
+use softbench_core::parallel::Parallelism;
+use softbench_core::registry::{Listing, NamedEnum};
+use softbench_core::solve::LINEAR_SOLVERS;
+use softbench_run::console;
+use softbench_run::data::{DataError, DataPaths};
+use softbench_run::export::{DisplayError, ExportFormat};
+use softbench_run::lock::{FolderLock, LockError, Wait, Waiting};
+use softbench_run::pipeline::{
+    RUN_SNAPSHOTS, SimulateError, SimulateOptions, Simulation, draw_pictures,
+};
+use softbench_run::render::{Coloring, Snapshots};
+use softbench_run::run::OutcomeKind;
+use softbench_run::scene::{self, SceneError};
+use softbench_study::study::{self, StudyError};
 
 /// Run the command line of this process's arguments (`std::env::args_os`) with every method,
 /// solver and material registered so far, and return the exit code. Parse errors and `--help`
@@ -137,20 +139,20 @@ pub fn is_bad_input(err: &anyhow::Error) -> bool {
             || e.is::<BadInput>()
             || e.is::<StudyError>()
             || e.is::<study::profiles::ProfilesError>()
-            || e.is::<crate::ledger::LedgerError>()
-            || e.is::<crate::slurm::SlurmError>()
+            || e.is::<softbench_study::ledger::LedgerError>()
+            || e.is::<softbench_study::slurm::SlurmError>()
                 && !e
-                    .downcast_ref::<crate::slurm::SlurmError>()
+                    .downcast_ref::<softbench_study::slurm::SlurmError>()
                     .is_some_and(|s| {
                         matches!(
                             s,
-                            crate::slurm::SlurmError::NoSbatch { .. }
-                                | crate::slurm::SlurmError::Sbatch { .. }
+                            softbench_study::slurm::SlurmError::NoSbatch { .. }
+                                | softbench_study::slurm::SlurmError::Sbatch { .. }
                         )
                     })
             || e.downcast_ref::<study::MergeError>()
                 .is_some_and(|m| matches!(m, study::MergeError::NotAStudy(_)))
-            || e.is::<crate::limits::OverBudget>()
+            || e.is::<softbench_core::limits::OverBudget>()
             || e.downcast_ref::<LockError>()
                 .is_some_and(|l| matches!(l, LockError::Unreadable { .. }))
             || e.downcast_ref::<study::RunError>()
@@ -420,7 +422,7 @@ fn list() -> anyhow::Result<ExitCode> {
         ),
         (
             "step-size controllers (integrator.adaptive.controller)",
-            crate::integrate::Controller::listing(),
+            softbench_core::integrate::Controller::listing(),
         ),
         (
             "local-solver accelerations (integrator.vbd/projective_dynamics.acceleration)",
@@ -660,10 +662,10 @@ fn slurm(args: &SlurmArgs) -> anyhow::Result<ExitCode> {
     }
     check_out_folder("--out", &args.out)?;
     if let Some(t) = &args.time {
-        crate::slurm::check_time(t)?;
+        softbench_study::slurm::check_time(t)?;
     }
     if let Some(p) = &args.partition {
-        crate::slurm::check_partition(p)?;
+        softbench_study::slurm::check_partition(p)?;
     }
     // Everything that can be wrong with the study is found before anything is written.
     let data = DataPaths::from_env();
@@ -685,7 +687,7 @@ fn slurm(args: &SlurmArgs) -> anyhow::Result<ExitCode> {
     let absolute = |p: &Path| {
         std::path::absolute(p).with_context(|| format!("cannot resolve {}", p.display()))
     };
-    let job = crate::slurm::SlurmJob {
+    let job = softbench_study::slurm::SlurmJob {
         study_file: absolute(&args.study)?,
         name: study.file.name.clone(),
         out: absolute(&args.out)?,
@@ -818,7 +820,7 @@ fn profiles(args: &ProfilesArgs) -> anyhow::Result<ExitCode> {
 }
 
 fn ledger(args: &LedgerArgs) -> anyhow::Result<ExitCode> {
-    use crate::ledger;
+    use softbench_study::ledger;
     let claims = ledger::read_claims(&args.claims)?;
     let judged = ledger::judge(&claims, &args.results);
     let page = ledger::page::render(&judged, &args.results.display().to_string());
@@ -859,7 +861,7 @@ fn ledger(args: &LedgerArgs) -> anyhow::Result<ExitCode> {
     if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }
-    crate::io::write_atomic(&out, |w| w.write_all(page.as_bytes()))
+    softbench_run::io::write_atomic(&out, |w| w.write_all(page.as_bytes()))
         .with_context(|| format!("cannot write {}", out.display()))?;
     console::out(&format!(
         "{} claims: {}; wrote {}",

@@ -1,0 +1,212 @@
+//! The claims ledger: claims from the literature about the methods softbench has, each with
+//! the study that tests it and a rule that computes its verdict — validated, qualified (with
+//! the condition), refuted or unmeasured — from committed results, never typed by hand.
+//!
+//! A claim is one TOML file in a folder (`claims/`): the paper, the claim in one sentence,
+//! its dimension (speed, robustness, accuracy, convergence), the study whose results test it
+//! (`results/<study>/`), optionally the two methods it ranks (`beats = ["a", "b"]`, an edge of
+//! the claims graph), and a `[rule]` (see [`rule`]; [`verdict`] counts its cases). `softbench ledger` evaluates every claim
+//! and renders the ledger as one page ([`page`]).
+
+pub mod filter;
+pub mod page;
+pub mod rule;
+pub mod verdict;
+
+use crate::study::table::Table;
+use rule::RuleSpec;
+use std::path::{Path, PathBuf};
+use verdict::Verdict;
+
+/// The dimensions a claim can be about.
+pub const DIMENSIONS: [&str; 4] = ["speed", "robustness", "accuracy", "convergence"];
+
+/// Why the ledger cannot be built.
+#[derive(Debug, thiserror::Error)]
+pub enum LedgerError {
+    #[error("{path}: cannot read: {error}")]
+    Io {
+        path: PathBuf,
+        error: std::io::Error,
+    },
+    #[error("{path}: {message}")]
+    Invalid { path: PathBuf, message: String },
+    #[error("{path}: no claim files (*.toml) in it")]
+    Empty { path: PathBuf },
+}
+
+/// One claim, as its file states it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Claim {
+    /// The file stem: the claim's id.
+    pub id: String,
+    pub path: PathBuf,
+    /// The claim in one sentence.
+    pub claim: String,
+    /// The citation.
+    pub paper: String,
+    /// Where to read it (a DOI or URL).
+    pub link: Option<String>,
+    /// The paper's own words, where they were checked, and where in the paper.
+    pub quote: Option<String>,
+    pub quote_where: Option<String>,
+    pub dimension: String,
+    /// The study whose committed results test it (`results/<study>/`).
+    pub study: String,
+    /// `[a, b]`: the claim says `a` beats `b` (an edge of the claims graph).
+    pub beats: Option<[String; 2]>,
+    /// What the test does not cover of the claim (hardware, features softbench lacks).
+    pub caveats: Option<String>,
+    pub rule: RuleSpec,
+}
+
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ClaimFile {
+    claim: String,
+    paper: String,
+    #[serde(default)]
+    link: Option<String>,
+    #[serde(default)]
+    quote: Option<String>,
+    #[serde(default)]
+    quote_where: Option<String>,
+    dimension: String,
+    study: String,
+    #[serde(default)]
+    beats: Option<[String; 2]>,
+    #[serde(default)]
+    caveats: Option<String>,
+    rule: toml::Table,
+}
+
+impl Claim {
+    /// Read and check one claim file.
+    pub fn read(path: &Path) -> Result<Self, LedgerError> {
+        let text = std::fs::read_to_string(path).map_err(|error| LedgerError::Io {
+            path: path.to_owned(),
+            error,
+        })?;
+        let invalid = |message: String| LedgerError::Invalid {
+            path: path.to_owned(),
+            message,
+        };
+        let file: ClaimFile = toml::from_str(&text)
+            .map_err(|e| invalid(softbench_core::quote::clip_source(e.to_string().trim_end())))?;
+        if !DIMENSIONS.contains(&file.dimension.as_str()) {
+            return Err(invalid(format!(
+                "dimension: {}",
+                softbench_core::names::unknown_name_message(
+                    "dimension",
+                    &file.dimension,
+                    &DIMENSIONS
+                )
+            )));
+        }
+        for (key, value) in [
+            ("claim", &file.claim),
+            ("paper", &file.paper),
+            ("study", &file.study),
+        ] {
+            if value.trim().is_empty() {
+                return Err(invalid(format!("{key}: must not be empty")));
+            }
+        }
+        crate::study::check_study_name(&file.study).map_err(|m| invalid(format!("study: {m}")))?;
+        let rule = RuleSpec::parse(&file.rule).map_err(|m| invalid(format!("rule: {m}")))?;
+        Ok(Self {
+            id: path
+                .file_stem()
+                .map_or_else(String::new, |s| s.to_string_lossy().into_owned()),
+            path: path.to_owned(),
+            claim: file.claim,
+            paper: file.paper,
+            link: file.link,
+            quote: file.quote,
+            quote_where: file.quote_where,
+            dimension: file.dimension,
+            study: file.study,
+            beats: file.beats,
+            caveats: file.caveats,
+            rule,
+        })
+    }
+}
+
+/// Every claim file of a folder, by file name.
+pub fn read_claims(dir: &Path) -> Result<Vec<Claim>, LedgerError> {
+    let entries = std::fs::read_dir(dir).map_err(|error| LedgerError::Io {
+        path: dir.to_owned(),
+        error,
+    })?;
+    let mut paths: Vec<PathBuf> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    paths.sort();
+    if paths.is_empty() {
+        return Err(LedgerError::Empty {
+            path: dir.to_owned(),
+        });
+    }
+    paths.iter().map(|p| Claim::read(p)).collect()
+}
+
+/// A claim with its verdict, or why it could not be evaluated (its results are missing or lack
+/// a column the rule reads: an unmeasured claim, with the reason).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Judged {
+    pub claim: Claim,
+    /// The table the rule read, relative to the results folder.
+    pub table: String,
+    pub verdict: Verdict,
+}
+
+/// Evaluate every claim against the committed results under `results` (`<results>/<study>/`).
+pub fn judge(claims: &[Claim], results: &Path) -> Vec<Judged> {
+    claims
+        .iter()
+        .map(|claim| {
+            let table_path = results.join(&claim.study).join(&claim.rule.table);
+            let shown = format!("{}/{}", claim.study, claim.rule.table);
+            let unmeasured = |why: String| Verdict {
+                class: verdict::Class::Unmeasured,
+                condition: why,
+                held: 0,
+                decided: 0,
+                ties: 0,
+                strata: Vec::new(),
+                examples: Vec::new(),
+            };
+            let verdict = match Table::read(&table_path) {
+                Ok(Some(table)) => {
+                    let missing: Vec<String> = claim
+                        .rule
+                        .columns()
+                        .into_iter()
+                        .filter(|c| table.column(c).is_none())
+                        .collect();
+                    if missing.is_empty() {
+                        verdict::evaluate(&claim.rule, &table)
+                    } else {
+                        unmeasured(format!(
+                            "`{shown}` has no column {}",
+                            missing
+                                .iter()
+                                .map(|c| format!("`{c}`"))
+                                .collect::<Vec<_>>()
+                                .join(", ")
+                        ))
+                    }
+                }
+                Ok(None) => unmeasured(format!("no committed results: `{shown}` does not exist")),
+                Err(e) => unmeasured(format!("`{shown}` cannot be read: {e}")),
+            };
+            Judged {
+                claim: claim.clone(),
+                table: shown,
+                verdict,
+            }
+        })
+        .collect()
+}
