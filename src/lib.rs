@@ -23,10 +23,11 @@
 //! storage order.
 
 pub mod cli;
+pub mod error;
 
 pub use softbench_core::{
-    colouring, contact, fem, integrate, interrupt, limits, material, mesh, model, named_enum,
-    names, parallel, quote, registry, registry_handle, rng, solve, sparse, springs,
+    colouring, contact, error_class, fem, integrate, interrupt, limits, material, mesh, model,
+    named_enum, names, parallel, quote, registry, registry_handle, rng, solve, sparse, springs,
 };
 pub use softbench_run::{console, data, export, io, lock, pipeline, plot, render, run, scene};
 pub use softbench_study::{ledger, slurm, study};

@@ -1,5 +1,6 @@
 //! `load_mesh`: any mesh file softbench reads, as NumPy arrays.
 
+use softbench::error::Context;
 use std::path::PathBuf;
 
 use numpy::ndarray::Array2;
@@ -24,7 +25,7 @@ pub fn load_mesh<'py>(
     let file = data.resolve_from_cwd(&path).py_err()?;
     let mesh = py
         .detach(|| softbench::mesh::read_tet_mesh(&file))
-        .map_err(|e| anyhow::Error::new(e).context(format!("cannot read {}", file.display())))
+        .with_context(|| format!("cannot read {}", file.display()))
         .py_err()?;
     let n = mesh.positions.len();
     let flat: Vec<f64> = mesh

@@ -52,7 +52,7 @@ impl Model {
         };
         let data = crate::scene::data_paths(data_dir);
         let scene = py
-            .detach(|| -> anyhow::Result<Scene> {
+            .detach(|| -> Result<Scene, softbench::error::Error> {
                 let loaded = source.load()?;
                 Ok(scene::build(&loaded, &data, Parallelism::Rayon)?)
             })

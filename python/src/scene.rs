@@ -3,8 +3,8 @@
 
 use std::path::PathBuf;
 
-use anyhow::Context;
 use softbench::data::DataPaths;
+use softbench::error::Context;
 use softbench::scene::{self, LoadedScene};
 
 /// Where a scene comes from and what changes it.
@@ -23,7 +23,7 @@ pub struct SceneSource {
 
 impl SceneSource {
     /// Read, override and validate the scene (nothing is built yet).
-    pub fn load(&self) -> anyhow::Result<LoadedScene> {
+    pub fn load(&self) -> Result<LoadedScene, softbench::error::Error> {
         let (mut table, text, path) = match (&self.path, &self.table_json) {
             (Some(path), None) => {
                 let text =

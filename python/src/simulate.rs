@@ -2,6 +2,7 @@
 //! Python side reads back (trajectory.csv, final_positions.csv, summary.json, and VTU frames
 //! when positions over time are asked for).
 
+use softbench::error::Failure;
 use std::path::PathBuf;
 
 use numpy::ndarray::Array3;
@@ -47,7 +48,7 @@ pub fn simulate<'py>(
     };
     let data = crate::scene::data_paths(data_dir);
     let done = py
-        .detach(|| -> anyhow::Result<_> {
+        .detach(|| -> Result<_, softbench::error::Error> {
             let loaded = source.load()?;
             let options = SimulateOptions {
                 export: every.map(|_| ExportFormat::Vtu),
@@ -71,7 +72,7 @@ pub fn simulate<'py>(
 }
 
 /// The VTU frames of a run, in order: their times and positions `(frames, n, 3)`.
-fn read_frames(dir: &std::path::Path) -> anyhow::Result<(Vec<f64>, Array3<f64>)> {
+fn read_frames(dir: &std::path::Path) -> Result<(Vec<f64>, Array3<f64>), softbench::error::Error> {
     let mut files: Vec<PathBuf> = std::fs::read_dir(dir)?
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| p.extension().is_some_and(|x| x == "vtu"))
@@ -86,6 +87,7 @@ fn read_frames(dir: &std::path::Path) -> anyhow::Result<(Vec<f64>, Array3<f64>)>
         times.push(frame.time.unwrap_or(f64::NAN));
         flat.extend(frame.mesh.positions.iter().flat_map(|p| [p.x, p.y, p.z]));
     }
-    let positions = Array3::from_shape_vec((files.len(), n, 3), flat)?;
+    let positions = Array3::from_shape_vec((files.len(), n, 3), flat)
+        .failure("the frames do not have the same number of vertices")?;
     Ok((times, positions))
 }

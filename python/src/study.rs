@@ -28,7 +28,7 @@ pub fn run_study(
     if jobs == 0 {
         return Err(crate::BadInputError::new_err("jobs must be at least 1"));
     }
-    py.detach(|| -> anyhow::Result<String> {
+    py.detach(|| -> Result<String, softbench::error::Error> {
         let loaded = study::load(&path, quick, &data)?;
         let options = study::RunOptions {
             dir: out.join(&loaded.file.name),

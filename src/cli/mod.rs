@@ -25,7 +25,6 @@ use std::process::ExitCode;
 mod args;
 use args::*;
 
-use anyhow::Context;
 use clap::Parser;
 use serde::Serialize;
 use softbench_core::contact::{ContactResponse, ObstacleKind};
@@ -37,21 +36,23 @@ use softbench_core::integrate::newton;
 use softbench_core::integrate::vbd::VbdSweep;
 use softbench_core::interrupt::{self, Signal};
 use softbench_core::material::MaterialKind;
-use softbench_core::mesh::{AnyMesh, MESH_FORMATS, MeshError, MeshFormat, MeshReport, read_mesh};
+use softbench_core::mesh::{AnyMesh, MESH_FORMATS, MeshFormat, MeshReport, read_mesh};
 use softbench_core::parallel::Parallelism;
 use softbench_core::registry::{Listing, NamedEnum};
 use softbench_core::solve::LINEAR_SOLVERS;
 use softbench_run::console;
-use softbench_run::data::{DataError, DataPaths};
-use softbench_run::export::{DisplayError, ExportFormat};
+use softbench_run::data::DataPaths;
+use softbench_run::export::ExportFormat;
 use softbench_run::lock::{FolderLock, LockError, Wait, Waiting};
 use softbench_run::pipeline::{
     RUN_SNAPSHOTS, SimulateError, SimulateOptions, Simulation, draw_pictures,
 };
 use softbench_run::render::{Coloring, Snapshots};
 use softbench_run::run::OutcomeKind;
-use softbench_run::scene::{self, SceneError};
-use softbench_study::study::{self, StudyError};
+use softbench_run::scene;
+use softbench_study::study;
+
+use crate::error::{Context, Error, Failure};
 
 /// Run the command line of this process's arguments (`std::env::args_os`) with every method,
 /// solver and material registered so far, and return the exit code. Parse errors and `--help`
@@ -95,7 +96,7 @@ where
         // written; end quietly.
         Err(err) if err.chain().any(console::is_broken_pipe) => ExitCode::SUCCESS,
         Err(err) => {
-            console::err(&format!("error: {err:#}"));
+            console::err(&format!("error: {err}"));
             // EFBIG, kept as a number or (where a writer's error became text) in the message.
             let efbig = format!("(os error {})", libc::EFBIG);
             if err.chain().any(|e| {
@@ -117,7 +118,7 @@ where
                 .or_else(interrupt::requested)
             {
                 ExitCode::from(signal.exit_code())
-            } else if is_bad_input(&err) {
+            } else if err.class().is_bad_input() {
                 ExitCode::from(2)
             } else {
                 ExitCode::FAILURE
@@ -126,46 +127,13 @@ where
     }
 }
 
-/// Whether an error comes from the user's input files rather than from softbench or the system
-/// (exit code 2; the Python package raises `BadInputError` for it).
-pub fn is_bad_input(err: &anyhow::Error) -> bool {
-    err.chain().any(|e| {
-        e.is::<MeshError>()
-            || e.is::<DataError>()
-            || e.downcast_ref::<SimulateError>()
-                .is_some_and(SimulateError::is_bad_input)
-            || e.is::<SceneError>()
-            || e.is::<DisplayError>()
-            || e.is::<BadInput>()
-            || e.is::<StudyError>()
-            || e.is::<study::profiles::ProfilesError>()
-            || e.is::<softbench_study::ledger::LedgerError>()
-            || e.is::<softbench_study::slurm::SlurmError>()
-                && !e
-                    .downcast_ref::<softbench_study::slurm::SlurmError>()
-                    .is_some_and(|s| {
-                        matches!(
-                            s,
-                            softbench_study::slurm::SlurmError::NoSbatch { .. }
-                                | softbench_study::slurm::SlurmError::Sbatch { .. }
-                        )
-                    })
-            || e.downcast_ref::<study::MergeError>()
-                .is_some_and(|m| matches!(m, study::MergeError::NotAStudy(_)))
-            || e.is::<softbench_core::limits::OverBudget>()
-            || e.downcast_ref::<LockError>()
-                .is_some_and(|l| matches!(l, LockError::Unreadable { .. }))
-            || e.downcast_ref::<study::RunError>()
-                .is_some_and(|r| matches!(r, study::RunError::Lock(LockError::Unreadable { .. })))
-            || e.downcast_ref::<study::RedrawError>()
-                .is_some_and(|r| matches!(r, study::RedrawError::Results(_)))
-    })
-}
-
 /// Stopped by a signal before anything was written (exit code 130 or 143).
 #[derive(Debug, thiserror::Error)]
 #[error("stopped by {} before anything was written", .0.name())]
 struct Stopped(Signal);
+
+// The signal decides the exit code; the class is never asked.
+softbench_core::classify_all!(Failure: Stopped);
 
 /// Stop here if a signal has arrived (before anything is written).
 fn stop_if_requested() -> Result<(), Stopped> {
@@ -187,6 +155,8 @@ fn lock_folder(folder: &Path, purpose: &str, wait: bool) -> Result<FolderLock, L
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
 struct BadInput(String);
+
+softbench_core::classify_all!(BadInput: BadInput);
 
 /// An output folder named on the command line must be a folder or not exist yet: a path
 /// whose first existing part is a file is bad input (exit 2), found before anything runs.
@@ -220,7 +190,7 @@ struct MeshInfo<'a> {
     report: &'a MeshReport,
 }
 
-fn mesh_info(args: &MeshInfoArgs) -> anyhow::Result<ExitCode> {
+fn mesh_info(args: &MeshInfoArgs) -> Result<ExitCode, Error> {
     let path = DataPaths::from_env()
         .resolve_from_cwd(&args.file)
         .context("cannot find the mesh")?;
@@ -236,7 +206,7 @@ fn mesh_info(args: &MeshInfoArgs) -> anyhow::Result<ExitCode> {
             format,
             report: &report,
         };
-        serde_json::to_writer_pretty(&mut out, &info).context("cannot write the report")?;
+        serde_json::to_writer_pretty(&mut out, &info).failure("cannot write the report")?;
         writeln!(out)?;
     } else {
         writeln!(out, "file                {}", path.display())?;
@@ -247,7 +217,7 @@ fn mesh_info(args: &MeshInfoArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
+fn simulate(args: &SimulateArgs) -> Result<ExitCode, Error> {
     let export = args
         .export
         .as_deref()
@@ -265,7 +235,7 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
         rayon::ThreadPoolBuilder::new()
             .num_threads(n)
             .build_global()
-            .context("cannot start the thread pool")?;
+            .failure("cannot start the thread pool")?;
     }
     // Everything that can be wrong with the input is found before anything is written.
     let loaded = scene::load(&args.scene, &args.set)?;
@@ -278,7 +248,7 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
     let simulation =
         Simulation::prepare(loaded, &DataPaths::from_env(), Parallelism::Rayon, options).map_err(
             |e| match e {
-                SimulateError::NoSurface => anyhow::Error::from(BadInput(format!("--render: {e}"))),
+                SimulateError::NoSurface => Error::from(BadInput(format!("--render: {e}"))),
                 e => e.into(),
             },
         )?;
@@ -388,7 +358,7 @@ fn simulate(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
     }
 }
 
-fn list() -> anyhow::Result<ExitCode> {
+fn list() -> Result<ExitCode, Error> {
     let mut out = std::io::stdout().lock();
     let families: [(&str, Vec<Listing>); 16] = [
         ("integrators (integrator.method)", METHODS.listing()),
@@ -518,7 +488,7 @@ fn toml_files(folder: &Path) -> Vec<(PathBuf, String)> {
         .collect()
 }
 
-fn run_study(args: &RunArgs) -> anyhow::Result<ExitCode> {
+fn run_study(args: &RunArgs) -> Result<ExitCode, Error> {
     if args.jobs == 0 {
         return Err(BadInput("--jobs must be at least 1".into()).into());
     }
@@ -617,7 +587,7 @@ fn run_study(args: &RunArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-fn merge(args: &MergeArgs) -> anyhow::Result<ExitCode> {
+fn merge(args: &MergeArgs) -> Result<ExitCode, Error> {
     let merged = study::merge(&args.dir, args.wait, true, &DataPaths::from_env())
         .with_context(|| format!("cannot merge {}", args.dir.display()))?;
     let hosts: std::collections::BTreeSet<&str> =
@@ -656,7 +626,7 @@ fn merge(args: &MergeArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::FAILURE)
 }
 
-fn slurm(args: &SlurmArgs) -> anyhow::Result<ExitCode> {
+fn slurm(args: &SlurmArgs) -> Result<ExitCode, Error> {
     if args.cpus_per_task == 0 {
         return Err(BadInput("--cpus-per-task must be at least 1".into()).into());
     }
@@ -724,7 +694,7 @@ fn slurm(args: &SlurmArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-fn render_folder(args: &RenderArgs) -> anyhow::Result<ExitCode> {
+fn render_folder(args: &RenderArgs) -> Result<ExitCode, Error> {
     let coloring = match args.color.as_str() {
         "plain" => Coloring::Plain,
         "energy" => Coloring::EnergyDensity,
@@ -770,7 +740,7 @@ fn render_folder(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-fn plot(args: &PlotArgs) -> anyhow::Result<ExitCode> {
+fn plot(args: &PlotArgs) -> Result<ExitCode, Error> {
     // Redrawing replaces and removes plot files: not while a study writes the folder.
     let _lock = if args.dir.is_dir() {
         Some(lock_folder(&args.dir, "plot", false)?)
@@ -791,7 +761,7 @@ fn plot(args: &PlotArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-fn profiles(args: &ProfilesArgs) -> anyhow::Result<ExitCode> {
+fn profiles(args: &ProfilesArgs) -> Result<ExitCode, Error> {
     use study::profiles;
     let targets = if args.targets.is_empty() {
         profiles::DEFAULT_TARGETS.to_vec()
@@ -819,7 +789,7 @@ fn profiles(args: &ProfilesArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-fn ledger(args: &LedgerArgs) -> anyhow::Result<ExitCode> {
+fn ledger(args: &LedgerArgs) -> Result<ExitCode, Error> {
     use softbench_study::ledger;
     let claims = ledger::read_claims(&args.claims)?;
     let judged = ledger::judge(&claims, &args.results);

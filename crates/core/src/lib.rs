@@ -18,6 +18,7 @@
 
 pub mod colouring;
 pub mod contact;
+pub mod error_class;
 pub mod fem;
 pub mod integrate;
 pub mod interrupt;

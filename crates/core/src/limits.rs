@@ -94,6 +94,13 @@ pub struct OverBudget {
     pub variable: &'static str,
 }
 
+impl crate::error_class::Classify for OverBudget {
+    /// A size the input asks for that is above its limit (which the user may raise).
+    fn class(&self) -> crate::error_class::ErrorClass {
+        crate::error_class::ErrorClass::BadInput
+    }
+}
+
 impl Budget {
     /// The limit in effect: the variable's value if it is a number, else the default.
     pub fn limit(&self) -> u64 {

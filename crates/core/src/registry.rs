@@ -36,6 +36,12 @@ pub struct UnknownName {
     pub valid: Vec<&'static str>,
 }
 
+impl crate::error_class::Classify for UnknownName {
+    fn class(&self) -> crate::error_class::ErrorClass {
+        crate::error_class::ErrorClass::BadInput
+    }
+}
+
 /// Why [`Registry::register`] refused an entry.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum RegisterError {
@@ -48,6 +54,13 @@ pub enum RegisterError {
          with a letter"
     )]
     InvalidName { what: &'static str, name: String },
+}
+
+impl crate::error_class::Classify for RegisterError {
+    /// A program registering a name that is taken or malformed: the program's failure.
+    fn class(&self) -> crate::error_class::ErrorClass {
+        crate::error_class::ErrorClass::Failure
+    }
 }
 
 /// One family: its built-in table plus the entries registered at run time.
@@ -413,6 +426,8 @@ macro_rules! named_enum {
         #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
         #[error("{}", $crate::names::unknown_name_message($what, .0, &$ty::names()))]
         $vis struct $err(pub String);
+
+        $crate::classify_all!(BadInput: $err);
 
         impl std::str::FromStr for $ty {
             type Err = $err;

@@ -56,6 +56,13 @@ pub struct DataError {
     pub folder: Option<(PathBuf, Place)>,
 }
 
+impl softbench_core::error_class::Classify for DataError {
+    /// A data file that cannot be found where the scene says.
+    fn class(&self) -> softbench_core::error_class::ErrorClass {
+        softbench_core::error_class::ErrorClass::BadInput
+    }
+}
+
 fn describe(
     name: &Path,
     tried: &[(PathBuf, Place)],

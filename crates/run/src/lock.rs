@@ -137,6 +137,17 @@ pub enum LockError {
     },
 }
 
+impl softbench_core::error_class::Classify for LockError {
+    /// A lock file that is not softbench's is in the user's folder; a folder held by another
+    /// process, or one that cannot be locked, is not the input's fault.
+    fn class(&self) -> softbench_core::error_class::ErrorClass {
+        softbench_core::error_class::ErrorClass::bad_input_if(matches!(
+            self,
+            Self::Unreadable { .. }
+        ))
+    }
+}
+
 /// What to do when another process holds the lock.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Wait {

@@ -62,6 +62,17 @@ pub enum SlurmError {
     },
 }
 
+impl softbench_core::error_class::Classify for SlurmError {
+    /// A time, partition or path that a job script cannot hold is the input's; `sbatch`
+    /// missing or refusing the job is the cluster's.
+    fn class(&self) -> softbench_core::error_class::ErrorClass {
+        softbench_core::error_class::ErrorClass::bad_input_if(!matches!(
+            self,
+            Self::NoSbatch { .. } | Self::Sbatch { .. }
+        ))
+    }
+}
+
 /// Checks a `--time` value against the formats sbatch accepts.
 pub fn check_time(time: &str) -> Result<(), SlurmError> {
     let bad = || SlurmError::Time(softbench_core::quote::clip_message(time));

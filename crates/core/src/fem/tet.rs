@@ -13,6 +13,13 @@ pub struct DegenerateTet {
     pub volume: f64,
 }
 
+impl crate::error_class::Classify for DegenerateTet {
+    /// A mesh's tet without volume.
+    fn class(&self) -> crate::error_class::ErrorClass {
+        crate::error_class::ErrorClass::BadInput
+    }
+}
+
 /// Precomputed rest data of a linear tet: its rest volume and `Dm^{-1}`, whose rows are the
 /// (constant) gradients of the shape functions N1, N2, N3; `grad N0 = -(grad N1 + grad N2 + grad N3)`.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -231,6 +231,13 @@ pub enum StepError {
     Method(String),
 }
 
+impl crate::error_class::Classify for StepError {
+    /// A step that failed is a result of the method on its scene, never the input's fault.
+    fn class(&self) -> crate::error_class::ErrorClass {
+        crate::error_class::ErrorClass::Failure
+    }
+}
+
 impl StepError {
     /// A short cause for tables: "non-finite state", "inverted element", "newton failure",
     /// "solver failure", "step too small", "too many substeps" or "model error".

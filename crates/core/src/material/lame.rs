@@ -15,6 +15,12 @@ pub enum MaterialError {
     Parameter { name: &'static str, value: f64 },
 }
 
+impl crate::error_class::Classify for MaterialError {
+    fn class(&self) -> crate::error_class::ErrorClass {
+        crate::error_class::ErrorClass::BadInput
+    }
+}
+
 /// Lamé parameters mu (shear modulus) and lambda, in Pa.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LameParameters {

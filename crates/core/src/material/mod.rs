@@ -40,6 +40,13 @@ pub struct InvalidDeformation {
     pub det_f: f64,
 }
 
+impl crate::error_class::Classify for InvalidDeformation {
+    /// A state the computation reached.
+    fn class(&self) -> crate::error_class::ErrorClass {
+        crate::error_class::ErrorClass::Failure
+    }
+}
+
 /// A hyperelastic strain energy density, evaluated per element at the deformation gradient F.
 pub trait Material: Copy + Send + Sync + std::fmt::Debug {
     /// Whether the energy is defined for inverted elements (det F <= 0).

@@ -40,3 +40,10 @@ pub enum MeshError {
     #[error("{path}: unknown mesh format: {message}")]
     UnknownFormat { path: PathBuf, message: String },
 }
+
+impl crate::error_class::Classify for MeshError {
+    /// A mesh file that cannot be read, parsed or used is the user's to fix.
+    fn class(&self) -> crate::error_class::ErrorClass {
+        crate::error_class::ErrorClass::BadInput
+    }
+}

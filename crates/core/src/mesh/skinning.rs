@@ -43,6 +43,13 @@ pub enum SkinningError {
     NonFinite { vertex: usize },
 }
 
+impl crate::error_class::Classify for SkinningError {
+    /// The display mesh or the tet mesh it binds to is not usable.
+    fn class(&self) -> crate::error_class::ErrorClass {
+        crate::error_class::ErrorClass::BadInput
+    }
+}
+
 /// A display vertex outside the tet mesh, bound to the closest point of its nearest tet.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct OutsideVertex {

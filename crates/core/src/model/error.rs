@@ -57,3 +57,15 @@ pub enum ModelError {
     #[error("state has {got} entries, the model has {expected} free DOFs")]
     StateLength { got: usize, expected: usize },
 }
+
+impl crate::error_class::Classify for ModelError {
+    /// The model's construction errors are its input's (mesh, parameters, fixed set); an
+    /// element inverted at some state is the computation's.
+    fn class(&self) -> crate::error_class::ErrorClass {
+        match self {
+            Self::InvertedElement { .. } => crate::error_class::ErrorClass::Failure,
+            Self::Material(e) => crate::error_class::Classify::class(e),
+            _ => crate::error_class::ErrorClass::BadInput,
+        }
+    }
+}

@@ -111,6 +111,18 @@ pub enum SpectrumError {
     NonFinite { iteration: usize },
 }
 
+impl crate::error_class::Classify for SpectrumError {
+    fn class(&self) -> crate::error_class::ErrorClass {
+        match self {
+            Self::NoFreeDofs | Self::InvalidSetting { .. } => {
+                crate::error_class::ErrorClass::BadInput
+            }
+            Self::Model(e) => crate::error_class::Classify::class(e),
+            _ => crate::error_class::ErrorClass::Failure,
+        }
+    }
+}
+
 /// The largest eigenvalue of `K(q) v = lambda M v` by Lanczos in the `M` inner product (see the
 /// module docs). `q` is a state over the free DOFs, usually [`Model::rest_state`].
 ///

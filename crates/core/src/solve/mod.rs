@@ -162,6 +162,13 @@ pub enum SolveError {
     Analysis(String),
 }
 
+impl crate::error_class::Classify for SolveError {
+    /// A linear solve that failed (an indefinite matrix, no convergence) is a result.
+    fn class(&self) -> crate::error_class::ErrorClass {
+        crate::error_class::ErrorClass::Failure
+    }
+}
+
 /// What one `factor` call did.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct FactorReport {

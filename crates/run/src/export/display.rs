@@ -33,6 +33,12 @@ pub enum DisplayError {
     },
 }
 
+impl softbench_core::error_class::Classify for DisplayError {
+    fn class(&self) -> softbench_core::error_class::ErrorClass {
+        softbench_core::error_class::ErrorClass::BadInput
+    }
+}
+
 /// A display mesh bound to the tet mesh.
 #[derive(Clone, Debug)]
 pub struct Display {

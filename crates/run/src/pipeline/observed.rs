@@ -55,6 +55,13 @@ pub enum ObserveError {
     Frames(#[source] io::Error),
 }
 
+impl softbench_core::error_class::Classify for ObserveError {
+    /// A row or frame that could not be written.
+    fn class(&self) -> softbench_core::error_class::ErrorClass {
+        softbench_core::error_class::ErrorClass::Failure
+    }
+}
+
 /// Run `scene` from its initial state with `run` and the scene's integrator for this run
 /// ([`Scene::take_integrator`]), passing every sampled row to `rows` and recording what
 /// `recording` asks for.

@@ -6,6 +6,7 @@
 //! [`Simulation::prepare`] builds everything and finds every bad input before anything is
 //! written; [`Simulation::run`] runs and writes.
 
+use softbench_core::error_class::{Classify, ErrorClass};
 use std::path::{Path, PathBuf};
 
 use super::body::BodySurface;
@@ -70,14 +71,19 @@ pub enum SimulateError {
     FramesNotAFolder { path: PathBuf, what: &'static str },
 }
 
-impl SimulateError {
-    /// Whether the input is at fault (a scene, mesh or display mesh that is missing or
-    /// malformed, pictures of a body without a surface) rather than the system.
-    pub fn is_bad_input(&self) -> bool {
-        matches!(
-            self,
-            Self::Scene(_) | Self::Display(_) | Self::NoSurface | Self::FramesNotAFolder { .. }
-        )
+impl Classify for SimulateError {
+    /// The input is at fault for a scene, mesh or display mesh that is missing or malformed,
+    /// pictures of a body without a surface, or a `frames` that is not a folder; writing and
+    /// drawing are the system's.
+    fn class(&self) -> ErrorClass {
+        match self {
+            Self::Scene(e) => e.class(),
+            Self::Display(e) => e.class(),
+            Self::NoSurface | Self::FramesNotAFolder { .. } => ErrorClass::BadInput,
+            Self::Observe(e) => e.class(),
+            Self::Render(e) => e.class(),
+            Self::Write { .. } => ErrorClass::Failure,
+        }
     }
 }
 

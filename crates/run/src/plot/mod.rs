@@ -140,6 +140,12 @@ pub enum PlotError {
     Draw(String),
 }
 
+impl softbench_core::error_class::Classify for PlotError {
+    fn class(&self) -> softbench_core::error_class::ErrorClass {
+        softbench_core::error_class::ErrorClass::Failure
+    }
+}
+
 /// Wrap a plotters (or encoder) error as [`PlotError::Draw`].
 fn draw_err(e: impl std::fmt::Display) -> PlotError {
     PlotError::Draw(e.to_string())

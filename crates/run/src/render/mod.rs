@@ -37,3 +37,9 @@ pub enum RenderError {
     #[error("cannot draw: {0}")]
     Draw(String),
 }
+
+impl softbench_core::error_class::Classify for RenderError {
+    fn class(&self) -> softbench_core::error_class::ErrorClass {
+        softbench_core::error_class::ErrorClass::Failure
+    }
+}

@@ -66,6 +66,13 @@ pub enum SceneError {
     Model { path: PathBuf, error: ModelError },
 }
 
+impl softbench_core::error_class::Classify for SceneError {
+    /// Everything wrong with a scene is found before it runs, and is the scene's.
+    fn class(&self) -> softbench_core::error_class::ErrorClass {
+        softbench_core::error_class::ErrorClass::BadInput
+    }
+}
+
 /// A scene file read and validated, with where it came from.
 #[derive(Clone, Debug)]
 pub struct LoadedScene {

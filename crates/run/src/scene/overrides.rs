@@ -12,6 +12,12 @@ pub enum OverrideError {
     NotATable { key: String, prefix: String },
 }
 
+impl softbench_core::error_class::Classify for OverrideError {
+    fn class(&self) -> softbench_core::error_class::ErrorClass {
+        softbench_core::error_class::ErrorClass::BadInput
+    }
+}
+
 /// Parse a value as TOML (number, bool, array, inline table, quoted string); anything else is
 /// taken as a bare string, so `integrator.method=rk4` needs no quotes.
 fn parse_value(text: &str) -> Value {

@@ -35,6 +35,13 @@ pub enum LedgerError {
     Empty { path: PathBuf },
 }
 
+impl softbench_core::error_class::Classify for LedgerError {
+    /// A claim file that cannot be read or judged.
+    fn class(&self) -> softbench_core::error_class::ErrorClass {
+        softbench_core::error_class::ErrorClass::BadInput
+    }
+}
+
 /// One claim, as its file states it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Claim {

@@ -1,5 +1,6 @@
 //! Why a study could not be loaded or run.
 
+use softbench_core::error_class::{Classify, ErrorClass};
 use std::path::PathBuf;
 
 /// A problem with a study file or what it names. Everything here is found before anything is
@@ -69,4 +70,32 @@ pub enum RunError {
 pub(super) fn io_error(path: &std::path::Path) -> impl FnOnce(std::io::Error) -> RunError + use<> {
     let path = path.to_owned();
     move |error| RunError::Io { path, error }
+}
+
+impl Classify for StudyError {
+    /// Everything found while loading a study is the study file's or its scenes' (a stop
+    /// requested meanwhile is reported by its signal first).
+    fn class(&self) -> ErrorClass {
+        ErrorClass::BadInput
+    }
+}
+
+impl Classify for ResultsError {
+    /// A results folder read back (by `softbench plot`, or to resume a study) that is not
+    /// what softbench wrote.
+    fn class(&self) -> ErrorClass {
+        ErrorClass::BadInput
+    }
+}
+
+impl Classify for RunError {
+    /// A study stops on a failed write or run (failures), on a results folder it cannot read
+    /// back, or on a lock file that is not softbench's (the input's).
+    fn class(&self) -> ErrorClass {
+        match self {
+            Self::Io { .. } | Self::Run(_) => ErrorClass::Failure,
+            Self::Results(e) => e.class(),
+            Self::Lock(e) => e.class(),
+        }
+    }
 }

@@ -52,6 +52,19 @@ pub enum MergeError {
     Run(#[from] RunError),
 }
 
+impl softbench_core::error_class::Classify for MergeError {
+    /// A folder that is not a study's, or a study file that no longer loads, is the input's;
+    /// a shard record that cannot be read, and a failed write, are not.
+    fn class(&self) -> softbench_core::error_class::ErrorClass {
+        match self {
+            Self::NotAStudy(_) => softbench_core::error_class::ErrorClass::BadInput,
+            Self::Unreadable { .. } => softbench_core::error_class::ErrorClass::Failure,
+            Self::Study(e) => softbench_core::error_class::Classify::class(e),
+            Self::Run(e) => softbench_core::error_class::Classify::class(e),
+        }
+    }
+}
+
 /// Merge the study folder `dir`: load the study its shards ran (the study file is recorded,
 /// absolute, in each `shard.json`; for a folder of a local run, in `meta.json`), its scenes'
 /// data files found through `data`, and merge.

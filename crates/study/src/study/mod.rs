@@ -214,3 +214,14 @@ pub enum RedrawError {
     #[error("cannot draw: {0}")]
     Plot(#[from] softbench_run::plot::PlotError),
 }
+
+impl softbench_core::error_class::Classify for RedrawError {
+    /// A results folder that cannot be read back is the input of `softbench plot`; drawing
+    /// is the system's.
+    fn class(&self) -> softbench_core::error_class::ErrorClass {
+        match self {
+            Self::Results(e) => softbench_core::error_class::Classify::class(e),
+            Self::Plot(e) => softbench_core::error_class::Classify::class(e),
+        }
+    }
+}

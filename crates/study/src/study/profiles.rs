@@ -69,6 +69,13 @@ pub enum ProfilesError {
     BadTarget { value: f64 },
 }
 
+impl softbench_core::error_class::Classify for ProfilesError {
+    /// A results table or a target that profiles cannot be computed from.
+    fn class(&self) -> softbench_core::error_class::ErrorClass {
+        softbench_core::error_class::ErrorClass::BadInput
+    }
+}
+
 /// The columns the profiles read.
 pub const NEEDED: [&str; 7] = [
     "scene",
@@ -423,6 +430,12 @@ pub enum WriteError {
     },
     #[error(transparent)]
     Plot(#[from] softbench_run::plot::PlotError),
+}
+
+impl softbench_core::error_class::Classify for WriteError {
+    fn class(&self) -> softbench_core::error_class::ErrorClass {
+        softbench_core::error_class::ErrorClass::Failure
+    }
 }
 
 fn fraction(x: f64) -> String {

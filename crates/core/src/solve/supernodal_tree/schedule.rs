@@ -30,6 +30,12 @@ pub enum ScheduleError {
     NotPostordered { supernode: usize },
 }
 
+impl crate::error_class::Classify for ScheduleError {
+    fn class(&self) -> crate::error_class::ErrorClass {
+        crate::error_class::ErrorClass::Failure
+    }
+}
+
 /// Everything the subtree-parallel numeric phase needs beyond faer's symbolic structure,
 /// computed once per symbolic analysis.
 #[derive(Debug)]
