@@ -444,3 +444,51 @@ fn local_solvers_take_obstacles_through_projection_and_refuse_penalty_at_build()
         );
     }
 }
+
+/// The scene asks a response's facts and never its name: for every registered response, a
+/// mesh obstacle is accepted exactly when the response sees mesh obstacles, a scene without
+/// obstacles has contact exactly when the response keeps the body off itself, and a Newton
+/// direction of the scene's own is refused exactly when the response chooses it.
+#[test]
+fn every_response_is_built_and_validated_as_its_facts_say() {
+    let dir = TempDir::new("response-facts");
+    let obj = dir.path().join("floor.obj");
+    std::fs::write(
+        &obj,
+        "v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nf 1 3 2\nf 1 4 3\n",
+    )
+    .unwrap();
+    for &response in ContactResponse::ALL {
+        let facts = response.facts();
+        let method = "[integrator]\nmethod = \"backward-euler\"\n";
+        let contact = format!("[contact]\nresponse = \"{response}\"\n");
+        let mesh = format!(
+            "{method}{contact}[[obstacles]]\nkind = \"mesh\"\nfile = \"{}\"\n",
+            obj.display()
+        );
+        match parse(&mesh) {
+            Ok(_) => assert!(facts.sees_mesh_obstacles, "{response} took a mesh obstacle"),
+            Err(e) => {
+                assert!(!facts.sees_mesh_obstacles, "{response}: {e}");
+                assert!(e.to_string().contains("obstacles[0].kind"), "{e}");
+            }
+        }
+        let alone = build(&format!("{method}{contact}"));
+        assert_eq!(
+            alone.contact.is_some(),
+            facts.self_contact,
+            "{response} without obstacles"
+        );
+        let direction = format!(
+            "[integrator]\nmethod = \"backward-euler\"\nnewton = {{ direction = \"lbfgs\" }}\n\
+             {contact}[[obstacles]]\nkind = \"plane\"\nnormal = [0.0, 1.0, 0.0]\n"
+        );
+        match parse(&direction) {
+            Ok(_) => assert!(!facts.owns_newton_components, "{response} took a direction"),
+            Err(e) => {
+                assert!(facts.owns_newton_components, "{response}: {e}");
+                assert!(e.to_string().contains("integrator.newton.direction"), "{e}");
+            }
+        }
+    }
+}

@@ -22,6 +22,7 @@
 
 use super::obstacle::{Obstacle, Shape};
 use super::path::Path;
+pub use super::responses::{ContactResponse, ResponseFacts, UnknownContactResponse};
 use super::{Capsule, Cuboid, HalfSpace, Sphere};
 use crate::integrate::Method;
 use nalgebra::{Isometry3, Rotation3, Translation3, Unit, UnitQuaternion, Vector3};
@@ -66,63 +67,6 @@ crate::named_enum! {
         /// `contact.response = "ipc"` sees its edges and faces.
         Mesh = "mesh", "a static triangle mesh from an OBJ file (response ipc only)",
             ObstacleFacts { fields: &["file"], required: &["file"] },
-    }
-}
-
-/// What the code asks of a contact response.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct ResponseFacts {
-    /// It is a potential inside the model (any integrator handles it unchanged).
-    pub in_model: bool,
-    /// It works inside the Newton loop (only with a method whose unknown is the end-of-step
-    /// position); otherwise it wraps the scene's integrator or lives in the model.
-    pub in_newton_loop: bool,
-}
-
-impl crate::registry::ListFacts for ResponseFacts {
-    fn list(&self) -> Vec<crate::registry::Fact> {
-        let how = if self.in_model && self.in_newton_loop {
-            "potential+newton-filter"
-        } else if self.in_model {
-            "potential"
-        } else if self.in_newton_loop {
-            "newton-constraints"
-        } else {
-            "wraps-integrator"
-        };
-        vec![("acts-as", how.to_owned())]
-    }
-}
-
-crate::named_enum! {
-    /// How contact is resolved (`response` in `[contact]`).
-    pub enum ContactResponse: "contact response", UnknownContactResponse, ResponseFacts {
-        /// A stiff spring `1/2 k d^2` on the penetration depth, inside the model.
-        Penalty = "penalty",
-            "spring 1/2 k d^2 on the depth; any integrator, penetrates ~ load/k",
-            ResponseFacts { in_model: true, in_newton_loop: false },
-        /// After each step, move penetrating vertices to the surface (the body following
-        /// as in a backward Euler step) and change their velocity (restitution, friction).
-        Projection = "projection",
-            "move to the surface after the step, restitution/friction; any integrator",
-            ResponseFacts { in_model: false, in_newton_loop: false },
-        /// Predictive: a vertex that would end the step inside gets the new velocity
-        /// (restitution, friction) and moves by dt times it from where it started, so it
-        /// never lands inside.
-        VelocityFlip = "velocity-flip",
-            "predictive: reflect the velocity of a vertex that would penetrate, redo its move",
-            ResponseFacts { in_model: false, in_newton_loop: false },
-        /// Linearized non-penetration constraints inside the Newton loop (a QP per
-        /// iteration) of backward Euler, BDF-k, the Newmark family or static.
-        Constrained = "constrained",
-            "QP-constrained Newton (backward Euler, BDF, Newmark, static); no penetration",
-            ResponseFacts { in_model: false, in_newton_loop: true },
-        /// Incremental potential contact: a barrier on the distances of every vertex–face
-        /// and edge–edge pair (body, self, mesh obstacles) and of vertices to analytic
-        /// obstacles, continuous collision detection in the line search, lagged friction.
-        Ipc = "ipc",
-            "barrier + CCD line search (backward Euler, BDF, Newmark, static); intersection-free, self-contact, friction",
-            ResponseFacts { in_model: true, in_newton_loop: true },
     }
 }
 

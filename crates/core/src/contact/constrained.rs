@@ -200,3 +200,18 @@ impl StepConstraints for ContactConstraints {
         report.max_penetration = stats.max_penetration;
     }
 }
+
+/// The constrained response: the scene's method with [`ContactConstraints`] inside its Newton
+/// loop (the constraints record contacts; the wrapper adds the frame check).
+pub(super) fn integrator(
+    contact: &super::Contact,
+    settings: &crate::integrate::IntegratorSettings,
+) -> Box<dyn crate::integrate::Integrator> {
+    let constraints = ContactConstraints::new(contact.obstacles.clone(), contact.config.margin);
+    let inner = settings
+        .build_constrained(crate::integrate::newton::NewtonContact::Constraints(
+            Box::new(constraints),
+        ))
+        .expect("scene validation admits constrained contact only for such methods");
+    contact.wrapped(inner, super::Response::ReportOnly)
+}

@@ -5,8 +5,9 @@
 //! placed by a rigid transform and optionally moving along a [`Path`]; a group is the union of
 //! its members (the minimum distance). See [`obstacle`].
 //!
-//! Four responses, chosen per scene (`[contact] response`) so a study can compare them on the
-//! same scene:
+//! Five responses, chosen per scene (`[contact] response`) so a study can compare them on the
+//! same scene; [`responses`](ContactResponse) lists them, one line each with the facts the scene
+//! asks and the two functions (in the response's own file) that build it:
 //! - `penalty` ([`PenaltyContact`]): a per-vertex potential `1/2 k d^2` on the penetration
 //!   depth; every integrator sees it as a force, implicit ones also see its Hessian;
 //! - `projection` and `velocity-flip` ([`WithContactResponse`]): after each step of any
@@ -27,8 +28,9 @@
 //! independently of every response.
 //!
 //! Every response reports contacts (pairs within the margin) and the deepest penetration in
-//! the [`crate::integrate::StepReport`]. A scene without obstacles builds none of this:
-//! [`Contact::build`] returns `None`, and no obstacle is ever queried ([`query_count`]).
+//! the [`crate::integrate::StepReport`]. A scene without obstacles (and whose response does not
+//! keep the body off itself) builds none of this: [`Contact::build`] returns `None`, and no
+//! obstacle is ever queried ([`query_count`]).
 
 pub mod broad_phase;
 mod capsule;
@@ -46,11 +48,12 @@ mod path;
 mod penalty;
 pub mod qp;
 mod response;
+mod responses;
 mod sdf;
 mod sphere;
 
 pub use capsule::Capsule;
-pub use config::{ContactConfig, ContactResponse, ObstacleConfig, ObstacleKind};
+pub use config::{ContactConfig, ObstacleConfig, ObstacleKind};
 pub use constrained::ContactConstraints;
 pub use cuboid::Cuboid;
 pub use half_space::HalfSpace;
@@ -58,10 +61,10 @@ pub use obstacle::{ContactStats, Obstacle, ObstacleSample, Obstacles, Shape, que
 pub use path::Path;
 pub use penalty::PenaltyContact;
 pub use response::{Response, VelocityRule, WithContactResponse};
+pub use responses::{ContactResponse, ResponseFacts};
 pub use sdf::{Sdf, SdfValue};
 pub use sphere::Sphere;
 
-use crate::integrate::newton::NewtonContact;
 use crate::integrate::{Integrator, IntegratorSettings};
 use crate::model::Model;
 use std::sync::Arc;
@@ -77,76 +80,57 @@ pub struct Contact {
     check: Arc<frame_check::FrameCheck>,
 }
 
+/// What a scene's contact is built from.
+#[derive(Clone, Copy, Debug)]
+pub struct ContactSetup<'a> {
+    /// The `[[obstacles]]` tables (validated).
+    pub obstacles: &'a [ObstacleConfig],
+    /// The triangle-mesh obstacles among them, read (only for a response that
+    /// [sees them](ResponseFacts::sees_mesh_obstacles); empty otherwise).
+    pub meshes: &'a [ipc::MeshObstacle],
+    /// The `[contact]` section.
+    pub config: &'a ContactConfig,
+    /// The body's boundary triangles (empty for a scene that has no contact).
+    pub surface: &'a [[usize; 3]],
+    /// The scene's time step.
+    pub dt: f64,
+}
+
+impl ContactSetup<'_> {
+    /// Whether the scene has contact at all: obstacles, or a response that keeps the body off
+    /// itself.
+    pub fn has_contact(&self) -> bool {
+        !self.obstacles.is_empty() || self.config.response.facts().self_contact
+    }
+}
+
 impl Contact {
-    /// Contact for `obstacles` (validated tables) with `config`, or `None` without
-    /// obstacles. With the penalty response, adds the penalty potential to `model`.
-    pub fn build(
-        obstacles: &[ObstacleConfig],
-        config: &ContactConfig,
-        model: &mut Model,
-        surface: &[[usize; 3]],
-    ) -> Option<Self> {
-        if obstacles.is_empty() {
-            return None;
-        }
-        let set = obstacles
-            .iter()
-            .filter(|o| !o.is_mesh())
-            .map(ObstacleConfig::obstacle)
-            .collect();
-        let mut contact = Self::new(set, *config, model);
-        contact.check = Arc::new(frame_check::FrameCheck::new(
-            surface.to_vec(),
-            Vec::new(),
-            contact.obstacles.clone(),
-        ));
-        Some(contact)
+    /// The scene's contact, built by its response ([`ResponseFacts::build`]), which adds what
+    /// lives in the model (a potential) to `model`; `None` when the scene has none
+    /// ([`ContactSetup::has_contact`]).
+    pub fn build(setup: &ContactSetup<'_>, model: &mut Model) -> Option<Self> {
+        setup
+            .has_contact()
+            .then(|| (setup.config.response.facts().build)(setup, model))
     }
 
-    /// Incremental potential contact (`response = "ipc"`) for `model`, whose body's boundary
-    /// triangles are `surface`, against the analytic `obstacles` (mesh tables skipped) and
-    /// the mesh obstacles `meshes`, with steps of `dt`; adds the contact potential to `model`.
-    /// Built even without obstacles (self-contact).
-    pub fn build_ipc(
-        obstacles: &[ObstacleConfig],
-        meshes: &[ipc::MeshObstacle],
-        config: &ContactConfig,
-        model: &mut Model,
-        surface: &[[usize; 3]],
-        dt: f64,
-    ) -> Self {
-        let set: Obstacles = obstacles
+    /// Contact with the analytic obstacles of `setup` (mesh tables skipped) and the frame check
+    /// of the body's surface against them: what a response needs that adds nothing to the
+    /// model.
+    pub(crate) fn with_analytic_obstacles(setup: &ContactSetup<'_>, _: &mut Model) -> Self {
+        let obstacles: Obstacles = setup
+            .obstacles
             .iter()
             .filter(|o| !o.is_mesh())
             .map(ObstacleConfig::obstacle)
             .collect();
-        // Still boxes take part as triangle meshes (their edges and corners then meet the
-        // body's edges and faces, not only its vertices); the rest stay signed distances.
-        let mut contact_meshes = meshes.to_vec();
-        let mut distances = Vec::new();
-        for o in set.iter() {
-            if o.is_static() {
-                o.box_meshes(0.0, &mut contact_meshes);
-                distances.extend(o.without_boxes());
-            } else {
-                distances.push(o.clone());
-            }
-        }
-        let set = Arc::new(set);
-        let shared = Arc::new(ipc::Ipc::new(
-            model,
-            surface,
-            Arc::new(Obstacles::new(distances)),
-            &contact_meshes,
-            config.ipc,
-            dt,
-        ));
-        model.set_contact_potential(Box::new(ipc::IpcPotential(shared.clone())));
-        let check = frame_check::FrameCheck::new(surface.to_vec(), meshes.to_vec(), set.clone());
+        let obstacles = Arc::new(obstacles);
+        let check =
+            frame_check::FrameCheck::new(setup.surface.to_vec(), Vec::new(), obstacles.clone());
         Self {
-            obstacles: set,
-            config: *config,
-            ipc: Some(shared),
+            obstacles,
+            config: *setup.config,
+            ipc: None,
             check: Arc::new(check),
         }
     }
@@ -154,25 +138,6 @@ impl Contact {
     /// Incremental potential contact's state, if the response is `ipc`.
     pub fn ipc(&self) -> Option<&Arc<ipc::Ipc>> {
         self.ipc.as_ref()
-    }
-
-    /// Contact with `obstacles`; with the penalty response, adds the penalty potential to
-    /// `model`.
-    pub fn new(obstacles: Obstacles, config: ContactConfig, model: &mut Model) -> Self {
-        let obstacles = Arc::new(obstacles);
-        if config.response == ContactResponse::Penalty {
-            model.add_vertex_potential(Box::new(PenaltyContact::new(
-                obstacles.clone(),
-                config.stiffness,
-            )));
-        }
-        let check = frame_check::FrameCheck::new(Vec::new(), Vec::new(), obstacles.clone());
-        Self {
-            obstacles,
-            config,
-            ipc: None,
-            check: Arc::new(check),
-        }
     }
 
     /// The obstacles.
@@ -185,47 +150,31 @@ impl Contact {
         &self.config
     }
 
-    /// The integrator `settings` describe, with this contact response: the method wrapped in
-    /// [`WithContactResponse`], or for `constrained` the method with [`ContactConstraints`]
-    /// inside its Newton loop (scene validation requires a method that can take them).
+    /// The integrator `settings` describe, with this contact response
+    /// ([`ResponseFacts::integrator`]): the method wrapped, or with the response inside its
+    /// Newton loop (scene validation requires a method that can take it).
     pub fn integrator(&self, settings: &IntegratorSettings) -> Box<dyn Integrator> {
-        let c = &self.config;
-        let rule = VelocityRule {
-            restitution: c.restitution,
-            friction: c.friction,
-        };
-        let response = match c.response {
-            ContactResponse::Penalty => Response::ReportOnly,
-            ContactResponse::Projection => Response::Projection(rule),
-            ContactResponse::VelocityFlip => Response::VelocityFlip(rule),
-            ContactResponse::Ipc => {
-                let shared = self.ipc.clone().expect("built by Contact::build_ipc");
-                let filter = ipc::IpcFilter::new(shared.clone());
-                let inner = settings
-                    .build_constrained(NewtonContact::Barrier(Box::new(filter)))
-                    .expect("scene validation admits ipc only for methods on the Newton loop");
-                return Box::new(ipc::WithIpc::new(inner, shared, self.check.clone()));
-            }
-            ContactResponse::Constrained => {
-                let constraints = ContactConstraints::new(self.obstacles.clone(), c.margin);
-                let inner = settings
-                    .build_constrained(NewtonContact::Constraints(Box::new(constraints)))
-                    .expect("scene validation admits constrained contact only for such methods");
-                // The constraints record contacts; the wrapper adds the frame check.
-                return Box::new(
-                    WithContactResponse::new(
-                        inner,
-                        self.obstacles.clone(),
-                        Response::ReportOnly,
-                        c.margin,
-                    )
-                    .with_check(self.check.clone()),
-                );
-            }
-        };
+        (self.config.response.facts().integrator)(self, settings)
+    }
+
+    /// `inner` wrapped so that after each step it applies `response` and reports contacts,
+    /// with the frame check.
+    pub(crate) fn wrapped(
+        &self,
+        inner: Box<dyn Integrator>,
+        response: Response,
+    ) -> Box<dyn Integrator> {
         Box::new(
-            WithContactResponse::new(settings.build(), self.obstacles.clone(), response, c.margin)
+            WithContactResponse::new(inner, self.obstacles.clone(), response, self.config.margin)
                 .with_check(self.check.clone()),
         )
+    }
+
+    /// The restitution and friction of the `[contact]` section.
+    pub(crate) fn velocity_rule(&self) -> VelocityRule {
+        VelocityRule {
+            restitution: self.config.restitution,
+            friction: self.config.friction,
+        }
     }
 }

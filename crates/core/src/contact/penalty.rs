@@ -3,6 +3,9 @@
 //! implicit ones see its Hessian).
 
 use super::obstacle::Obstacles;
+use super::{Contact, ContactSetup, Response};
+use crate::integrate::{Integrator, IntegratorSettings};
+use crate::model::Model;
 use crate::model::VertexPotential;
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 use std::sync::Arc;
@@ -105,4 +108,20 @@ fn project_psd(m: Matrix3<f64>) -> Matrix3<f64> {
     }
     eig.eigenvalues.iter_mut().for_each(|l| *l = l.max(0.0));
     eig.recompose()
+}
+
+/// The penalty response for a scene: its analytic obstacles, and the penalty potential added
+/// to `model`.
+pub(super) fn build(setup: &ContactSetup<'_>, model: &mut Model) -> Contact {
+    let contact = Contact::with_analytic_obstacles(setup, model);
+    model.add_vertex_potential(Box::new(PenaltyContact::new(
+        contact.obstacles.clone(),
+        setup.config.stiffness,
+    )));
+    contact
+}
+
+/// The scene's integrator as it is (the penalty acts in the model), reporting contacts.
+pub(super) fn integrator(contact: &Contact, settings: &IntegratorSettings) -> Box<dyn Integrator> {
+    contact.wrapped(settings.build(), Response::ReportOnly)
 }

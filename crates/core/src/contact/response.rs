@@ -14,8 +14,10 @@
 //! ([`super::correction`]), so the correction does not store elastic energy the impact never
 //! had.
 
+use super::Contact;
 use super::correction::{ContactRow, Correction};
 use super::obstacle::{ObstacleSample, Obstacles};
+use crate::integrate::IntegratorSettings;
 use crate::integrate::{Integrator, State, StepError, StepReport};
 use crate::model::Model;
 use nalgebra::Vector3;
@@ -294,4 +296,25 @@ impl Integrator for WithContactResponse {
     fn reset(&mut self) {
         self.inner.reset();
     }
+}
+
+/// The projection response: the scene's integrator, then penetrating vertices moved to the
+/// surface with their velocity changed.
+pub(super) fn projection(contact: &Contact, settings: &IntegratorSettings) -> Box<dyn Integrator> {
+    contact.wrapped(
+        settings.build(),
+        Response::Projection(contact.velocity_rule()),
+    )
+}
+
+/// The velocity-flip response: the scene's integrator, then a vertex that would penetrate
+/// gets the new velocity and redoes its move.
+pub(super) fn velocity_flip(
+    contact: &Contact,
+    settings: &IntegratorSettings,
+) -> Box<dyn Integrator> {
+    contact.wrapped(
+        settings.build(),
+        Response::VelocityFlip(contact.velocity_rule()),
+    )
 }

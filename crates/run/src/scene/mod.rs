@@ -23,7 +23,7 @@ pub use springs::{DragConfig, JelloConfig, JelloShape, KindTable, SpringsConfig,
 
 use crate::data::{DataError, DataPaths};
 use nalgebra::Vector3;
-use softbench_core::contact::Contact;
+use softbench_core::contact::{Contact, ContactResponse, ContactSetup, ipc::MeshObstacle};
 use softbench_core::integrate::{Integrator, State};
 use softbench_core::material::{
     LameParameters, MaterialError, MaterialKind, MaterialModel, NeoHookean,
@@ -370,14 +370,20 @@ fn validate(c: &SceneConfig, path: &Path) -> Result<(), SceneError> {
     c.contact
         .validate(c.integrator.method)
         .map_err(|e| invalid(&e.key, e.message))?;
-    if c.contact.response != softbench_core::contact::ContactResponse::Ipc
+    if !c.contact.response.facts().sees_mesh_obstacles
         && let Some(i) = c.obstacles.iter().position(|o| o.is_mesh())
     {
+        let seeing: Vec<&str> = ContactResponse::ALL
+            .iter()
+            .filter(|r| r.facts().sees_mesh_obstacles)
+            .map(|r| r.name())
+            .collect();
         return Err(invalid(
             &format!("obstacles[{i}].kind"),
             format!(
-                "a mesh obstacle has no signed distance; only contact.response = \"ipc\" sees \
+                "a mesh obstacle has no signed distance; only contact.response = \"{}\" sees \
                  its faces (the response is \"{}\")",
+                seeing.join("\", \""),
                 c.contact.response
             ),
         ));
@@ -415,7 +421,7 @@ fn validate_newton_components(c: &SceneConfig, path: &Path) -> Result<(), SceneE
         }
         if !matches!(*key, "log_iterations" | "roundoff_stop")
             && !c.obstacles.is_empty()
-            && c.contact.response == softbench_core::contact::ContactResponse::Constrained
+            && c.contact.response.facts().owns_newton_components
         {
             return Err(invalid(
                 &format!("integrator.newton.{key}"),
@@ -725,6 +731,35 @@ fn frame_state(
     Ok(state)
 }
 
+/// The scene's triangle-mesh obstacles, read from their files.
+fn mesh_obstacles(
+    c: &SceneConfig,
+    loaded: &LoadedScene,
+    data: &DataPaths,
+) -> Result<Vec<MeshObstacle>, SceneError> {
+    let path = &loaded.path;
+    c.obstacles
+        .iter()
+        .enumerate()
+        .filter(|(_, o)| o.is_mesh())
+        .map(|(i, o)| {
+            let file = o.file.as_deref().expect("validated");
+            let resolved =
+                data.resolve(file, Some(loaded.base_dir()))
+                    .map_err(|e| SceneError::Invalid {
+                        path: path.clone(),
+                        key: format!("obstacles[{i}].file"),
+                        message: e.to_string(),
+                    })?;
+            o.mesh_obstacle(&resolved)
+                .map_err(|error| SceneError::Mesh {
+                    path: path.clone(),
+                    error,
+                })
+        })
+        .collect()
+}
+
 /// Build the scene: mesh, material, fixed vertices, forces, obstacles, initial state.
 pub fn build(
     loaded: &LoadedScene,
@@ -779,11 +814,10 @@ pub fn build(
         parallelism,
         damping: c.damping.to_model(),
     };
-    // The boundary surface contact works on (incremental potential contact) and the
+    // The boundary surface contact works on (a response keeping the body off itself) and the
     // intersection check of sampled frames examines.
-    let surface = if c.contact.response == softbench_core::contact::ContactResponse::Ipc
-        || !c.obstacles.is_empty()
-    {
+    let response = c.contact.response.facts();
+    let surface = if response.self_contact || !c.obstacles.is_empty() {
         softbench_core::mesh::surface::boundary_faces(&spec.mesh.tets)
     } else {
         Vec::new()
@@ -802,39 +836,19 @@ pub fn build(
         key: e.key,
         message: e.message,
     })?;
-    let contact = if c.contact.response == softbench_core::contact::ContactResponse::Ipc {
-        let meshes = c
-            .obstacles
-            .iter()
-            .enumerate()
-            .filter(|(_, o)| o.is_mesh())
-            .map(|(i, o)| {
-                let file = o.file.as_deref().expect("validated");
-                let resolved = data.resolve(file, Some(loaded.base_dir())).map_err(|e| {
-                    SceneError::Invalid {
-                        path: path.clone(),
-                        key: format!("obstacles[{i}].file"),
-                        message: e.to_string(),
-                    }
-                })?;
-                o.mesh_obstacle(&resolved)
-                    .map_err(|error| SceneError::Mesh {
-                        path: path.clone(),
-                        error,
-                    })
-            })
-            .collect::<Result<Vec<_>, _>>()?;
-        Some(Contact::build_ipc(
-            &c.obstacles,
-            &meshes,
-            &c.contact,
-            &mut model,
-            &surface,
-            c.run.dt,
-        ))
+    let meshes = if response.sees_mesh_obstacles {
+        mesh_obstacles(c, loaded, data)?
     } else {
-        Contact::build(&c.obstacles, &c.contact, &mut model, &surface)
+        Vec::new()
     };
+    let setup = ContactSetup {
+        obstacles: &c.obstacles,
+        meshes: &meshes,
+        config: &c.contact,
+        surface: &surface,
+        dt: c.run.dt,
+    };
+    let contact = Contact::build(&setup, &mut model);
     // A method that has no form for the model's material or potentials says so now, not at
     // its first step. The integrator checked is the one the first run uses.
     let integrator = new_integrator(c, &model, contact.as_ref());

@@ -830,3 +830,65 @@ impl Integrator for WithIpc {
         self.inner.reset();
     }
 }
+
+/// Incremental potential contact for a scene (`response = "ipc"`): the body's boundary
+/// triangles against the analytic obstacles (mesh tables skipped; still boxes as triangle
+/// meshes) and the mesh obstacles, with steps of `dt`; adds the contact potential to `model`.
+/// Built even without obstacles (self-contact).
+pub(super) fn build(setup: &super::ContactSetup<'_>, model: &mut Model) -> super::Contact {
+    let set: Obstacles = setup
+        .obstacles
+        .iter()
+        .filter(|o| !o.is_mesh())
+        .map(super::ObstacleConfig::obstacle)
+        .collect();
+    // Still boxes take part as triangle meshes (their edges and corners then meet the body's
+    // edges and faces, not only its vertices); the rest stay signed distances.
+    let mut contact_meshes = setup.meshes.to_vec();
+    let mut distances = Vec::new();
+    for o in set.iter() {
+        if o.is_static() {
+            o.box_meshes(0.0, &mut contact_meshes);
+            distances.extend(o.without_boxes());
+        } else {
+            distances.push(o.clone());
+        }
+    }
+    let set = Arc::new(set);
+    let shared = Arc::new(Ipc::new(
+        model,
+        setup.surface,
+        Arc::new(Obstacles::new(distances)),
+        &contact_meshes,
+        setup.config.ipc,
+        setup.dt,
+    ));
+    model.set_contact_potential(Box::new(IpcPotential(shared.clone())));
+    let check = super::frame_check::FrameCheck::new(
+        setup.surface.to_vec(),
+        setup.meshes.to_vec(),
+        set.clone(),
+    );
+    super::Contact {
+        obstacles: set,
+        config: *setup.config,
+        ipc: Some(shared),
+        check: Arc::new(check),
+    }
+}
+
+/// The scene's method with the barrier's step filter inside its Newton loop, wrapped to report
+/// contacts and check frames.
+pub(super) fn integrator(
+    contact: &super::Contact,
+    settings: &crate::integrate::IntegratorSettings,
+) -> Box<dyn Integrator> {
+    let shared = contact.ipc.clone().expect("built by ipc::build");
+    let filter = IpcFilter::new(shared.clone());
+    let inner = settings
+        .build_constrained(crate::integrate::newton::NewtonContact::Barrier(Box::new(
+            filter,
+        )))
+        .expect("scene validation admits ipc only for methods on the Newton loop");
+    Box::new(WithIpc::new(inner, shared, contact.check.clone()))
+}
