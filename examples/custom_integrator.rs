@@ -155,6 +155,7 @@ scenes = [{scene:?}]
         progress: false,
         wait: false,
         shard: None,
+        threads: None,
     };
     let done = study::run(&study, &options)?;
 
@@ -166,6 +167,7 @@ scenes = [{scene:?}]
         every: 1,
         pictures: false,
         progress: false,
+        threads: None,
     };
     let simulated = out.join("ssprk3");
     std::fs::create_dir_all(&simulated)?;

@@ -28,6 +28,7 @@ pub mod error;
 pub use softbench_core::{
     colouring, contact, error_class, fem, integrate, interrupt, limits, material, mesh, model,
     named_enum, names, parallel, quote, registry, registry_handle, rng, solve, sparse, springs,
+    threads,
 };
 pub use softbench_run::{console, data, export, io, lock, pipeline, plot, render, run, scene};
 pub use softbench_study::{ledger, slurm, study};

@@ -58,6 +58,7 @@ const NO_OUTPUTS: SimulateOptions = SimulateOptions {
     every: 1,
     pictures: false,
     progress: false,
+    threads: None,
 };
 
 #[test]
@@ -189,6 +190,7 @@ fn obj_frames_and_pictures_share_the_display_mesh_read_once_when_prepared() {
         every: 3,
         pictures: true,
         progress: false,
+        threads: None,
     };
     let loaded = scene::load(&scene_file, &[]).unwrap();
     let simulation = Simulation::prepare(
@@ -269,6 +271,7 @@ fn a_study_draws_the_display_mesh_as_simulate_render_does() {
         progress: false,
         wait: false,
         shard: None,
+        threads: None,
     };
     let done = softbench::study::run(&study, &options).unwrap();
     assert_eq!(done.ran, 1);

@@ -50,6 +50,7 @@ fn options(dir: &Path) -> RunOptions {
         progress: false,
         wait: false,
         shard: None,
+        threads: None,
     }
 }
 

@@ -60,6 +60,7 @@ fn every_registered_study_kind_runs_from_its_example() {
                 progress: false,
                 wait: false,
                 shard: None,
+                threads: None,
             },
         )
         .unwrap_or_else(|e| panic!("{}: the study failed: {e}", kind.name));

@@ -91,13 +91,16 @@ def simulate(
     every: Optional[int] = None,
     base_dir: Optional[PathLike] = None,
     data_dir: Optional[PathLike] = None,
+    threads: Optional[int] = None,
 ) -> Simulation:
     """Run one scene as ``softbench simulate`` does and return its results.
 
     ``scene`` is a TOML file or a dict of the same content (relative paths in a dict are found
     in ``base_dir``, default the current folder). With ``out`` the files are written there
     (and kept); otherwise into a temporary folder that is removed. A run that blows up is a
-    result (see ``.outcome``); a bad scene raises :class:`BadInputError`.
+    result (see ``.outcome``); a bad scene raises :class:`BadInputError`. ``threads`` is the
+    size of the run's own pool (default: ``RAYON_NUM_THREADS``, else one per core); the
+    results are the same for any count.
     """
     if every is not None and every < 1:
         raise BadInputError("every must be at least 1")
@@ -106,7 +109,11 @@ def simulate(
         folder = Path(out) if out is not None else Path(tmp)
         folder.mkdir(parents=True, exist_ok=True)
         _, frames = _native.simulate(
-            os.fspath(folder), data_dir=_opt_path(data_dir), every=every, **args
+            os.fspath(folder),
+            data_dir=_opt_path(data_dir),
+            every=every,
+            threads=threads,
+            **args,
         )
         trajectory = pd.read_csv(folder / "trajectory.csv")
         final = pd.read_csv(folder / "final_positions.csv")[["x", "y", "z"]].to_numpy()
@@ -132,15 +139,24 @@ def run_study(
     only: Optional[str] = None,
     force: bool = False,
     data_dir: Optional[PathLike] = None,
+    threads: Optional[int] = None,
 ) -> pd.DataFrame:
     """Run a study file as ``softbench run`` does (into ``out/<study name>/``: runs.csv,
     series/, plots, report.md, meta.json) and return its ``runs.csv``.
 
     Finished runs with the same configuration are reused unless ``force``. The DataFrame's
-    ``attrs["dir"]`` is the study's folder.
+    ``attrs["dir"]`` is the study's folder. ``threads`` is the size of the study's own pool
+    (``softbench run --threads``).
     """
     folder = _native.run_study(
-        os.fspath(path), os.fspath(out), quick, jobs, only, force, _opt_path(data_dir)
+        os.fspath(path),
+        os.fspath(out),
+        quick,
+        jobs,
+        only,
+        force,
+        _opt_path(data_dir),
+        threads,
     )
     runs = pd.read_csv(Path(folder) / "runs.csv")
     runs.attrs["dir"] = Path(folder)
@@ -215,9 +231,10 @@ class Model(_Evaluations):
         *,
         base_dir: Optional[PathLike] = None,
         data_dir: Optional[PathLike] = None,
+        threads: Optional[int] = None,
     ) -> None:
         args = _scene_args(scene, overrides, base_dir)
-        self._inner = _native.Model(data_dir=_opt_path(data_dir), **args)
+        self._inner = _native.Model(data_dir=_opt_path(data_dir), threads=threads, **args)
 
     @property
     def name(self) -> str:

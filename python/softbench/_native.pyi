@@ -20,6 +20,7 @@ def simulate(
     set_json: Optional[str] = None,
     data_dir: Optional[str] = None,
     every: Optional[int] = None,
+    threads: Optional[int] = None,
 ) -> Tuple[str, Optional[Tuple[np.ndarray, np.ndarray]]]: ...
 def run_study(
     path: str,
@@ -29,6 +30,7 @@ def run_study(
     only: Optional[str] = None,
     force: bool = False,
     data_dir: Optional[str] = None,
+    threads: Optional[int] = None,
 ) -> str: ...
 def register_method(
     name: str,
@@ -49,6 +51,7 @@ class Model:
         set: Sequence[str] = ...,
         set_json: Optional[str] = None,
         data_dir: Optional[str] = None,
+        threads: Optional[int] = None,
     ) -> None: ...
     def initial_state(self) -> Tuple[np.ndarray, np.ndarray, float]: ...
     def run_length(self) -> Tuple[float, int]: ...

@@ -19,6 +19,8 @@ use softbench::integrate::{
 };
 use softbench::model::Model as FemModel;
 use softbench::registry::Entry;
+// A step model is evaluated on the run's thread, in the run's pool.
+use softbench::threads::Threads;
 
 use crate::errors::IntoPy;
 use crate::model::{self, Csc};
@@ -236,14 +238,14 @@ impl StepModel {
         model::full_positions(py, self.model()?, q)
     }
     fn energy(&mut self, q: PyReadonlyArray1<'_, f64>) -> PyResult<f64> {
-        model::energy(self.model()?, q)
+        model::energy(self.model()?, q, &Threads::default())
     }
     fn gradient<'py>(
         &mut self,
         py: Python<'py>,
         q: PyReadonlyArray1<'py, f64>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        model::gradient(py, self.model()?, q)
+        model::gradient(py, self.model()?, q, &Threads::default())
     }
     #[pyo3(signature = (q, projected=false))]
     fn hessian<'py>(
@@ -252,7 +254,7 @@ impl StepModel {
         q: PyReadonlyArray1<'py, f64>,
         projected: bool,
     ) -> PyResult<Csc<'py>> {
-        model::hessian(py, self.model()?, q, projected)
+        model::hessian(py, self.model()?, q, projected, &Threads::default())
     }
     fn mass<'py>(&mut self, py: Python<'py>) -> PyResult<Csc<'py>> {
         Ok(model::mass(py, self.model()?))

@@ -11,6 +11,7 @@ use pyo3::types::PyDict;
 use softbench::model::{HessianOptions, Model as FemModel};
 use softbench::parallel::Parallelism;
 use softbench::scene::{self, Scene};
+use softbench::threads::Threads;
 
 use crate::errors::IntoPy;
 use crate::scene::SceneSource;
@@ -27,13 +28,16 @@ pub type Csc<'py> = (
 #[pyclass(module = "softbench._native", unsendable)]
 pub struct Model {
     scene: Scene,
+    /// The pool its evaluations run in (`threads=`), or the caller's.
+    threads: Threads,
 }
 
 #[pymethods]
 impl Model {
     /// Build the scene (mesh, material, fixed vertices, forces, obstacles).
     #[new]
-    #[pyo3(signature = (path=None, table_json=None, base_dir=None, set=Vec::new(), set_json=None, data_dir=None))]
+    #[pyo3(signature = (path=None, table_json=None, base_dir=None, set=Vec::new(), set_json=None, data_dir=None, threads=None))]
+    #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
         path: Option<std::path::PathBuf>,
@@ -42,7 +46,9 @@ impl Model {
         set: Vec<String>,
         set_json: Option<String>,
         data_dir: Option<std::path::PathBuf>,
+        threads: Option<usize>,
     ) -> PyResult<Self> {
+        let threads = Threads::new(threads).py_err()?;
         let source = SceneSource {
             path,
             table_json,
@@ -54,10 +60,10 @@ impl Model {
         let scene = py
             .detach(|| -> Result<Scene, softbench::error::Error> {
                 let loaded = source.load()?;
-                Ok(scene::build(&loaded, &data, Parallelism::Rayon)?)
+                Ok(threads.install(|| scene::build(&loaded, &data, Parallelism::Rayon))?)
             })
             .py_err()?;
-        Ok(Self { scene })
+        Ok(Self { scene, threads })
     }
 
     /// The scene's name.
@@ -114,21 +120,21 @@ impl Model {
         PyArray1::from_slice(py, self.scene.model.vertex_masses())
     }
     fn energy(&mut self, q: PyReadonlyArray1<'_, f64>) -> PyResult<f64> {
-        energy(&mut self.scene.model, q)
+        energy(&mut self.scene.model, q, &self.threads)
     }
     fn energy_parts<'py>(
         &mut self,
         py: Python<'py>,
         q: PyReadonlyArray1<'py, f64>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        energy_parts(py, &mut self.scene.model, q)
+        energy_parts(py, &mut self.scene.model, q, &self.threads)
     }
     fn gradient<'py>(
         &mut self,
         py: Python<'py>,
         q: PyReadonlyArray1<'py, f64>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        gradient(py, &mut self.scene.model, q)
+        gradient(py, &mut self.scene.model, q, &self.threads)
     }
     #[pyo3(signature = (q, projected=false))]
     fn hessian<'py>(
@@ -137,7 +143,7 @@ impl Model {
         q: PyReadonlyArray1<'py, f64>,
         projected: bool,
     ) -> PyResult<Csc<'py>> {
-        hessian(py, &mut self.scene.model, q, projected)
+        hessian(py, &mut self.scene.model, q, projected, &self.threads)
     }
     fn mass<'py>(&self, py: Python<'py>) -> Csc<'py> {
         mass(py, &self.scene.model)
@@ -191,18 +197,23 @@ pub fn full_positions<'py>(
         .into_pyarray(py))
 }
 
-pub fn energy(model: &mut FemModel, q: PyReadonlyArray1<'_, f64>) -> PyResult<f64> {
+pub fn energy(
+    model: &mut FemModel,
+    q: PyReadonlyArray1<'_, f64>,
+    threads: &Threads,
+) -> PyResult<f64> {
     let q = free(model, &q)?;
-    model.potential(q).py_err()
+    threads.install(|| model.potential(q)).py_err()
 }
 
 pub fn energy_parts<'py>(
     py: Python<'py>,
     model: &mut FemModel,
     q: PyReadonlyArray1<'py, f64>,
+    threads: &Threads,
 ) -> PyResult<Bound<'py, PyDict>> {
     let q = free(model, &q)?;
-    let p = model.potential_parts(q).py_err()?;
+    let p = threads.install(|| model.potential_parts(q)).py_err()?;
     let d = PyDict::new(py);
     d.set_item("elastic", p.elastic)?;
     d.set_item("springs", p.springs)?;
@@ -217,10 +228,11 @@ pub fn gradient<'py>(
     py: Python<'py>,
     model: &mut FemModel,
     q: PyReadonlyArray1<'py, f64>,
+    threads: &Threads,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
     let q = free(model, &q)?;
     let mut g = vec![0.0; q.len()];
-    model.gradient(q, &mut g).py_err()?;
+    threads.install(|| model.gradient(q, &mut g)).py_err()?;
     Ok(g.into_pyarray(py))
 }
 
@@ -229,6 +241,7 @@ pub fn hessian<'py>(
     model: &mut FemModel,
     q: PyReadonlyArray1<'py, f64>,
     projected: bool,
+    threads: &Threads,
 ) -> PyResult<Csc<'py>> {
     let q = free(model, &q)?;
     let mut h = model.new_hessian();
@@ -237,7 +250,9 @@ pub fn hessian<'py>(
     } else {
         HessianOptions::default()
     };
-    model.hessian(q, &mut h, options).py_err()?;
+    threads
+        .install(|| model.hessian(q, &mut h, options))
+        .py_err()?;
     let p = h.pattern().clone();
     let indptr: Vec<i64> = p.col_ptr().iter().map(|&i| i as i64).collect();
     let indices: Vec<i64> = p.row_idx().iter().map(|&i| i as i64).collect();

@@ -26,7 +26,7 @@ type Simulated<'py> = (
 /// frame every `every` steps (and the first and last), returned as arrays. Raises
 /// `BadInputError` for a bad scene; a run that blows up is a result (see its summary).
 #[pyfunction]
-#[pyo3(signature = (out, path=None, table_json=None, base_dir=None, set=Vec::new(), set_json=None, data_dir=None, every=None))]
+#[pyo3(signature = (out, path=None, table_json=None, base_dir=None, set=Vec::new(), set_json=None, data_dir=None, every=None, threads=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn simulate<'py>(
     py: Python<'py>,
@@ -38,6 +38,7 @@ pub fn simulate<'py>(
     set_json: Option<String>,
     data_dir: Option<PathBuf>,
     every: Option<usize>,
+    threads: Option<usize>,
 ) -> PyResult<Simulated<'py>> {
     let source = SceneSource {
         path,
@@ -55,6 +56,7 @@ pub fn simulate<'py>(
                 every: every.unwrap_or(1).max(1),
                 pictures: false,
                 progress: false,
+                threads,
             };
             let simulation = Simulation::prepare(loaded, &data, Parallelism::Rayon, options)?;
             let done = simulation.run(&out)?;

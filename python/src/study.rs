@@ -12,7 +12,7 @@ use crate::errors::IntoPy;
 /// the same configuration are reused unless `force`. Methods registered from Python run
 /// under the study's runner like built-in ones (with `jobs > 1` they take turns at the GIL).
 #[pyfunction]
-#[pyo3(signature = (path, out, quick=false, jobs=1, only=None, force=false, data_dir=None))]
+#[pyo3(signature = (path, out, quick=false, jobs=1, only=None, force=false, data_dir=None, threads=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn run_study(
     py: Python<'_>,
@@ -23,6 +23,7 @@ pub fn run_study(
     only: Option<String>,
     force: bool,
     data_dir: Option<PathBuf>,
+    threads: Option<usize>,
 ) -> PyResult<String> {
     let data = crate::scene::data_paths(data_dir);
     if jobs == 0 {
@@ -38,6 +39,7 @@ pub fn run_study(
             progress: false,
             wait: false,
             shard: None,
+            threads,
         };
         let done = study::run(&loaded, &options)?;
         Ok(done.dir.to_string_lossy().into_owned())

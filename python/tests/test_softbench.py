@@ -81,6 +81,18 @@ def test_a_scene_dict_runs_like_its_file(beam):
     np.testing.assert_array_equal(from_dict.final_positions, from_file.final_positions)
 
 
+def test_threads_are_a_setting_of_each_call_and_do_not_change_the_bits(beam, tmp_path):
+    over = {"run.steps": 4, "integrator.method": "backward-euler"}
+    one = softbench.simulate(beam, over, threads=1)
+    three = softbench.simulate(beam, over, threads=3)
+    np.testing.assert_array_equal(one.final_positions, three.final_positions)
+    model = softbench.Model(beam, threads=2)
+    q, _, _ = model.initial_state()
+    assert model.energy(q) == softbench.Model(beam, threads=1).energy(q)
+    with pytest.raises(softbench.BadInputError, match="threads"):
+        softbench.simulate(beam, over, threads=0)
+
+
 def test_positions_over_time(beam):
     run = softbench.simulate(beam, {"run.steps": 20}, every=5)
     assert run.positions.shape == (5, 99, 3)

@@ -78,6 +78,10 @@ pub(super) struct RunArgs {
     /// thread per core).
     #[arg(long, default_value_t = 1)]
     pub(super) jobs: usize,
+    /// Threads of the study's pool, which a run uses when --jobs is 1 (default:
+    /// RAYON_NUM_THREADS, else one per core). The results are the same for any count.
+    #[arg(long)]
+    pub(super) threads: Option<usize>,
     /// Apply the study's [quick] settings (fewer steps, shorter horizons and ladders): a smoke
     /// test.
     #[arg(long)]

@@ -228,14 +228,8 @@ fn simulate(args: &SimulateArgs) -> Result<ExitCode, Error> {
     if every == 0 {
         return Err(BadInput("--every must be at least 1".into()).into());
     }
-    if let Some(n) = args.threads {
-        if n == 0 {
-            return Err(BadInput("--threads must be at least 1".into()).into());
-        }
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(n)
-            .build_global()
-            .failure("cannot start the thread pool")?;
+    if args.threads == Some(0) {
+        return Err(BadInput("--threads must be at least 1".into()).into());
     }
     // Everything that can be wrong with the input is found before anything is written.
     let loaded = scene::load(&args.scene, &args.set)?;
@@ -244,6 +238,7 @@ fn simulate(args: &SimulateArgs) -> Result<ExitCode, Error> {
         every,
         pictures: args.render,
         progress: true,
+        threads: args.threads,
     };
     let simulation =
         Simulation::prepare(loaded, &DataPaths::from_env(), Parallelism::Rayon, options).map_err(
@@ -492,6 +487,9 @@ fn run_study(args: &RunArgs) -> Result<ExitCode, Error> {
     if args.jobs == 0 {
         return Err(BadInput("--jobs must be at least 1".into()).into());
     }
+    if args.threads == Some(0) {
+        return Err(BadInput("--threads must be at least 1".into()).into());
+    }
     if let Some(set) = args.set.first() {
         return Err(BadInput(format!(
             "run has no --set (given `--set {set}`): a study's scenes are changed in the study \
@@ -512,6 +510,7 @@ fn run_study(args: &RunArgs) -> Result<ExitCode, Error> {
         progress: true,
         wait: args.wait,
         shard: args.shard,
+        threads: args.threads,
     };
     if let Some(p) = &options.only
         && !study.runs.iter().any(|r| study::matches(&r.id, p))

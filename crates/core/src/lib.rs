@@ -34,3 +34,4 @@ pub mod rng;
 pub mod solve;
 pub mod sparse;
 pub mod springs;
+pub mod threads;

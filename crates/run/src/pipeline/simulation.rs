@@ -7,6 +7,7 @@
 //! written; [`Simulation::run`] runs and writes.
 
 use softbench_core::error_class::{Classify, ErrorClass};
+use softbench_core::threads::{Threads, ThreadsError};
 use std::path::{Path, PathBuf};
 
 use super::body::BodySurface;
@@ -39,6 +40,9 @@ pub struct SimulateOptions {
     pub pictures: bool,
     /// A progress bar on stderr (drawn only when it is a terminal).
     pub progress: bool,
+    /// The threads of the run's pool; `None`: the caller's pool (rayon's global one). The
+    /// results are the same bits for any count.
+    pub threads: Option<usize>,
 }
 
 /// Why a simulation could not be prepared or its results written.
@@ -61,6 +65,8 @@ pub enum SimulateError {
     },
     #[error(transparent)]
     Render(#[from] RenderError),
+    #[error(transparent)]
+    Threads(#[from] ThreadsError),
     /// `frames` in the output folder is a symbolic link or not a folder: frames are never
     /// written (or old ones deleted) through it, since it can point outside the output folder.
     #[error(
@@ -82,6 +88,7 @@ impl Classify for SimulateError {
             Self::NoSurface | Self::FramesNotAFolder { .. } => ErrorClass::BadInput,
             Self::Observe(e) => e.class(),
             Self::Render(e) => e.class(),
+            Self::Threads(e) => e.class(),
             Self::Write { .. } => ErrorClass::Failure,
         }
     }
@@ -96,6 +103,8 @@ pub struct Simulation {
     frames: Option<FrameContent>,
     pictures: Option<Surface>,
     options: SimulateOptions,
+    /// The pool the run steps in.
+    threads: Threads,
 }
 
 /// What a finished simulation wrote and how its run went.
@@ -128,7 +137,8 @@ impl Simulation {
         parallelism: Parallelism,
         options: SimulateOptions,
     ) -> Result<Self, SimulateError> {
-        let scene = scene::build(&loaded, data, parallelism)?;
+        let threads = Threads::new(options.threads)?;
+        let scene = threads.install(|| scene::build(&loaded, data, parallelism))?;
         if options.pictures && scene.surface_tets().is_empty() {
             return Err(SimulateError::NoSurface);
         }
@@ -154,6 +164,7 @@ impl Simulation {
             frames,
             pictures,
             options,
+            threads,
         })
     }
 
@@ -171,6 +182,12 @@ impl Simulation {
     /// a previous run are replaced). A run that blows up is written like any other; its
     /// outcome is in [`Simulated::summary`].
     pub fn run(self, out: &Path) -> Result<Simulated, SimulateError> {
+        let threads = self.threads.clone();
+        threads.install(|| self.run_here(out))
+    }
+
+    /// [`Self::run`] on the calling thread (in the run's pool).
+    fn run_here(self, out: &Path) -> Result<Simulated, SimulateError> {
         let Self {
             loaded,
             mut scene,

@@ -64,6 +64,9 @@ pub enum RunError {
     /// A run could not even start (its scene failed to build), or a reference failed.
     #[error("{0}")]
     Run(String),
+    /// The study's pool of threads could not be made.
+    #[error(transparent)]
+    Threads(#[from] softbench_core::threads::ThreadsError),
 }
 
 /// The error for a failed write of `path`.
@@ -96,6 +99,7 @@ impl Classify for RunError {
             Self::Io { .. } | Self::Run(_) => ErrorClass::Failure,
             Self::Results(e) => e.class(),
             Self::Lock(e) => e.class(),
+            Self::Threads(e) => e.class(),
         }
     }
 }

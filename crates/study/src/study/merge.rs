@@ -12,11 +12,11 @@ use super::meta::Meta;
 use super::progress::Progress;
 use super::rows::{earlier_rows, header, is_done};
 use super::shard_record::ShardRecord;
-use super::shared::{SharedWork, Source};
+use super::shared::{SharedWork, Source, Workers};
 use super::shared_store::SharedStore;
 use super::spec::{RunSpec, Study};
 use super::table::Table;
-use softbench_core::parallel::Parallelism;
+use softbench_core::threads::Threads;
 use softbench_run::lock::{FolderLock, Wait};
 use std::path::{Path, PathBuf};
 
@@ -144,8 +144,7 @@ pub(super) fn merge_study(
         study,
         &all,
         Source::ReadOnly(&store),
-        Parallelism::Sequential,
-        1,
+        &Workers::reading(&Threads::default()),
         &Progress::without_runs(false),
     )?;
     // The runs' load is each shard's, in its record; the merge's own moment says nothing

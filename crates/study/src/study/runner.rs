@@ -14,12 +14,13 @@ use super::report;
 use super::rows::{earlier_rows, header, is_done, ordered, shard_folder};
 use super::shard::Shard;
 use super::shard_record::ShardRecord;
-use super::shared::{SharedWork, Source};
+use super::shared::{SharedWork, Source, Workers};
 use super::shared_store::SharedStore;
 use super::spec::{RunSpec, Study};
 use super::table::Table;
 use softbench_core::interrupt;
 use softbench_core::parallel::Parallelism;
+use softbench_core::threads::Threads;
 use softbench_run::io::write_atomic;
 use softbench_run::lock::{FolderLock, Wait};
 use std::collections::HashMap;
@@ -46,6 +47,11 @@ pub struct RunOptions {
     /// table and record to `shards/K-of-N/`, and the shard that finds every run of the study
     /// done merges them (see [`super::merge`]).
     pub shard: Option<Shard>,
+    /// The threads of the study's pool, which every run and shared computation (highest
+    /// modes, references) runs in; `None`: the caller's pool (rayon's global one). With
+    /// `jobs` above 1 each run is sequential, and the count does not matter. The results are
+    /// the same bits for any count.
+    pub threads: Option<usize>,
 }
 
 /// What a study invocation did.
@@ -102,6 +108,7 @@ pub fn matches(id: &str, pattern: &str) -> bool {
 /// Run the study into `options.dir` — all of it, or with [`RunOptions::shard`] one part of
 /// its grid (see [`super::shard`]).
 pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
+    let threads = Threads::new(options.threads)?;
     let dir = &options.dir;
     std::fs::create_dir_all(dir.join("series")).map_err(io(dir))?;
     let wait = if options.wait { Wait::Yes } else { Wait::No };
@@ -241,10 +248,14 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
             selected.len()
         ));
     }
-    let parallelism = if options.jobs > 1 {
-        Parallelism::Sequential
-    } else {
-        Parallelism::Rayon
+    let workers = Workers {
+        parallelism: if options.jobs > 1 {
+            Parallelism::Sequential
+        } else {
+            Parallelism::Rayon
+        },
+        threads: &threads,
+        jobs: options.jobs,
     };
     let store = SharedStore::new(dir);
     let source = match options.shard {
@@ -260,14 +271,7 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
         }
         Some(_) => Source::Stored(&store),
     };
-    let shared = SharedWork::prepare(
-        study,
-        &pending_runs,
-        source,
-        parallelism,
-        options.jobs,
-        &progress,
-    )?;
+    let shared = SharedWork::prepare(study, &pending_runs, source, &workers, &progress)?;
     progress.begin_runs();
     let table_path = lock_dir.join("runs.csv");
     // The rows this invocation's table holds: the whole study's, or the shard's.
@@ -284,19 +288,11 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
         }
     };
     let mut interrupted = interrupt::requested();
-    let failure = execute(
-        study,
-        &pending,
-        &shared,
-        parallelism,
-        options.jobs,
-        &progress,
-        |spec, m| {
-            let row = record(study, spec, m, &header, dir)?;
-            rows.insert(spec.id.clone(), row);
-            table_of(&rows).write(&table_path).map_err(io(&table_path))
-        },
-    );
+    let failure = execute(study, &pending, &shared, &workers, &progress, |spec, m| {
+        let row = record(study, spec, m, &header, dir)?;
+        rows.insert(spec.id.clone(), row);
+        table_of(&rows).write(&table_path).map_err(io(&table_path))
+    });
     progress.done();
     if let Err(Stop::Failed(e)) = failure {
         if let Some(record) = shard_record.as_mut() {
@@ -414,11 +410,15 @@ fn execute(
     study: &Study,
     pending: &[(usize, &RunSpec)],
     shared: &SharedWork,
-    parallelism: Parallelism,
-    jobs: usize,
+    workers: &Workers,
     progress: &Progress,
     mut keep: impl FnMut(&RunSpec, &Measured) -> Result<(), RunError>,
 ) -> Result<(), Stop> {
+    let Workers {
+        parallelism,
+        threads,
+        jobs,
+    } = *workers;
     let (sender, receiver) = std::sync::mpsc::channel::<(usize, Result<Measured, String>)>();
     let next = std::sync::atomic::AtomicUsize::new(0);
     let mut stop: Option<Stop> = None;
@@ -440,8 +440,9 @@ fn execute(
                         meter: Some(progress.meter(run)),
                         ..shared.of(spec)
                     };
-                    let result =
-                        super::kinds::of(study.kind).measure(study, spec, &inputs, parallelism);
+                    let result = threads.install(|| {
+                        super::kinds::of(study.kind).measure(study, spec, &inputs, parallelism)
+                    });
                     progress.finish_run(run, &spec.id);
                     if sender.send((i, result)).is_err() {
                         break;

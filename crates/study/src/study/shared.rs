@@ -16,6 +16,7 @@ use super::shared_store::{SharedStore, bits, from_bits};
 use super::spec::{RunSpec, Study};
 use softbench_core::integrate::Method;
 use softbench_core::parallel::Parallelism;
+use softbench_core::threads::Threads;
 use std::collections::{BTreeMap, HashMap};
 
 /// A reference solution attempted with a method: the solution or why it failed.
@@ -50,16 +51,40 @@ pub(super) struct SharedWork {
     keys: HashMap<String, u64>,
 }
 
+/// Who does a study's work: `jobs` runs (or shared computations) at a time, each with
+/// `parallelism` inside, in the study's pool of `threads`.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Workers<'a> {
+    pub parallelism: Parallelism,
+    pub threads: &'a Threads,
+    pub jobs: usize,
+}
+
+impl<'a> Workers<'a> {
+    /// One job with sequential runs, in the caller's pool: reading what others computed.
+    pub fn reading(threads: &'a Threads) -> Self {
+        Self {
+            parallelism: Parallelism::Sequential,
+            threads,
+            jobs: 1,
+        }
+    }
+}
+
 impl SharedWork {
     /// What the `runs` need, from `source`.
     pub(super) fn prepare(
         study: &Study,
         runs: &[&RunSpec],
         source: Source,
-        parallelism: Parallelism,
-        jobs: usize,
+        workers: &Workers,
         progress: &Progress,
     ) -> Result<Self, RunError> {
+        let Workers {
+            parallelism,
+            threads,
+            jobs,
+        } = *workers;
         let kind = super::kinds::of(study.kind);
         // The first run of the study with each physics the runs need, in grid order.
         let mut templates: Vec<&RunSpec> = Vec::new();
@@ -83,11 +108,13 @@ impl SharedWork {
                 let task = format!("highest mode of {}", spec.scene);
                 let compute = || {
                     progress.start(&task);
-                    let value = super::measured::build(spec, parallelism)
-                        .map_err(|e| e.to_string())
-                        .and_then(|mut scene| super::measured::highest_mode_at_rest(&mut scene))
-                        .map(|m| m.omega)
-                        .ok();
+                    let value = threads.install(|| {
+                        super::measured::build(spec, parallelism)
+                            .map_err(|e| e.to_string())
+                            .and_then(|mut scene| super::measured::highest_mode_at_rest(&mut scene))
+                            .map(|m| m.omega)
+                            .ok()
+                    });
                     progress.finish(&task);
                     value
                 };
@@ -173,7 +200,8 @@ impl SharedWork {
                 let solve = || {
                     solved_here.set(true);
                     progress.start(&task);
-                    let result = reference::reference(spec, w, method, dt, parallelism);
+                    let result =
+                        threads.install(|| reference::reference(spec, w, method, dt, parallelism));
                     progress.finish(&task);
                     result
                 };
