@@ -65,6 +65,14 @@ fn every_registered_study_kind_runs_from_its_example() {
         )
         .unwrap_or_else(|e| panic!("{}: the study failed: {e}", kind.name));
         assert_eq!(done.ran, study.runs.len(), "{}", kind.name);
+        // Every column the kind declares is written by some run: a kind's columns and what
+        // its runs write cannot drift apart (a value for an undeclared column fails the run).
+        assert!(
+            done.unfilled_columns.is_empty(),
+            "{}: declared columns no run filled: {:?}",
+            kind.name,
+            done.unfilled_columns
+        );
         assert!(
             done.not_ok.is_empty(),
             "{}: runs that did not answer: {:?}",

@@ -18,7 +18,7 @@ use super::kind::{Kind, RunInputs, number};
 use super::measured::Measured;
 use super::spec::{RunSpec, Study};
 use super::table::Table;
-use super::trajectory::{COLUMNS as TRAJECTORY, Trajectory, measure_with_state};
+use super::trajectory::{OWN_COLUMNS as TRAJECTORY, Trajectory, measure_with_state};
 use softbench_core::parallel::Parallelism;
 use softbench_run::scene::SceneConfig;
 use std::sync::LazyLock;
@@ -43,8 +43,13 @@ const CONTACT: &[&str] = &[
     "seconds_per_simulated_second",
 ];
 
-static COLUMNS: LazyLock<Vec<&'static str>> =
+/// A contact study's own columns: a trajectory study's, then what contact did.
+static OWN_COLUMNS: LazyLock<Vec<&'static str>> =
     LazyLock::new(|| TRAJECTORY.iter().chain(CONTACT).copied().collect());
+
+/// Every measured column: its own, the run's summary and the integrator's caps.
+static COLUMNS: LazyLock<Vec<&'static str>> =
+    LazyLock::new(|| super::columns::declare(&OWN_COLUMNS, true, true));
 
 /// A contact study.
 pub(super) struct ContactStudy;
@@ -89,6 +94,10 @@ impl Kind for ContactStudy {
 
     fn columns(&self) -> &'static [&'static str] {
         &COLUMNS
+    }
+
+    fn own_columns(&self) -> &'static [&'static str] {
+        &OWN_COLUMNS
     }
 
     fn summary_columns(&self) -> &'static [&'static str] {

@@ -46,8 +46,16 @@ pub(super) trait Kind: Sync {
         ""
     }
 
-    /// The measured columns of `runs.csv` (after the identity and parameter columns).
+    /// The measured columns of `runs.csv` (after the identity and parameter columns): its
+    /// own, then the groups of [`super::columns`] its runs fill (made by
+    /// [`super::columns::declare`]). Every run fills every one of them, and nothing else.
     fn columns(&self) -> &'static [&'static str];
+
+    /// The kind's own columns: those no group of [`super::columns`] names. A results table
+    /// read back must have them (the groups grow as runs report more).
+    fn own_columns(&self) -> &'static [&'static str] {
+        self.columns()
+    }
 
     /// The report's summary table columns (those present in runs.csv are shown).
     fn summary_columns(&self) -> &'static [&'static str];

@@ -9,6 +9,7 @@
 //! orchestrators): DESIGN.md's layout describes it.
 
 mod charts;
+mod columns;
 pub mod config;
 mod contact;
 mod context;
@@ -154,18 +155,6 @@ fn read_results(dir: &std::path::Path) -> Result<(Meta, table::Table), ResultsEr
     Ok((meta, runs))
 }
 
-/// Count columns newer than some studies' tables: a table without them was written by an
-/// earlier softbench, not cut short, and its plots are drawn without them.
-const NEWER_COLUMNS: [&str; 7] = [
-    "symbolic_analyses",
-    "force_seconds",
-    "mass_solves",
-    "mass_solve_seconds",
-    "internal_dt_min",
-    "internal_dt_median",
-    "internal_dt_max",
-];
-
 /// Before any plot is replaced or removed: `runs.csv` must have the columns its study kind
 /// writes and at least one row (a cut or emptied file would otherwise leave no plots).
 fn check_runs_table(
@@ -177,19 +166,13 @@ fn check_runs_table(
         path: path.to_owned(),
         message,
     };
-    let kind_columns = kinds::of(&study.kind).columns();
-    let required = [
-        "run_id",
-        "scene",
-        "method",
-        "linear_solver",
-        "message",
-        "config_hash",
-    ];
-    if let Some(missing) = required
+    // The groups of columns grow as runs report more: an earlier softbench's table lacks some,
+    // and its plots are drawn without them.
+    let own = kinds::of(&study.kind).own_columns();
+    if let Some(missing) = columns::IDENTITY
         .iter()
-        .chain(kind_columns)
-        .filter(|c| !NEWER_COLUMNS.contains(c))
+        .chain(&columns::TRAILER)
+        .chain(own)
         .find(|c| runs.column(c).is_none())
     {
         return Err(malformed(format!(

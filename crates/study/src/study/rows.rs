@@ -1,6 +1,7 @@
 //! The rows of a study's results folder: the `runs.csv` header, which runs are done, the
 //! rows earlier invocations and shards left, and where a shard keeps its own.
 
+use super::columns::{IDENTITY, TRAILER};
 use super::error::{RunError, io_error};
 use super::shard::Shard;
 use super::shard_record::ShardRecord;
@@ -9,10 +10,8 @@ use super::table::Table;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
-/// The identity columns of every `runs.csv`.
-const IDENTITY: [&str; 4] = ["run_id", "scene", "method", "linear_solver"];
-
-/// The header of the study's `runs.csv`.
+/// The header of the study's `runs.csv`: the identity, the parameters, the kind's columns
+/// and the trailer ([`super::columns`]).
 pub fn header(study: &Study) -> Vec<String> {
     let kind_columns = study.kind_columns;
     IDENTITY
@@ -20,7 +19,7 @@ pub fn header(study: &Study) -> Vec<String> {
         .map(|s| (*s).to_owned())
         .chain(study.parameter_columns().into_iter().map(|(_, c)| c))
         .chain(kind_columns.iter().map(|s| (*s).to_owned()))
-        .chain(["message".to_owned(), "config_hash".to_owned()])
+        .chain(TRAILER.iter().map(|s| (*s).to_owned()))
         .collect()
 }
 

@@ -23,7 +23,7 @@ use softbench_core::parallel::Parallelism;
 use softbench_core::threads::Threads;
 use softbench_run::io::write_atomic;
 use softbench_run::lock::{FolderLock, Wait};
-use std::collections::HashMap;
+use std::collections::{BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
 
 /// How to run a study.
@@ -72,6 +72,10 @@ pub struct StudyRun {
     /// For a shard that found every run of the study done: the merge it did, or who else
     /// held the study folder.
     pub merged: Option<MergeOutcome>,
+    /// The kind's measured columns that none of the runs done now filled (a defect of the
+    /// kind, which declares a column it never writes; a warning line says so). Empty when no
+    /// run was done now.
+    pub unfilled_columns: Vec<&'static str>,
 }
 
 /// What a shard that finished last did about the merge.
@@ -288,7 +292,9 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
         }
     };
     let mut interrupted = interrupt::requested();
+    let mut filled: BTreeSet<&'static str> = BTreeSet::new();
     let failure = execute(study, &pending, &shared, &workers, &progress, |spec, m| {
+        filled.extend(m.cells.iter().map(|(name, _)| *name));
         let row = record(study, spec, m, &header, dir)?;
         rows.insert(spec.id.clone(), row);
         table_of(&rows).write(&table_path).map_err(io(&table_path))
@@ -306,6 +312,15 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
     }
     let table = table_of(&rows);
     table.write(&table_path).map_err(io(&table_path))?;
+    let unfilled_columns = unfilled(kind, &filled);
+    if !unfilled_columns.is_empty() {
+        progress.line(&format!(
+            "warning: the {} study kind declares columns none of its runs filled: {} (a \
+             defect of the kind; the columns are empty)",
+            study.kind,
+            unfilled_columns.join(", ")
+        ));
+    }
     let skipped = study.runs.len() - selected.len();
     let done_now = table.rows.len().saturating_sub(reused);
     if let Some(signal) = interrupted.or_else(interrupt::requested) {
@@ -322,6 +337,7 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
             not_ok: not_ok(kind, &table),
             interrupted: Some(signal),
             merged: None,
+            unfilled_columns: Vec::new(),
         });
     }
     if let Some(record) = shard_record.as_mut() {
@@ -359,6 +375,7 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
             not_ok: not_ok(kind, &table),
             interrupted: None,
             merged,
+            unfilled_columns,
         });
     }
     let meta = Meta::of(
@@ -393,7 +410,21 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
         not_ok: not_ok(kind, &table),
         interrupted: None,
         merged: None,
+        unfilled_columns,
     })
+}
+
+/// The kind's measured columns that no run of `filled` (the names of the cells the runs done
+/// now wrote) filled; none when no run was done. The outcome is the runner's own.
+fn unfilled(kind: &dyn Kind, filled: &BTreeSet<&'static str>) -> Vec<&'static str> {
+    if filled.is_empty() {
+        return Vec::new();
+    }
+    kind.columns()
+        .iter()
+        .copied()
+        .filter(|c| *c != "outcome" && !filled.contains(c))
+        .collect()
 }
 
 /// Why [`execute`] stopped early.
@@ -537,24 +568,23 @@ fn record(
             )
         })
         .collect();
-    let row = header
-        .iter()
-        .map(|column| match column.as_str() {
-            "run_id" => spec.id.clone(),
-            "scene" => spec.scene.clone(),
-            "method" => spec.method.name().to_owned(),
-            "linear_solver" => spec
-                .linear_solver
+    let fixed = |column: &str| match column {
+        "run_id" => Some(spec.id.clone()),
+        "scene" => Some(spec.scene.clone()),
+        "method" => Some(spec.method.name().to_owned()),
+        "linear_solver" => Some(
+            spec.linear_solver
                 .map_or("-".to_owned(), |s| s.name().to_owned()),
-            "outcome" => m.outcome.clone(),
-            "message" => m.message.clone(),
-            "config_hash" => spec.hash.clone(),
-            other => params
-                .get(other)
-                .cloned()
-                .or_else(|| m.get(other).map(str::to_owned))
-                .unwrap_or_default(),
-        })
-        .collect();
-    Ok(row)
+        ),
+        "outcome" => Some(m.outcome.clone()),
+        "message" => Some(m.message.clone()),
+        "config_hash" => Some(spec.hash.clone()),
+        other => params.get(other).cloned(),
+    };
+    super::columns::row(header, &fixed, &m.cells).map_err(|e| {
+        RunError::Run(format!(
+            "run {}: {e} (a defect of the {} study kind)",
+            spec.id, study.kind
+        ))
+    })
 }

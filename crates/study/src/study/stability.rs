@@ -22,6 +22,7 @@
 //! range). The `outcome` column is how the first unstable trial ended.
 
 use super::charts::{Emit, SceneRows, label};
+use super::columns::{self, CAPS, SUMMARY};
 use super::config::StudyFile;
 use super::context::Context;
 use super::error::StudyError;
@@ -29,9 +30,7 @@ use super::findings::{self, Better, Ranking};
 use super::format::{cell, short};
 use super::grid::Axis;
 use super::kind::{Kind, OwnKey, RunInputs, SweepLine, Verdict, number, parse_quick};
-use super::measured::{
-    Measured, build, cap_cells, outcome_of, picture_surface, run_observed, summary_cells,
-};
+use super::measured::{Measured, build, outcome_of, picture_surface, run_observed};
 use super::reference::{Reference, ReferenceSettings, ScoringSettings};
 use super::spec::{RunSpec, Study};
 use super::table::Table;
@@ -44,9 +43,11 @@ use softbench_run::run::{Observer, Outcome, OutcomeKind, RunSummary, Sample};
 use softbench_run::scene::{RunConfig, SceneConfig};
 use std::fmt::Write;
 use std::path::Path;
+use std::sync::LazyLock;
 
-/// Columns of a stability study's `runs.csv` after the run's identity.
-pub const COLUMNS: &[&str] = &[
+/// A stability study's own columns of `runs.csv` (after the identity and parameters; the run's
+/// summary and the integrator's caps follow, [`COLUMNS`]).
+pub const OWN_COLUMNS: &[&str] = &[
     "stability",
     "outcome",
     "max_stable_dt",
@@ -62,7 +63,6 @@ pub const COLUMNS: &[&str] = &[
     "error_scored",
     "reference_difference",
     "non_monotone_dt",
-    "energy_growth_rate",
     "growth_exponent",
     "limit_robust",
     "dt_error_1pct",
@@ -90,43 +90,14 @@ pub const COLUMNS: &[&str] = &[
     "horizon",
     "min_steps",
     "max_steps",
-    "energy_limit",
-    "energy_excess_peak",
-    "newton_max_iterations",
-    "newton_required",
-    "adaptive_rtol",
-    "adaptive_atol",
-    "adaptive_controller",
-    "adaptive_max_substeps",
-    "newton_unconverged_steps",
-    "inverted_elements_max",
     "trials",
-    "newton_iterations_per_step",
-    "step_seconds_median",
-    "step_seconds_q1",
-    "step_seconds_q3",
-    "step_seconds_p95",
-    "first_step_seconds",
-    "setup_seconds",
-    "steps",
-    "wall_seconds",
     "trials_wall_seconds",
-    "force_evaluations",
-    "hessian_evaluations",
-    "factorizations",
-    "symbolic_analyses",
-    "linear_iterations",
-    "assemble_seconds",
-    "factor_seconds",
-    "solve_seconds",
-    "qp_seconds",
-    "force_seconds",
-    "mass_solves",
-    "mass_solve_seconds",
-    "internal_dt_min",
-    "internal_dt_median",
-    "internal_dt_max",
 ];
+
+/// Every measured column of a stability study's `runs.csv`: its own, the run's summary (of
+/// the trial it reports) and the integrator's caps.
+pub static COLUMNS: LazyLock<Vec<&'static str>> =
+    LazyLock::new(|| columns::declare(OWN_COLUMNS, true, true));
 
 /// A stability study: each run's largest stable time step, by bisection.
 pub(super) struct Stability;
@@ -178,11 +149,15 @@ impl Kind for Stability {
 
     fn example(&self) -> &'static str {
         "[grid]\n\"integrator.method\" = [\"symplectic-euler\", \"backward-euler\"]\n\n\
-         [stability]\ndt_min = 1e-4\ndt_max = 0.005\nhorizon = 0.1\nerror_samples = 0\n"
+         [stability]\ndt_min = 1e-4\ndt_max = 0.005\nhorizon = 0.1\nerror_samples = 4\n"
     }
 
     fn columns(&self) -> &'static [&'static str] {
-        COLUMNS
+        &COLUMNS
+    }
+
+    fn own_columns(&self) -> &'static [&'static str] {
+        OWN_COLUMNS
     }
 
     fn summary_columns(&self) -> &'static [&'static str] {
@@ -1268,7 +1243,7 @@ pub(super) fn measure(
         None => m.outcome = OutcomeKind::Completed.name().to_owned(),
     }
     if let Some(best) = best {
-        m.cells = summary_cells(&best.summary);
+        m.cells = SUMMARY.cells(&best.summary);
         let simulated = best.covered.max(f64::MIN_POSITIVE);
         let totals = &best.summary.totals;
         // The steady cost: the median step (its quartiles as the spread), the first step's
@@ -1308,7 +1283,7 @@ pub(super) fn measure(
     // The pictures of the reported trial: the largest stable step, or, with nothing stable,
     // the smallest failing one, which shows how the method breaks.
     let pictured = best.or(first_unstable).map(|t| t.dt);
-    m.cells.extend(cap_cells(spec));
+    m.cells.extend(CAPS.cells(spec));
     m.set("stability", verdict.to_owned());
     m.set("max_stable_dt", cell(bracket.map(|(lo, _)| lo)));
     m.set("first_unstable_dt", cell(bracket.and_then(|(_, hi)| hi)));

@@ -31,12 +31,15 @@ use softbench_run::scene::{ProblemConfig, SceneConfig};
 use std::collections::BTreeMap;
 use std::fmt::Write;
 use std::path::Path;
+use std::sync::LazyLock;
 
 /// The kind's name in study files, and the key of its resolved table.
 const NAME: &str = "suite";
 
-/// Columns of a suite's `runs.csv` after the run's identity.
-pub const COLUMNS: &[&str] = &[
+/// A suite's columns of its problems and verdicts (after the identity and parameters; a
+/// work-precision run's own columns, the run's summary and the integrator's caps follow,
+/// [`COLUMNS`]).
+pub const SUITE_COLUMNS: &[&str] = &[
     "tier",
     "mesh",
     "scenario",
@@ -56,14 +59,8 @@ pub const COLUMNS: &[&str] = &[
     "energy_error",
     "outcome",
     "dt",
-    "steps",
     "horizon",
     "evaluations",
-    "force_evaluations",
-    "hessian_evaluations",
-    "factorizations",
-    "linear_iterations",
-    "wall_seconds",
     "wall_seconds_min",
     "wall_seconds_max",
     "repeats",
@@ -77,24 +74,24 @@ pub const COLUMNS: &[&str] = &[
     "reference_dt",
     "reference_independent",
     "reference_difference",
-    "newton_iterations",
-    "newton_max_iterations",
-    "newton_required",
-    "newton_unconverged_steps",
-    "local_iterations_per_step",
-    "substeps",
-    "rejected_substeps",
-    "failed_substeps",
-    "adaptive_rtol",
-    "adaptive_atol",
-    "adaptive_controller",
-    "adaptive_max_substeps",
-    "energy_drift_max",
-    "energy_growth_rate",
-    "inverted_elements_max",
-    "step_seconds_median",
-    "first_step_seconds",
 ];
+
+/// A suite's own columns: its problems' and verdicts', then a work-precision run's (each run
+/// is measured as one).
+static OWN_COLUMNS: LazyLock<Vec<&'static str>> = LazyLock::new(|| {
+    let mut own = SUITE_COLUMNS.to_vec();
+    for c in super::work_precision::OWN_COLUMNS {
+        if !own.contains(c) {
+            own.push(c);
+        }
+    }
+    own
+});
+
+/// Every measured column of a suite's `runs.csv`: its own, the run's summary and the
+/// integrator's caps.
+pub static COLUMNS: LazyLock<Vec<&'static str>> =
+    LazyLock::new(|| super::columns::declare(&OWN_COLUMNS, true, true));
 
 /// The settings keys a suite may set (in `[set]` and `[[methods]]`): a problem fixes its
 /// physics and its run, so only the integrator's settings are the suite's.
@@ -188,7 +185,11 @@ impl Kind for Suite {
     }
 
     fn columns(&self) -> &'static [&'static str] {
-        COLUMNS
+        &COLUMNS
+    }
+
+    fn own_columns(&self) -> &'static [&'static str] {
+        &OWN_COLUMNS
     }
 
     fn summary_columns(&self) -> &'static [&'static str] {

@@ -2,6 +2,7 @@
 //! time per step and evaluation counts.
 
 use super::charts::SceneRows;
+use super::columns::{self, CAPS, SUMMARY};
 use super::config::StudyFile;
 use super::context::Context;
 use super::error::StudyError;
@@ -9,87 +10,32 @@ use super::findings::{self, Ranking};
 use super::format::cell;
 use super::grid::Axis;
 use super::kind::{Kind, RunInputs, number, parse_quick};
-use super::measured::{
-    Measured, build, cap_cells, outcome_of, picture_surface, run_observed, summary_cells,
-};
+use super::measured::{Measured, build, outcome_of, picture_surface, run_observed};
 use super::meter::StepMeter;
 use super::spec::{RunSpec, Study};
 use super::table::Table;
 use softbench_core::parallel::Parallelism;
 use softbench_run::run::Sample;
 use softbench_run::scene::SceneConfig;
+use std::sync::LazyLock;
 
-/// Columns of a trajectory study's `runs.csv` after the run's identity.
-pub const COLUMNS: &[&str] = &[
+/// A trajectory study's own columns of `runs.csv` (after the identity and parameters; the
+/// run's summary and the integrator's caps follow, [`COLUMNS`]).
+pub const OWN_COLUMNS: &[&str] = &[
     "dt",
     "outcome",
-    "energy_drift_max",
-    "energy_drift_final",
     "momentum_drift",
     "angular_momentum_drift",
-    "step_seconds_median",
-    "step_seconds_q1",
-    "step_seconds_q3",
-    "step_seconds_p95",
-    "first_step_seconds",
-    "setup_seconds",
-    "steps",
-    "final_time",
-    "wall_seconds",
-    "force_evaluations",
-    "hessian_evaluations",
-    "factorizations",
-    "linear_iterations",
-    "newton_iterations",
-    "newton_iterations_per_step",
-    "newton_unconverged_steps",
-    "inverted_elements_max",
-    "newton_max_iterations",
-    "newton_required",
-    "newton_refactor_every",
-    "newton_forcing_max",
-    "energy_excess_peak",
-    "energy_growth_rate",
-    "energy_growth_factor",
-    "energy_limit",
-    "assemble_seconds",
-    "factor_seconds",
-    "solve_seconds",
-    "qp_seconds",
-    "force_seconds",
-    "mass_solves",
-    "mass_solve_seconds",
-    "internal_dt_min",
-    "internal_dt_median",
-    "internal_dt_max",
-    "rejected_substeps",
-    "failed_substeps",
-    "adaptive_rtol",
-    "adaptive_atol",
-    "adaptive_controller",
-    "adaptive_max_substeps",
     "tets",
     "free_dofs",
     "fixed_dofs",
-    "linear_solver_used",
-    "ordering",
-    "factor_nnz",
-    "symbolic_analyses",
-    "factor_flops",
-    "factor_threads",
-    "factor_scheduler",
-    "amg_operator_complexity",
-    "amg_grid_complexity",
-    "amg_builds",
-    "amg_reuses",
-    "amg_lagged",
-    "amg_strength_threshold",
-    "amg_rebuild_every",
-    "amg_galerkin_every",
-    "amg_smoother",
-    "linear_iterations_per_solve",
     "peak_rss_mib",
 ];
+
+/// Every measured column of a trajectory study's `runs.csv`: its own, the run's summary and
+/// the integrator's caps.
+pub static COLUMNS: LazyLock<Vec<&'static str>> =
+    LazyLock::new(|| columns::declare(OWN_COLUMNS, true, true));
 
 /// A trajectory study (and the runs of a sweep of one): each run as configured.
 pub(super) struct Trajectory;
@@ -115,7 +61,11 @@ impl Kind for Trajectory {
     }
 
     fn columns(&self) -> &'static [&'static str] {
-        COLUMNS
+        &COLUMNS
+    }
+
+    fn own_columns(&self) -> &'static [&'static str] {
+        OWN_COLUMNS
     }
 
     fn summary_columns(&self) -> &'static [&'static str] {
@@ -262,10 +212,10 @@ pub(super) fn measure_with_state(
     let mut m = Measured {
         outcome,
         message,
-        cells: summary_cells(&summary),
+        cells: SUMMARY.cells(&summary),
         ..Measured::default()
     };
-    m.cells.extend(cap_cells(spec));
+    m.cells.extend(CAPS.cells(spec));
     m.set("dt", cell(Some(run.dt)));
     m.set("peak_rss_mib", cell(super::measured::peak_rss_mib()));
     m.set("tets", scene.model.tets().len().to_string());

@@ -10,6 +10,7 @@
 //! accuracy, and errors below `floor_factor` times it are not scored.
 
 use super::charts::{ACCURACY_KNOBS, Emit, SceneRows, accuracy_rank, label};
+use super::columns::{self, CAPS, SUMMARY};
 use super::config::StudyFile;
 use super::context::Context;
 use super::error::StudyError;
@@ -18,7 +19,7 @@ use super::format::{cell, short};
 use super::grid::Axis;
 use super::identity::float;
 use super::kind::{Kind, OwnKey, RunInputs, number, parse_quick};
-use super::measured::{Measured, build, cap_cells, outcome_of, picture_surface, summary_cells};
+use super::measured::{Measured, build, outcome_of, picture_surface};
 use super::meter::StepMeter;
 use super::pictures::PictureRows;
 use super::reference::{Reference, ScoringSettings, errors, sampled_run, stride};
@@ -31,40 +32,26 @@ use softbench_run::scene::SceneConfig;
 use std::collections::BTreeMap;
 use std::fmt::Write;
 use std::path::Path;
+use std::sync::LazyLock;
 
-/// Columns of a work-precision study's `runs.csv` after the run's identity.
-pub const COLUMNS: &[&str] = &[
+/// A work-precision study's own columns of `runs.csv` (after the identity and parameters; the run's
+/// summary and the integrator's caps follow, [`COLUMNS`]).
+pub const OWN_COLUMNS: &[&str] = &[
     "dt",
     "outcome",
     "error",
     "error_final",
     "error_l2",
     "energy_error",
-    "wall_seconds",
     "wall_seconds_min",
     "wall_seconds_max",
     "repeats",
     "repeatable",
-    "force_evaluations",
-    "hessian_evaluations",
-    "factorizations",
-    "symbolic_analyses",
-    "linear_iterations",
-    "newton_iterations",
-    "local_iterations_per_step",
-    "substeps",
     "scored",
     "error_unscored",
     "reference_method",
     "reference_dt",
     "reference_difference",
-    "step_seconds_median",
-    "step_seconds_q1",
-    "step_seconds_q3",
-    "step_seconds_p95",
-    "first_step_seconds",
-    "setup_seconds",
-    "steps",
     "phases",
     "error_phase1",
     "reference_difference_phase1",
@@ -76,33 +63,14 @@ pub const COLUMNS: &[&str] = &[
     "reference_difference_phase4",
     "centroid_error",
     "bounding_box_error",
-    "energy_drift_max",
-    "energy_excess_peak",
-    "energy_growth_rate",
-    "energy_growth_factor",
-    "newton_unconverged_steps",
-    "inverted_elements_max",
-    "newton_max_iterations",
-    "newton_required",
-    "assemble_seconds",
-    "factor_seconds",
-    "solve_seconds",
-    "qp_seconds",
-    "force_seconds",
-    "mass_solves",
-    "mass_solve_seconds",
-    "internal_dt_min",
-    "internal_dt_median",
-    "internal_dt_max",
-    "rejected_substeps",
-    "failed_substeps",
-    "adaptive_rtol",
-    "adaptive_atol",
-    "adaptive_controller",
-    "adaptive_max_substeps",
+    "tets",
 ];
 
-/// What the rest of the study code asks of a work-precision study.
+/// Every measured column of a work-precision study's `runs.csv`: its own, the run's summary
+/// and the integrator's caps.
+pub static COLUMNS: LazyLock<Vec<&'static str>> =
+    LazyLock::new(|| columns::declare(OWN_COLUMNS, true, true));
+
 /// A work-precision study: each run's error against a reference solution.
 pub(super) struct WorkPrecision;
 
@@ -149,7 +117,11 @@ impl Kind for WorkPrecision {
     }
 
     fn columns(&self) -> &'static [&'static str] {
-        COLUMNS
+        &COLUMNS
+    }
+
+    fn own_columns(&self) -> &'static [&'static str] {
+        OWN_COLUMNS
     }
 
     fn summary_columns(&self) -> &'static [&'static str] {
@@ -611,12 +583,12 @@ pub(super) fn measure_with(
     let mut m = Measured {
         outcome,
         message,
-        cells: summary_cells(&summary),
+        cells: SUMMARY.cells(&summary),
         series: rows,
         snapshots: pictures,
         ..Measured::default()
     };
-    m.cells.extend(cap_cells(spec));
+    m.cells.extend(CAPS.cells(spec));
     m.set("tets", tets.to_string());
     repeat(
         spec,
