@@ -208,6 +208,6 @@ pub(in crate::study) fn merge_study(
         total: study.runs.len(),
         missing: meta.missing.clone(),
         shards: records,
-        not_ok: not_ok(crate::study::kinds::of(study.kind), &table),
+        not_ok: not_ok(crate::study::kinds::present(study.kind), &table),
     })
 }

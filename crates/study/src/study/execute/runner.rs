@@ -5,7 +5,7 @@
 use crate::study::execute::progress::Progress;
 use crate::study::execute::rows::{earlier_rows, header, is_done, ordered, shard_folder};
 use crate::study::execute::shared::{SharedWork, Source, Workers};
-use crate::study::kind::{Kind, RunInputs, not_ok};
+use crate::study::kind::{Measure, RunInputs, not_ok};
 use crate::study::present::report;
 use crate::study::vocabulary::error::{RunError, io_error as io};
 use crate::study::vocabulary::format::{epoch_seconds, now_utc};
@@ -146,7 +146,8 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
     let started_epoch = epoch_seconds();
     let clock = std::time::Instant::now();
     let header = header(study);
-    let kind = crate::study::kinds::of(study.kind);
+    let measured = crate::study::kinds::measure(study.kind);
+    let presented = crate::study::kinds::present(study.kind);
 
     // The runs this invocation is for.
     let (assigned, estimated_cost) = match options.shard {
@@ -313,7 +314,7 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
     }
     let table = table_of(&rows);
     table.write(&table_path).map_err(io(&table_path))?;
-    let unfilled_columns = unfilled(kind, &filled);
+    let unfilled_columns = unfilled(measured, &filled);
     if !unfilled_columns.is_empty() {
         progress.line(&format!(
             "warning: the {} study kind declares columns none of its runs filled: {} (a \
@@ -335,7 +336,7 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
             ran: done_now,
             reused,
             skipped,
-            not_ok: not_ok(kind, &table),
+            not_ok: not_ok(presented, &table),
             interrupted: Some(signal),
             merged: None,
             unfilled_columns: Vec::new(),
@@ -374,7 +375,7 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
             ran: pending.len(),
             reused,
             skipped,
-            not_ok: not_ok(kind, &table),
+            not_ok: not_ok(presented, &table),
             interrupted: None,
             merged,
             unfilled_columns,
@@ -409,7 +410,7 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
         ran: pending.len(),
         reused,
         skipped,
-        not_ok: not_ok(kind, &table),
+        not_ok: not_ok(presented, &table),
         interrupted: None,
         merged: None,
         unfilled_columns,
@@ -418,7 +419,7 @@ pub fn run(study: &Study, options: &RunOptions) -> Result<StudyRun, RunError> {
 
 /// The kind's measured columns that no run of `filled` (the names of the cells the runs done
 /// now wrote) filled; none when no run was done. The outcome is the runner's own.
-fn unfilled(kind: &dyn Kind, filled: &BTreeSet<&'static str>) -> Vec<&'static str> {
+fn unfilled(kind: &dyn Measure, filled: &BTreeSet<&'static str>) -> Vec<&'static str> {
     if filled.is_empty() {
         return Vec::new();
     }
@@ -474,7 +475,7 @@ fn execute(
                         ..shared.of(spec)
                     };
                     let result = threads.install(|| {
-                        crate::study::kinds::of(study.kind).measure(
+                        crate::study::kinds::measure(study.kind).measure(
                             study,
                             spec,
                             &inputs,
@@ -505,7 +506,7 @@ fn execute(
                 Ok(m) => keep(spec, &m).map(|()| {
                     progress.line(&progress.run_line(
                         &spec.id,
-                        &summary_line(crate::study::kinds::of(study.kind), &m),
+                        &summary_line(crate::study::kinds::measure(study.kind), &m),
                     ));
                     progress.inc();
                 }),
@@ -522,7 +523,7 @@ fn execute(
 }
 
 /// One line per finished run.
-fn summary_line(kind: &dyn Kind, m: &Measured) -> String {
+fn summary_line(kind: &dyn Measure, m: &Measured) -> String {
     let extra = kind.progress(m);
     format!("{}{}", m.outcome, extra.unwrap_or_default())
 }

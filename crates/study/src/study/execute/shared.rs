@@ -85,7 +85,7 @@ impl SharedWork {
             threads,
             jobs,
         } = *workers;
-        let kind = crate::study::kinds::of(study.kind);
+        let kind = crate::study::kinds::measure(study.kind);
         // The first run of the study with each physics the runs need, in grid order.
         let mut templates: Vec<&RunSpec> = Vec::new();
         for spec in &study.runs {

@@ -9,7 +9,7 @@ pub mod suite;
 pub mod trajectory;
 pub mod work_precision;
 
-use crate::study::kind::Kind;
+use crate::study::kind::{Kind, Measure, Plan, Present};
 
 /// Every kind a study can measure.
 pub(in crate::study) static KINDS: [&dyn Kind; 6] = [
@@ -22,14 +22,54 @@ pub(in crate::study) static KINDS: [&dyn Kind; 6] = [
 ];
 
 /// The registered kind named `name`, if there is one.
-pub(in crate::study) fn named(name: &str) -> Option<&'static dyn Kind> {
+fn named(name: &str) -> Option<&'static dyn Kind> {
     KINDS.iter().copied().find(|k| k.name() == name)
 }
 
 /// The registered kind named `name`: a study's kind, resolved when it was loaded (or, for a
 /// results folder, checked when its meta.json was read).
-pub(in crate::study) fn of(name: &str) -> &'static dyn Kind {
+fn of(name: &str) -> &'static dyn Kind {
     named(name).expect("a study's kind is checked against the registry when it is read")
+}
+
+/// Whether a kind named `name` is registered.
+pub(in crate::study) fn is_registered(name: &str) -> bool {
+    named(name).is_some()
+}
+
+/// Every registered kind's name, in registry order.
+pub(in crate::study) fn names() -> Vec<&'static str> {
+    KINDS.iter().map(|k| k.name()).collect()
+}
+
+/// What planning asks of every registered kind, in registry order.
+pub(in crate::study) fn planning() -> impl Iterator<Item = &'static dyn Plan> {
+    KINDS.iter().map(|&k| k as &dyn Plan)
+}
+
+/// The planning phase of the kind named `name`, if there is one.
+pub(in crate::study) fn plan_named(name: &str) -> Option<&'static dyn Plan> {
+    named(name).map(|k| k as &dyn Plan)
+}
+
+/// The planning phase of a study's kind.
+pub(in crate::study) fn plan(name: &str) -> &'static dyn Plan {
+    of(name)
+}
+
+/// The measuring phase of a study's kind.
+pub(in crate::study) fn measure(name: &str) -> &'static dyn Measure {
+    of(name)
+}
+
+/// The presenting phase of a study's kind.
+pub(in crate::study) fn present(name: &str) -> &'static dyn Present {
+    of(name)
+}
+
+/// The presenting phase of the kind named `name`, if there is one.
+pub(in crate::study) fn present_named(name: &str) -> Option<&'static dyn Present> {
+    named(name).map(|k| k as &dyn Present)
 }
 
 /// A registered study kind, as `softbench list` and the docs show it.

@@ -48,7 +48,7 @@ pub fn load(path: &Path, quick: bool, data: &DataPaths) -> Result<Study, StudyEr
     check_keys(&text, &ctx)?;
     // Each kind with a table parses its own (whatever the study's kind: meta.json records
     // every table as resolved).
-    for k in crate::study::kinds::KINDS {
+    for k in crate::study::kinds::planning() {
         if !k.table_names().is_empty() {
             let table = k.parse_table(&text).map_err(parse_error)?;
             file.tables.insert(k.name(), table);
@@ -57,13 +57,13 @@ pub fn load(path: &Path, quick: bool, data: &DataPaths) -> Result<Study, StudyEr
         file.quick.keys.extend(quick);
     }
     let kind = check_settings(&file, &ctx)?;
-    let measured_by = crate::study::kinds::of(kind);
+    let measured_by = crate::study::kinds::plan(kind);
     measured_by.check_quick(&file, &ctx)?;
     crate::study::plan::own_keys::check(&file, &ctx, measured_by)?;
     if quick {
         // Every kind's table as `[quick]` resolves it, whatever the study's kind (meta.json
         // records every table as resolved).
-        for k in crate::study::kinds::KINDS {
+        for k in crate::study::kinds::planning() {
             k.quick_table(&mut file, &ctx)?;
         }
     }
@@ -212,7 +212,7 @@ pub fn load(path: &Path, quick: bool, data: &DataPaths) -> Result<Study, StudyEr
         path: path.to_owned(),
         file,
         kind,
-        kind_columns: measured_by.columns(),
+        kind_columns: crate::study::kinds::measure(kind).columns(),
         quick,
         text: text.clone(),
         parameters,
@@ -233,8 +233,12 @@ fn stop_if_requested() -> Result<(), StudyError> {
 /// Every reference solution the study will compute fits the step budget (checked here, before
 /// any work, rather than when a reference of 10^10 steps has started).
 fn check_reference_steps(study: &Study, ctx: &Context) -> Result<(), StudyError> {
-    let kind = crate::study::kinds::of(study.kind);
-    let table = kind.table_names().first().copied().unwrap_or("reference");
+    let kind = crate::study::kinds::measure(study.kind);
+    let table = crate::study::kinds::plan(study.kind)
+        .table_names()
+        .first()
+        .copied()
+        .unwrap_or("reference");
     for spec in &study.runs {
         stop_if_requested()?;
         let Some(w) = kind.reference_settings(&study.file, spec) else {
@@ -453,7 +457,7 @@ fn resolve_run(
         }
     };
     let mut config = config;
-    crate::study::kinds::of(kind).configure(ctx, file, &mut config, axes, quick)?;
+    crate::study::kinds::plan(kind).configure(ctx, file, &mut config, axes, quick)?;
     let method = config.integrator.method;
     if method.is_explicit() {
         // An explicit method runs once whatever the implicit-only settings are.
@@ -620,7 +624,7 @@ fn check_keys(text: &str, ctx: &Context) -> Result<(), StudyError> {
         message: softbench_core::quote::clip_source(e.to_string().trim_end()),
     })?;
     let mut valid: Vec<&str> = STUDY_KEYS.to_vec();
-    for k in crate::study::kinds::KINDS {
+    for k in crate::study::kinds::planning() {
         valid.extend(k.table_names());
     }
     if let Some(unknown) = top.keys().find(|k| !valid.contains(&k.as_str())) {
@@ -651,10 +655,7 @@ fn check_keys(text: &str, ctx: &Context) -> Result<(), StudyError> {
     }
     if let Some(toml::Value::Table(quick)) = top.get("quick") {
         let mut valid: Vec<&str> = vec!["set"];
-        for key in crate::study::kinds::KINDS
-            .iter()
-            .flat_map(|k| k.quick_keys())
-        {
+        for key in crate::study::kinds::planning().flat_map(|k| k.quick_keys()) {
             if !valid.contains(key) {
                 valid.push(key);
             }
@@ -682,10 +683,7 @@ fn check_keys(text: &str, ctx: &Context) -> Result<(), StudyError> {
 fn check_settings(file: &StudyFile, ctx: &Context) -> Result<&'static str, StudyError> {
     crate::study::vocabulary::settings::check_name(&file.name)
         .map_err(|m| ctx.invalid(0, "name", m))?;
-    let names: Vec<&str> = crate::study::kinds::KINDS
-        .iter()
-        .map(|k| k.name())
-        .collect();
+    let names = crate::study::kinds::names();
     let unknown = |key: &str, line: usize, name: &str, valid: &[&str]| StudyError::Invalid {
         path: ctx.path.to_owned(),
         line,
@@ -703,7 +701,7 @@ fn check_settings(file: &StudyFile, ctx: &Context) -> Result<&'static str, Study
                 "a sweep study needs a [sweep] table with `kind` and `parameter`",
             ));
         };
-        let kind = crate::study::kinds::named(&sweep.kind)
+        let kind = crate::study::kinds::plan_named(&sweep.kind)
             .ok_or_else(|| unknown("sweep.kind", ctx.line_of_key("kind"), &sweep.kind, &names))?;
         if !file.grid.contains_key(&sweep.parameter)
             && !file
@@ -754,7 +752,7 @@ fn check_settings(file: &StudyFile, ctx: &Context) -> Result<&'static str, Study
                 ),
             });
         }
-        let columns = kind.columns();
+        let columns = crate::study::kinds::measure(kind.name()).columns();
         if let Some(metric) = sweep
             .metrics
             .iter()
@@ -773,7 +771,7 @@ fn check_settings(file: &StudyFile, ctx: &Context) -> Result<&'static str, Study
         }
         kind
     } else {
-        let kind = crate::study::kinds::named(study).ok_or_else(|| {
+        let kind = crate::study::kinds::plan_named(study).ok_or_else(|| {
             let mut valid = names.clone();
             valid.push(SWEEP);
             unknown(
@@ -811,7 +809,7 @@ fn check_settings(file: &StudyFile, ctx: &Context) -> Result<&'static str, Study
     };
     kind.check(file, ctx, &bad)?;
     // Every kind's `[quick]` keys, whatever the study's kind, so a study file is valid or not.
-    for k in crate::study::kinds::KINDS {
+    for k in crate::study::kinds::planning() {
         k.check_quick_values(file, &bad)?;
     }
     Ok(kind.name())

@@ -5,7 +5,7 @@
 //! is not refused but stated: when the kind's horizon differs from the scene's, a warning says
 //! what replaced it, and `meta.json` and `report.md` keep it.
 
-use crate::study::kind::{Kind, OwnKey};
+use crate::study::kind::{OwnKey, Plan};
 use crate::study::vocabulary::config::StudyFile;
 use crate::study::vocabulary::context::Context;
 use crate::study::vocabulary::error::StudyError;
@@ -17,7 +17,7 @@ use crate::study::vocabulary::grid::overlaps;
 pub(in crate::study) fn check(
     file: &StudyFile,
     ctx: &Context,
-    kind: &dyn Kind,
+    kind: &dyn Plan,
 ) -> Result<(), StudyError> {
     let owned = |key: &str| kind.own_keys().iter().find(|o| overlaps(o.key, key));
     let study = kind.name();
@@ -78,7 +78,7 @@ pub(in crate::study) fn check(
 /// One warning per scene whose own horizon (`run.dt × run.steps` as its table gives them,
 /// before the study's grid) the kind's [`Kind::horizon`] replaces, saying by what.
 pub(in crate::study) fn horizon_warnings<'a>(
-    kind: &dyn Kind,
+    kind: &dyn Plan,
     file: &StudyFile,
     scenes: impl IntoIterator<Item = (&'a str, &'a toml::Table)>,
 ) -> Vec<String> {

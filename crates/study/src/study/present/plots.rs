@@ -3,7 +3,7 @@
 //! Newton iterations over time, time per step by phase, sweep metrics against the parameter,
 //! and the pictures of the bodies.
 
-use crate::study::kind::Kind;
+use crate::study::kind::Present;
 pub use crate::study::present::charts::Plot;
 use crate::study::present::charts::{
     SceneRows, distinguishing, label, scenes, slug, smallest_dt_rows,
@@ -33,7 +33,7 @@ pub fn draw_all(dir: &Path, study: &StudyMeta, runs: &Table) -> Result<Vec<Plot>
     };
     // A sweep draws its metrics against the swept parameter whatever its kind: this is about
     // the sweep itself, not a kind, so it stays here.
-    let kind = crate::study::kinds::of(&study.kind);
+    let kind = crate::study::kinds::present(&study.kind);
     if study.study == SWEEP {
         for metric in sweep_metrics(study) {
             let line = kind.sweep_line(&metric);
@@ -187,7 +187,7 @@ struct RunSeries {
 /// (for the title), so legends do not repeat a constant.
 fn load_series(
     dir: &Path,
-    kind: &dyn Kind,
+    kind: &dyn Present,
     runs: &Table,
     params: &[String],
     rows: &[&Vec<String>],
@@ -509,7 +509,7 @@ pub fn sweep_metrics(study: &StudyMeta) -> Vec<String> {
     if !study.sweep_metrics.is_empty() {
         return study.sweep_metrics.clone();
     }
-    crate::study::kinds::of(&study.kind)
+    crate::study::kinds::present(&study.kind)
         .sweep_metrics()
         .iter()
         .map(|m| (*m).to_owned())

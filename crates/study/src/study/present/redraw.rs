@@ -30,7 +30,7 @@ pub fn redraw_pictures(
     coloring: softbench_run::render::Coloring,
 ) -> Result<Vec<charts::Plot>, RedrawError> {
     let (meta, runs) = read_results(dir)?;
-    let which = kinds::of(&meta.study.kind).picture_rows();
+    let which = kinds::present(&meta.study.kind).picture_rows();
     pictures::draw(dir, &runs, &meta.study.parameters, which, coloring)
         .map_err(|e| RedrawError::Plot(softbench_run::plot::PlotError::Draw(e.to_string())))
 }
@@ -47,8 +47,8 @@ fn read_results(dir: &std::path::Path) -> Result<(Meta, table::Table), ResultsEr
         path: meta_path.clone(),
         message: e.to_string(),
     })?;
-    if kinds::named(&meta.study.kind).is_none() {
-        let names: Vec<&str> = kinds::KINDS.iter().map(|k| k.name()).collect();
+    if !kinds::is_registered(&meta.study.kind) {
+        let names = kinds::names();
         return Err(ResultsError::Malformed {
             path: meta_path,
             message: softbench_core::names::unknown_name_message(
@@ -79,7 +79,7 @@ fn check_runs_table(
     };
     // The groups of columns grow as runs report more: an earlier softbench's table lacks some,
     // and its plots are drawn without them.
-    let own = kinds::of(&study.kind).own_columns();
+    let own = kinds::measure(&study.kind).own_columns();
     if let Some(missing) = columns::IDENTITY
         .iter()
         .chain(&columns::TRAILER)

@@ -1,7 +1,7 @@
 //! `report.md`: what was run, on what, a summary table, the plots, and one line per run that
 //! did not end well.
 
-use crate::study::kind::Kind;
+use crate::study::kind::Present;
 use crate::study::present::charts::{Plot, SceneRows, distinguishing, scenes, slug};
 use crate::study::present::findings::Findings;
 use crate::study::vocabulary::config::SWEEP;
@@ -68,7 +68,7 @@ fn render(
         let _ = writeln!(
             out,
             "**Quick mode** (`--quick`): {}; these numbers are a smoke test, not results.\n",
-            crate::study::kinds::of(&s.kind).quick_notice()
+            crate::study::kinds::present(&s.kind).quick_notice()
         );
     }
     let damped = damped_scenes(study);
@@ -101,7 +101,7 @@ fn render(
         meta.wall_seconds.map_or("-".into(), |w| format!("{w:.1}")),
     );
     shards_paragraph(&mut out, meta, study.runs.len());
-    crate::study::kinds::of(&s.kind).report_settings(&mut out, &study.file);
+    crate::study::kinds::present(&s.kind).report_settings(&mut out, &study.file);
     if !references.is_empty() || !failed_references.is_empty() {
         let _ = writeln!(out, "References:\n");
         for (scene, message) in failed_references.values() {
@@ -138,14 +138,14 @@ fn render(
         }
         let _ = writeln!(out);
     }
-    crate::study::kinds::of(&s.kind).report_findings(&mut out, runs, s);
+    crate::study::kinds::present(&s.kind).report_findings(&mut out, runs, s);
 
-    if crate::study::kinds::of(&s.kind).report_runs_table() {
+    if crate::study::kinds::present(&s.kind).report_runs_table() {
         let _ = writeln!(out, "## Runs\n");
         let mut columns: Vec<&str> = vec!["scene", "method", "linear_solver"];
         columns.extend(s.parameters.iter().map(String::as_str));
         columns.extend(
-            crate::study::kinds::of(&s.kind)
+            crate::study::kinds::present(&s.kind)
                 .summary_columns()
                 .iter()
                 .copied()
@@ -169,7 +169,7 @@ fn render(
         let _ = writeln!(
             out,
             "\n{}\n",
-            units_note(crate::study::kinds::of(&s.kind), runs, &columns)
+            units_note(crate::study::kinds::present(&s.kind), runs, &columns)
         );
     } else {
         let _ = writeln!(
@@ -361,7 +361,7 @@ pub(in crate::study) fn damped_scenes_of<'a>(
 
 /// The units line under the runs table: only for the columns it shows, and saying why a
 /// momentum column is empty when it is.
-fn units_note(kind: &dyn Kind, runs: &Table, columns: &[&str]) -> String {
+fn units_note(kind: &dyn Present, runs: &Table, columns: &[&str]) -> String {
     let shown = |c: &str| columns.contains(&c);
     let mut parts = vec!["time steps and times in s".to_owned()];
     if shown("energy_drift_max") || shown("energy_drift_final") {
@@ -423,7 +423,7 @@ fn closing_sections(out: &mut String, meta: &Meta, runs: &Table, plots: &[Plot])
         );
     }
     let _ = writeln!(out, "## Runs that did not finish cleanly\n");
-    let kind = crate::study::kinds::of(&meta.study.kind);
+    let kind = crate::study::kinds::present(&meta.study.kind);
     if let Some(note) = kind.failures_note(runs) {
         let _ = writeln!(out, "{note}");
     } else {
@@ -530,7 +530,7 @@ pub fn compute_findings(
     params: &[String],
     damped: &BTreeMap<String, String>,
 ) -> Option<Findings> {
-    let kind = crate::study::kinds::named(kind)?;
+    let kind = crate::study::kinds::present_named(kind)?;
     let mut f = Findings::default();
     for scene in scenes(runs) {
         let rows: Vec<&Vec<String>> = runs

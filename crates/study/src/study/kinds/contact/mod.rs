@@ -7,7 +7,7 @@
 //!
 //! Grid `contact.response` over the responses to compare them on the same scenes.
 
-use crate::study::kind::{Kind, RunInputs, number};
+use crate::study::kind::{Measure, Plan, Present, RunInputs, number};
 use crate::study::kinds::trajectory::{OWN_COLUMNS as TRAJECTORY, Trajectory, measure_with_state};
 use crate::study::present::charts::SceneRows;
 use crate::study::present::findings::Ranking;
@@ -78,7 +78,7 @@ fn centroid_height(model: &softbench_core::model::Model, q: &[f64]) -> f64 {
     x.iter().zip(m).map(|(p, m)| m * p.dot(&up)).sum::<f64>() / total
 }
 
-impl Kind for ContactStudy {
+impl Plan for ContactStudy {
     fn name(&self) -> &'static str {
         "contact"
     }
@@ -90,40 +90,6 @@ impl Kind for ContactStudy {
 
     fn example(&self) -> &'static str {
         "[grid]\n\"contact.response\" = [\"penalty\", \"constrained\", \"ipc\"]\n"
-    }
-
-    fn columns(&self) -> &'static [&'static str] {
-        &COLUMNS
-    }
-
-    fn own_columns(&self) -> &'static [&'static str] {
-        &OWN_COLUMNS
-    }
-
-    fn summary_columns(&self) -> &'static [&'static str] {
-        &[
-            "response",
-            "outcome",
-            "intersecting_frames",
-            "max_penetration",
-            "min_distance",
-            "centroid_height_final",
-            "energy_drift_final",
-            "newton_iterations_per_step",
-            "seconds_per_simulated_second",
-        ]
-    }
-
-    fn sweep_metrics(&self) -> &'static [&'static str] {
-        &["seconds_per_simulated_second", "max_penetration"]
-    }
-
-    fn progress(&self, m: &Measured) -> Option<String> {
-        number(m, "intersecting_frames").map(|n| format!(", {n} intersecting frame(s)"))
-    }
-
-    fn quick_notice(&self) -> &'static str {
-        Trajectory.quick_notice()
     }
 
     fn quick_keys(&self) -> &'static [&'static str] {
@@ -154,6 +120,20 @@ impl Kind for ContactStudy {
         quick: bool,
     ) -> Result<(), StudyError> {
         Trajectory.configure(context, file, config, axes, quick)
+    }
+}
+
+impl Measure for ContactStudy {
+    fn columns(&self) -> &'static [&'static str] {
+        &COLUMNS
+    }
+
+    fn own_columns(&self) -> &'static [&'static str] {
+        &OWN_COLUMNS
+    }
+
+    fn progress(&self, m: &Measured) -> Option<String> {
+        number(m, "intersecting_frames").map(|n| format!(", {n} intersecting frame(s)"))
     }
 
     fn measure(
@@ -237,6 +217,30 @@ impl Kind for ContactStudy {
         );
         m.series = series;
         Ok(m)
+    }
+}
+
+impl Present for ContactStudy {
+    fn summary_columns(&self) -> &'static [&'static str] {
+        &[
+            "response",
+            "outcome",
+            "intersecting_frames",
+            "max_penetration",
+            "min_distance",
+            "centroid_height_final",
+            "energy_drift_final",
+            "newton_iterations_per_step",
+            "seconds_per_simulated_second",
+        ]
+    }
+
+    fn sweep_metrics(&self) -> &'static [&'static str] {
+        &["seconds_per_simulated_second", "max_penetration"]
+    }
+
+    fn quick_notice(&self) -> &'static str {
+        Trajectory.quick_notice()
     }
 
     fn rankings(&self, s: &SceneRows, damped: Option<&str>) -> Vec<Ranking> {

@@ -12,7 +12,7 @@
 //! `roundoff` stop: working precision) or `max_iterations`, and every criterion is read off the
 //! log afterwards (the iterates do not depend on the criterion).
 
-use crate::study::kind::{Kind, OwnKey, RunInputs, parse_quick};
+use crate::study::kind::{Measure, OwnKey, Plan, Present, RunInputs, parse_quick};
 use crate::study::present::charts::{Emit, SceneRows, label};
 use crate::study::present::findings::{self, Better, Ranking};
 use crate::study::vocabulary::config::StudyFile;
@@ -222,7 +222,7 @@ fn settings(file: &StudyFile) -> Option<SolverStudySettings> {
 /// A solver study.
 pub(in crate::study) struct Solver;
 
-impl Kind for Solver {
+impl Plan for Solver {
     fn name(&self) -> &'static str {
         NAME
     }
@@ -237,39 +237,6 @@ impl Kind for Solver {
          [\"newton\", \"lbfgs\"]\n\n[solver]\nsteps = [1, 3]\nmax_iterations = 60\n"
     }
 
-    fn columns(&self) -> &'static [&'static str] {
-        COLUMNS
-    }
-
-    fn summary_columns(&self) -> &'static [&'static str] {
-        &[
-            "outcome",
-            "criterion",
-            "iterations_1e-4",
-            "seconds_1e-4",
-            "iterations_1e-8",
-            "seconds_1e-8",
-            "factorizations_1e-8",
-            "final_residual",
-            "stops",
-        ]
-    }
-
-    fn sweep_metrics(&self) -> &'static [&'static str] {
-        &["iterations_1e-8", "seconds_1e-8"]
-    }
-
-    fn progress(&self, m: &Measured) -> Option<String> {
-        let reached = m.get("iterations_1e-8").filter(|s| !s.is_empty());
-        Some(match reached {
-            Some(n) => format!(", {n} iterations to 1e-8"),
-            None => format!(
-                ", 1e-8 not reached ({})",
-                m.get("stops").unwrap_or_default()
-            ),
-        })
-    }
-
     fn table_names(&self) -> &'static [&'static str] {
         &[NAME]
     }
@@ -277,10 +244,6 @@ impl Kind for Solver {
     fn parse_table(&self, text: &str) -> Result<serde_json::Value, toml::de::Error> {
         let file: FileTable = toml::from_str(text)?;
         Ok(serde_json::to_value(&file.solver).unwrap_or_default())
-    }
-
-    fn quick_notice(&self) -> &'static str {
-        "each solve is capped at fewer iterations (tight tolerances may not be reached)"
     }
 
     fn check(
@@ -396,6 +359,23 @@ impl Kind for Solver {
             last + (s.steps.len() * s.repeats) as f64 * f64::from(s.max_iterations) / 5.0
         })
     }
+}
+
+impl Measure for Solver {
+    fn columns(&self) -> &'static [&'static str] {
+        COLUMNS
+    }
+
+    fn progress(&self, m: &Measured) -> Option<String> {
+        let reached = m.get("iterations_1e-8").filter(|s| !s.is_empty());
+        Some(match reached {
+            Some(n) => format!(", {n} iterations to 1e-8"),
+            None => format!(
+                ", 1e-8 not reached ({})",
+                m.get("stops").unwrap_or_default()
+            ),
+        })
+    }
 
     fn measure(
         &self,
@@ -406,6 +386,30 @@ impl Kind for Solver {
     ) -> Result<Measured, String> {
         let settings = settings(&study.file).ok_or("no [solver] table")?;
         measure(spec, &settings, parallelism)
+    }
+}
+
+impl Present for Solver {
+    fn summary_columns(&self) -> &'static [&'static str] {
+        &[
+            "outcome",
+            "criterion",
+            "iterations_1e-4",
+            "seconds_1e-4",
+            "iterations_1e-8",
+            "seconds_1e-8",
+            "factorizations_1e-8",
+            "final_residual",
+            "stops",
+        ]
+    }
+
+    fn sweep_metrics(&self) -> &'static [&'static str] {
+        &["iterations_1e-8", "seconds_1e-8"]
+    }
+
+    fn quick_notice(&self) -> &'static str {
+        "each solve is capped at fewer iterations (tight tolerances may not be reached)"
     }
 
     fn report_settings(&self, out: &mut String, file: &StudyFile) {

@@ -21,7 +21,9 @@
 //! `no-stable-dt-in-range` (no trial was stable, which says nothing about steps below the
 //! range). The `outcome` column is how the first unstable trial ended.
 
-use crate::study::kind::{Kind, OwnKey, RunInputs, SweepLine, Verdict, number, parse_quick};
+use crate::study::kind::{
+    Measure, OwnKey, Plan, Present, RunInputs, SweepLine, Verdict, number, parse_quick,
+};
 use crate::study::present::charts::{Emit, SceneRows, label};
 use crate::study::present::findings::{self, Better, Ranking};
 use crate::study::vocabulary::columns::{self, CAPS, SUMMARY};
@@ -139,7 +141,7 @@ fn settings(file: &StudyFile) -> Option<StabilitySettings> {
     file.settings(NAME)
 }
 
-impl Kind for Stability {
+impl Plan for Stability {
     fn name(&self) -> &'static str {
         NAME
     }
@@ -154,49 +156,6 @@ impl Kind for Stability {
          [stability]\ndt_min = 1e-4\ndt_max = 0.005\nhorizon = 0.1\nerror_samples = 4\n"
     }
 
-    fn columns(&self) -> &'static [&'static str] {
-        &COLUMNS
-    }
-
-    fn own_columns(&self) -> &'static [&'static str] {
-        OWN_COLUMNS
-    }
-
-    fn summary_columns(&self) -> &'static [&'static str] {
-        &[
-            "stability",
-            "max_stable_dt",
-            "outcome",
-            "first_unstable_dt",
-            "stable_over_theory",
-            "cost_per_simulated_second",
-            "evaluations_per_simulated_second",
-            "error_at_stable_dt",
-            "non_monotone_dt",
-            "energy_growth_rate",
-            "growth_exponent",
-            "limit_robust",
-            "dt_error_1pct",
-            "dt_error_10pct",
-            "newton_unconverged_steps",
-            "trials",
-        ]
-    }
-
-    fn sweep_metrics(&self) -> &'static [&'static str] {
-        &["max_stable_dt", "newton_iterations_per_step"]
-    }
-
-    fn progress(&self, m: &Measured) -> Option<String> {
-        Some(format!(
-            ", {}{}",
-            m.get("stability").unwrap_or_default(),
-            number(m, "max_stable_dt")
-                .map(|dt| format!(" at dt {dt} s"))
-                .unwrap_or_default()
-        ))
-    }
-
     fn table_names(&self) -> &'static [&'static str] {
         &[NAME]
     }
@@ -204,12 +163,6 @@ impl Kind for Stability {
     fn parse_table(&self, text: &str) -> Result<serde_json::Value, toml::de::Error> {
         let file: FileTable = toml::from_str(text)?;
         Ok(serde_json::to_value(&file.stability).unwrap_or_default())
-    }
-
-    fn quick_notice(&self) -> &'static str {
-        "the same horizon, judged range and criterion (a verdict at a step is the full \
-         study's, and a run's verdict of the same class), but coarser searches and no \
-         robustness trials"
     }
 
     fn check(
@@ -329,6 +282,26 @@ impl Kind for Stability {
             12.0 * (s.horizon / s.dt_max).clamp(s.min_steps as f64, s.max_steps as f64)
         })
     }
+}
+
+impl Measure for Stability {
+    fn columns(&self) -> &'static [&'static str] {
+        &COLUMNS
+    }
+
+    fn own_columns(&self) -> &'static [&'static str] {
+        OWN_COLUMNS
+    }
+
+    fn progress(&self, m: &Measured) -> Option<String> {
+        Some(format!(
+            ", {}{}",
+            m.get("stability").unwrap_or_default(),
+            number(m, "max_stable_dt")
+                .map(|dt| format!(" at dt {dt} s"))
+                .unwrap_or_default()
+        ))
+    }
 
     /// The search starts from the explicit limit, and the reference picks its method from it.
     fn needs_omega(&self, _: &StudyFile) -> bool {
@@ -358,6 +331,39 @@ impl Kind for Stability {
     ) -> Result<Measured, String> {
         let settings = settings(&study.file).ok_or("no [stability] table")?;
         measure(spec, &settings, inputs, parallelism)
+    }
+}
+
+impl Present for Stability {
+    fn summary_columns(&self) -> &'static [&'static str] {
+        &[
+            "stability",
+            "max_stable_dt",
+            "outcome",
+            "first_unstable_dt",
+            "stable_over_theory",
+            "cost_per_simulated_second",
+            "evaluations_per_simulated_second",
+            "error_at_stable_dt",
+            "non_monotone_dt",
+            "energy_growth_rate",
+            "growth_exponent",
+            "limit_robust",
+            "dt_error_1pct",
+            "dt_error_10pct",
+            "newton_unconverged_steps",
+            "trials",
+        ]
+    }
+
+    fn sweep_metrics(&self) -> &'static [&'static str] {
+        &["max_stable_dt", "newton_iterations_per_step"]
+    }
+
+    fn quick_notice(&self) -> &'static str {
+        "the same horizon, judged range and criterion (a verdict at a step is the full \
+         study's, and a run's verdict of the same class), but coarser searches and no \
+         robustness trials"
     }
 
     /// The `stability` column: clean when it answers the question (a limit, or stable up to

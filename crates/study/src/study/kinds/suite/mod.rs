@@ -17,7 +17,7 @@ pub mod aggregates;
 pub mod report;
 pub mod tables;
 
-use crate::study::kind::{Kind, OwnKey, RunInputs, Verdict, number, parse_quick};
+use crate::study::kind::{Measure, OwnKey, Plan, Present, RunInputs, Verdict, number, parse_quick};
 use crate::study::present::charts::{Emit, SceneRows};
 use crate::study::vocabulary::config::{METHOD_KEY, StudyFile};
 use crate::study::vocabulary::context::Context;
@@ -163,7 +163,7 @@ fn settings(file: &StudyFile) -> Option<SuiteSettings> {
 /// The suite.
 pub(in crate::study) struct Suite;
 
-impl Kind for Suite {
+impl Plan for Suite {
     fn name(&self) -> &'static str {
         NAME
     }
@@ -188,41 +188,6 @@ impl Kind for Suite {
          dt = 0.001 } }\n"
     }
 
-    fn columns(&self) -> &'static [&'static str] {
-        &COLUMNS
-    }
-
-    fn own_columns(&self) -> &'static [&'static str] {
-        &OWN_COLUMNS
-    }
-
-    fn summary_columns(&self) -> &'static [&'static str] {
-        &[
-            "level",
-            "solved",
-            "failure",
-            "error",
-            "tolerance",
-            "wall_seconds",
-            "evaluations",
-        ]
-    }
-
-    fn sweep_metrics(&self) -> &'static [&'static str] {
-        &["error", "evaluations"]
-    }
-
-    fn progress(&self, m: &Measured) -> Option<String> {
-        let verdict = match m.get("failure") {
-            Some("") | None => "solved".to_owned(),
-            Some(kind) => kind.to_owned(),
-        };
-        Some(match number(m, "error") {
-            Some(e) => format!(", {verdict}, error {e}"),
-            None => format!(", {verdict}"),
-        })
-    }
-
     fn table_names(&self) -> &'static [&'static str] {
         &[NAME]
     }
@@ -230,10 +195,6 @@ impl Kind for Suite {
     fn parse_table(&self, text: &str) -> Result<serde_json::Value, toml::de::Error> {
         let file: FileTable = toml::from_str(text)?;
         Ok(serde_json::to_value(&file.suite).unwrap_or_default())
-    }
-
-    fn quick_notice(&self) -> &'static str {
-        "only the problems `[quick] problems` names run"
     }
 
     fn check(
@@ -364,6 +325,27 @@ impl Kind for Suite {
     fn estimated_steps(&self, file: &StudyFile, config: &SceneConfig) -> f64 {
         config.run.steps as f64 * settings(file).map_or(1, |s| s.repeats) as f64
     }
+}
+
+impl Measure for Suite {
+    fn columns(&self) -> &'static [&'static str] {
+        &COLUMNS
+    }
+
+    fn own_columns(&self) -> &'static [&'static str] {
+        &OWN_COLUMNS
+    }
+
+    fn progress(&self, m: &Measured) -> Option<String> {
+        let verdict = match m.get("failure") {
+            Some("") | None => "solved".to_owned(),
+            Some(kind) => kind.to_owned(),
+        };
+        Some(match number(m, "error") {
+            Some(e) => format!(", {verdict}, error {e}"),
+            None => format!(", {verdict}"),
+        })
+    }
 
     fn reference_settings(&self, file: &StudyFile, spec: &RunSpec) -> Option<ScoringSettings> {
         let problem = spec.loaded.config.problem.as_ref()?;
@@ -400,6 +382,28 @@ impl Kind for Suite {
         )?;
         judge(study, spec, problem, &mut m);
         Ok(m)
+    }
+}
+
+impl Present for Suite {
+    fn summary_columns(&self) -> &'static [&'static str] {
+        &[
+            "level",
+            "solved",
+            "failure",
+            "error",
+            "tolerance",
+            "wall_seconds",
+            "evaluations",
+        ]
+    }
+
+    fn sweep_metrics(&self) -> &'static [&'static str] {
+        &["error", "evaluations"]
+    }
+
+    fn quick_notice(&self) -> &'static str {
+        "only the problems `[quick] problems` names run"
     }
 
     /// Every run answers: solved, or failed with its kind.

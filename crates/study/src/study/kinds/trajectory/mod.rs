@@ -1,7 +1,7 @@
 //! Trajectory runs: run the scene as configured and summarize energy and momentum drift,
 //! time per step and evaluation counts.
 
-use crate::study::kind::{Kind, RunInputs, number, parse_quick};
+use crate::study::kind::{Measure, Plan, Present, RunInputs, number, parse_quick};
 use crate::study::present::charts::SceneRows;
 use crate::study::present::findings::{self, Ranking};
 use crate::study::vocabulary::columns::{self, CAPS, SUMMARY};
@@ -49,7 +49,7 @@ struct Quick {
     steps: Option<usize>,
 }
 
-impl Kind for Trajectory {
+impl Plan for Trajectory {
     fn name(&self) -> &'static str {
         "trajectory"
     }
@@ -60,40 +60,6 @@ impl Kind for Trajectory {
 
     fn example(&self) -> &'static str {
         "[grid]\n\"integrator.method\" = [\"symplectic-euler\", \"backward-euler\"]\n"
-    }
-
-    fn columns(&self) -> &'static [&'static str] {
-        &COLUMNS
-    }
-
-    fn own_columns(&self) -> &'static [&'static str] {
-        OWN_COLUMNS
-    }
-
-    fn summary_columns(&self) -> &'static [&'static str] {
-        &[
-            "dt",
-            "outcome",
-            "energy_drift_max",
-            "energy_drift_final",
-            "momentum_drift",
-            "step_seconds_median",
-            "step_seconds_p95",
-            "newton_iterations_per_step",
-            "newton_unconverged_steps",
-        ]
-    }
-
-    fn sweep_metrics(&self) -> &'static [&'static str] {
-        &["energy_drift_max", "step_seconds_median"]
-    }
-
-    fn progress(&self, m: &Measured) -> Option<String> {
-        number(m, "energy_drift_max").map(|d| format!(", energy drift {d}"))
-    }
-
-    fn quick_notice(&self) -> &'static str {
-        "runs are shortened"
     }
 
     fn quick_keys(&self) -> &'static [&'static str] {
@@ -132,6 +98,20 @@ impl Kind for Trajectory {
         }
         Ok(())
     }
+}
+
+impl Measure for Trajectory {
+    fn columns(&self) -> &'static [&'static str] {
+        &COLUMNS
+    }
+
+    fn own_columns(&self) -> &'static [&'static str] {
+        OWN_COLUMNS
+    }
+
+    fn progress(&self, m: &Measured) -> Option<String> {
+        number(m, "energy_drift_max").map(|d| format!(", energy drift {d}"))
+    }
 
     fn measure(
         &self,
@@ -141,6 +121,30 @@ impl Kind for Trajectory {
         parallelism: Parallelism,
     ) -> Result<Measured, String> {
         measure_with_state(spec, parallelism, inputs.meter).map(|(m, _, _)| m)
+    }
+}
+
+impl Present for Trajectory {
+    fn summary_columns(&self) -> &'static [&'static str] {
+        &[
+            "dt",
+            "outcome",
+            "energy_drift_max",
+            "energy_drift_final",
+            "momentum_drift",
+            "step_seconds_median",
+            "step_seconds_p95",
+            "newton_iterations_per_step",
+            "newton_unconverged_steps",
+        ]
+    }
+
+    fn sweep_metrics(&self) -> &'static [&'static str] {
+        &["energy_drift_max", "step_seconds_median"]
+    }
+
+    fn quick_notice(&self) -> &'static str {
+        "runs are shortened"
     }
 
     /// Cost per simulated second and energy drift.

@@ -9,7 +9,7 @@
 //! computed twice, at its step and at half of it; their difference is the reference's own
 //! accuracy, and errors below `floor_factor` times it are not scored.
 
-use crate::study::kind::{Kind, OwnKey, RunInputs, number, parse_quick};
+use crate::study::kind::{Measure, OwnKey, Plan, Present, RunInputs, number, parse_quick};
 use crate::study::present::charts::{ACCURACY_KNOBS, Emit, SceneRows, accuracy_rank, label};
 use crate::study::present::findings::{self, Better, ORDER_EXCESS, Ranking};
 use crate::study::present::pictures::PictureRows;
@@ -103,7 +103,7 @@ fn settings(file: &StudyFile) -> Option<ScoringSettings> {
     file.settings(NAME)
 }
 
-impl Kind for WorkPrecision {
+impl Plan for WorkPrecision {
     fn name(&self) -> &'static str {
         NAME
     }
@@ -118,37 +118,6 @@ impl Kind for WorkPrecision {
          [work-precision]\nhorizon = 0.04\nsamples = 2\n"
     }
 
-    fn columns(&self) -> &'static [&'static str] {
-        &COLUMNS
-    }
-
-    fn own_columns(&self) -> &'static [&'static str] {
-        OWN_COLUMNS
-    }
-
-    fn summary_columns(&self) -> &'static [&'static str] {
-        &[
-            "dt",
-            "outcome",
-            "error",
-            "energy_error",
-            "wall_seconds",
-            "force_evaluations",
-            "hessian_evaluations",
-            "factorizations",
-            "linear_iterations",
-            "newton_unconverged_steps",
-        ]
-    }
-
-    fn sweep_metrics(&self) -> &'static [&'static str] {
-        &["error", "wall_seconds"]
-    }
-
-    fn progress(&self, m: &Measured) -> Option<String> {
-        number(m, "error").map(|e| format!(", error {e}"))
-    }
-
     fn table_names(&self) -> &'static [&'static str] {
         &["work-precision", "work_precision"]
     }
@@ -156,10 +125,6 @@ impl Kind for WorkPrecision {
     fn parse_table(&self, text: &str) -> Result<serde_json::Value, toml::de::Error> {
         let file: FileTable = toml::from_str(text)?;
         Ok(serde_json::to_value(&file.table).unwrap_or_default())
-    }
-
-    fn quick_notice(&self) -> &'static str {
-        "the horizon and the dt ladders are shortened"
     }
 
     fn check(
@@ -252,6 +217,20 @@ impl Kind for WorkPrecision {
     fn estimated_steps(&self, file: &StudyFile, config: &SceneConfig) -> f64 {
         config.run.steps as f64 * settings(file).map_or(1, |w| w.repeats) as f64
     }
+}
+
+impl Measure for WorkPrecision {
+    fn columns(&self) -> &'static [&'static str] {
+        &COLUMNS
+    }
+
+    fn own_columns(&self) -> &'static [&'static str] {
+        OWN_COLUMNS
+    }
+
+    fn progress(&self, m: &Measured) -> Option<String> {
+        number(m, "error").map(|e| format!(", error {e}"))
+    }
 
     fn needs_omega(&self, file: &StudyFile) -> bool {
         settings(file).is_some_and(|w| w.reference.method.is_none() && !w.reference.same_dt)
@@ -275,6 +254,31 @@ impl Kind for WorkPrecision {
         let settings = settings(&study.file).ok_or("no [work-precision] table")?;
         let reference = inputs.reference.ok_or("no reference solution")?;
         measure_with(spec, &settings, reference, parallelism, true, inputs.meter)
+    }
+}
+
+impl Present for WorkPrecision {
+    fn summary_columns(&self) -> &'static [&'static str] {
+        &[
+            "dt",
+            "outcome",
+            "error",
+            "energy_error",
+            "wall_seconds",
+            "force_evaluations",
+            "hessian_evaluations",
+            "factorizations",
+            "linear_iterations",
+            "newton_unconverged_steps",
+        ]
+    }
+
+    fn sweep_metrics(&self) -> &'static [&'static str] {
+        &["error", "wall_seconds"]
+    }
+
+    fn quick_notice(&self) -> &'static str {
+        "the horizon and the dt ladders are shortened"
     }
 
     /// An error within the reference's own accuracy is listed, though the run completed.
