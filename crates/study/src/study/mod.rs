@@ -23,8 +23,9 @@ mod present;
 mod vocabulary;
 
 // The paths users name (`softbench::study::table::Table`, `softbench::study::load`, ...).
+pub use execute::invocation::{MergeOutcome, RunOptions, StudyRun, matches};
 pub use execute::merge::{MergeError, Merged, merge};
-pub use execute::runner::{MergeOutcome, RunOptions, StudyRun, matches, run};
+pub use execute::runner::run;
 pub use kinds::{KindInfo, kinds, solver, stability, suite, trajectory, work_precision};
 pub use plan::load::load;
 pub use present::redraw::{RedrawError, redraw, redraw_pictures};
