@@ -319,258 +319,314 @@ pub(in crate::study) fn measure(
     parallelism: Parallelism,
 ) -> Result<Measured, String> {
     let mut scene = build(spec, parallelism).map_err(|e| e.to_string())?;
-    let lowest = settings.lowest_dt();
-    let highest = settings.highest_dt();
     let sample_times = shared
         .reference
         .map_or_else(Vec::new, |r| r.times().to_vec());
     let surface = picture_surface(&scene, spec)?;
-    let run_trial = |dt: f64| -> Trial {
-        let needed = (settings.horizon / dt * (1.0 - 1e-12)).ceil().max(1.0);
-        let steps = (needed as usize).min(settings.max_steps);
-        let run = RunConfig {
-            dt,
-            steps,
-            sample_every: steps.div_ceil(ROWS_PER_TRIAL).max(1),
-            energy_limit: settings.energy_factor,
-            // A stability trial is judged whole: a cost budget would decide it.
-            budget: None,
-        };
-        let mut output = DenseOutput::new(sample_times.clone());
-        // Every trial records its pictures (a copy of the surface per step), so the reported
-        // trial's need no second run.
-        let (mut summary, state, snapshots) =
-            run_observed(&mut scene, &run, surface.clone(), &mut output, shared.meter);
-        if summary.outcome.is_completed() && (needed as usize) > steps {
-            summary.outcome = Outcome::ended(
-                OutcomeKind::HorizonNotReached,
-                steps,
-                state.t,
-                "step cap",
-                format!(
-                    "stability.max_steps = {} steps of {dt:e} s cover {:e} s of the {:e} s horizon",
-                    settings.max_steps, state.t, settings.horizon
-                ),
-            );
-        }
-        Trial {
-            dt,
-            covered: state.t,
-            summary,
-            rows: output.rows,
-            positions: output.positions,
-            snapshots,
-        }
-    };
-    let mut search = Search {
-        run: run_trial,
+    let search = Search {
+        run: |dt: f64| {
+            run_trial(
+                &mut scene,
+                surface.clone(),
+                &sample_times,
+                settings,
+                shared,
+                dt,
+            )
+        },
         trials: Vec::new(),
         precision: settings.relative_precision,
     };
-    let bracket = search.find(settings);
-    // Probe smaller steps below a limit.
-    let mut non_monotone = None;
-    if let Some((limit, Some(_))) = bracket {
-        let mut dt = limit;
-        for _ in 0..settings.probes {
-            dt /= 2.0;
-            if dt < lowest {
-                break;
-            }
-            if !search.stable(dt) && non_monotone.is_none() {
-                non_monotone = Some(dt);
-            }
-        }
+    let found = Found::search(search, settings, shared);
+    Ok(found.measured(spec, settings, shared))
+}
+
+/// One trial of the search: the scene run at `dt` over the horizon (at most
+/// `stability.max_steps` steps), its state at the reference's sample times kept.
+fn run_trial(
+    scene: &mut softbench_run::scene::Scene,
+    surface: Option<softbench_run::render::Surface>,
+    sample_times: &[f64],
+    settings: &StabilitySettings,
+    shared: &RunInputs,
+    dt: f64,
+) -> Trial {
+    let needed = (settings.horizon / dt * (1.0 - 1e-12)).ceil().max(1.0);
+    let steps = (needed as usize).min(settings.max_steps);
+    let run = RunConfig {
+        dt,
+        steps,
+        sample_every: steps.div_ceil(ROWS_PER_TRIAL).max(1),
+        energy_limit: settings.energy_factor,
+        // A stability trial is judged whole: a cost budget would decide it.
+        budget: None,
+    };
+    let mut output = DenseOutput::new(sample_times.to_vec());
+    // Every trial records its pictures (a copy of the surface per step), so the reported
+    // trial's need no second run.
+    let (mut summary, state, snapshots) =
+        run_observed(scene, &run, surface, &mut output, shared.meter);
+    if summary.outcome.is_completed() && (needed as usize) > steps {
+        summary.outcome = Outcome::ended(
+            OutcomeKind::HorizonNotReached,
+            steps,
+            state.t,
+            "step cap",
+            format!(
+                "stability.max_steps = {} steps of {dt:e} s cover {:e} s of the {:e} s horizon",
+                settings.max_steps, state.t, settings.horizon
+            ),
+        );
     }
-    // A bracket is robust when trials a hair away from its ends agree with them.
-    let mut not_robust = Vec::new();
-    if let Some((lo, hi)) = bracket.filter(|_| settings.robustness_trials) {
-        let ends = [(lo, true)].into_iter().chain(hi.map(|h| (h, false)));
-        for (end, stable) in ends {
-            for dt in [end * (1.0 - ROBUSTNESS), end * (1.0 + ROBUSTNESS)] {
-                if (lowest..=highest).contains(&dt) && search.stable(dt) != stable {
-                    not_robust.push(dt);
+    Trial {
+        dt,
+        covered: state.t,
+        summary,
+        rows: output.rows,
+        positions: output.positions,
+        snapshots,
+    }
+}
+
+/// Whether every trial blew up.
+fn every_unstable(trials: &[Trial]) -> bool {
+    trials
+        .iter()
+        .all(|t| t.summary.outcome.status == OutcomeKind::Unstable)
+}
+
+/// What the search found: the bracket of the largest stable step, what checks it, and every
+/// trial run.
+struct Found {
+    /// The largest stable step and the smallest unstable one above it (`None`: stable to the
+    /// ceiling); `None` when no step is stable.
+    bracket: Option<(f64, Option<f64>)>,
+    /// The first probe below the limit that failed.
+    non_monotone: Option<f64>,
+    /// The trials a hair from the bracket's ends that disagree with them.
+    not_robust: Vec<f64>,
+    /// How the growth rate follows dt, where nothing (or only a slowly growing step) was
+    /// stable.
+    trend: Option<GrowthTrend>,
+    /// The largest step that completed though its energy still grew, and by how much, when
+    /// the growth above it follows one power of dt (the bracket is then the horizon's).
+    growing_below: Option<(f64, f64)>,
+    /// The largest stable step within each error tolerance.
+    within: Vec<Option<Within>>,
+    trials: Vec<Trial>,
+}
+
+impl Found {
+    /// Run the search and its checks.
+    fn search<F: FnMut(f64) -> Trial>(
+        mut search: Search<F>,
+        settings: &StabilitySettings,
+        shared: &RunInputs,
+    ) -> Self {
+        let lowest = settings.lowest_dt();
+        let highest = settings.highest_dt();
+        let bracket = search.find(settings);
+        let non_monotone = probe_below(&mut search, bracket, settings);
+        let not_robust = robustness(&mut search, bracket, settings);
+        // Nothing stable and every trial a blow-up: does the growth shrink as dt does?
+        let mut trend = None;
+        if bracket.is_none() && every_unstable(&search.trials) {
+            for k in [2.0, 4.0] {
+                if lowest * k <= highest {
+                    search.stable(lowest * k);
                 }
             }
+            trend = GrowthTrend::of(search.trials.iter(), shared.omega);
         }
-    }
-    // Nothing stable and every trial a blow-up: does the growth shrink as dt does?
-    let every_unstable = |trials: &[Trial]| {
-        trials
-            .iter()
-            .all(|t| t.summary.outcome.status == OutcomeKind::Unstable)
-    };
-    let mut trend = None;
-    if bracket.is_none() && every_unstable(&search.trials) {
-        for k in [2.0, 4.0] {
-            if lowest * k <= highest {
-                search.stable(lowest * k);
+        let growing_below = growing_below(&mut search, bracket, settings, shared);
+        if let Some((_, t)) = growing_below {
+            trend = Some(t);
+        }
+        // Then no step is stable: the trials below only did not show it within the horizon.
+        let bracket = if growing_below.is_some() {
+            None
+        } else {
+            bracket
+        };
+        // The largest stable step within each error tolerance: what ranks methods that are
+        // stable up to the ceiling (and the rest at their limit's accuracy).
+        let mut within = Vec::new();
+        if let (Some((limit, _)), Some(reference)) = (bracket, shared.reference) {
+            for &tolerance in &ERROR_TOLERANCES {
+                within.push(search.largest_within(
+                    limit,
+                    lowest,
+                    tolerance,
+                    settings.error_dt_precision,
+                    reference,
+                ));
             }
         }
-        trend = GrowthTrend::of(search.trials.iter(), shared.omega);
+        Self {
+            bracket,
+            non_monotone,
+            not_robust,
+            trend,
+            growing_below: growing_below.map(|(g, _)| g),
+            within,
+            trials: search.trials,
+        }
     }
-    // A bracket below which the excess still grows, only too slowly to be sustained growth
-    // within the horizon, is where growth became detectable, not where it starts: if the
-    // growth above it follows one power of dt below 2/omega_max (explicit midpoint's dt^3),
-    // the method blows up at every dt and the bracket is the horizon's, not the method's.
-    let mut growing_below = None;
-    if let Some((lo, Some(hi))) = bracket {
-        let below = search
+
+    /// The run's verdict.
+    fn verdict(&self) -> &'static str {
+        match self.bracket {
+            Some((_, None)) => "stable-to-ceiling",
+            Some((_, Some(_))) => "limit-found",
+            None if (every_unstable(&self.trials) || self.growing_below.is_some())
+                && self.trend.is_some_and(|t| t.every_dt()) =>
+            {
+                "unstable-at-every-dt"
+            }
+            None => "no-stable-dt-in-range",
+        }
+    }
+
+    /// The trial at the largest stable step, and the first unstable trial (above the limit,
+    /// or with nothing stable the smallest step tried, which decides "nothing was stable").
+    fn reported(&self) -> (Option<&Trial>, Option<&Trial>) {
+        let trials = &self.trials;
+        let best = self
+            .bracket
+            .and_then(|(dt, _)| trials.iter().find(|t| t.dt == dt && t.stable()));
+        let first_unstable = match self.bracket {
+            Some((_, Some(hi))) => trials.iter().find(|t| t.dt == hi),
+            Some((_, None)) => None,
+            None => trials
+                .iter()
+                .filter(|t| !t.stable())
+                .min_by(|a, b| a.dt.total_cmp(&b.dt)),
+        };
+        (best, first_unstable)
+    }
+
+    /// The run's row, series, trials table and pictures.
+    fn measured(self, spec: &RunSpec, settings: &StabilitySettings, shared: &RunInputs) -> Measured {
+        let verdict = self.verdict();
+        let (best, first_unstable) = self.reported();
+        let mut m = Measured::default();
+        match first_unstable {
+            Some(t) => {
+                let (outcome, message) = outcome_of(&t.summary.outcome);
+                m.outcome = outcome;
+                m.message = format!("at dt = {}: {message}", short(t.dt));
+            }
+            None => m.outcome = OutcomeKind::Completed.name().to_owned(),
+        }
+        if let Some(best) = best {
+            set_best_cells(&mut m, best, shared);
+            m.series = best.rows.clone();
+        } else if let Some(t) = first_unstable {
+            m.series = t.rows.clone();
+        }
+        // The pictures of the reported trial: the largest stable step, or, with nothing
+        // stable, the smallest failing one, which shows how the method breaks.
+        let pictured = best.or(first_unstable).map(|t| t.dt);
+        m.cells.extend(CAPS.cells(spec));
+        self.set_search_cells(&mut m, verdict, first_unstable, settings);
+        self.explain(&mut m, verdict, settings);
+        set_settings_cells(&mut m, settings, shared, self.bracket);
+        m.set("trials", self.trials.len().to_string());
+        let total: f64 = self
             .trials
             .iter()
-            .find(|t| t.dt == lo)
-            .and_then(|t| t.summary.energy_growth)
-            .filter(|g| g.rate > 0.0 && g.factor >= GROWING_BELOW);
-        if let Some(below) = below {
-            for k in [SPACING, SPACING * SPACING] {
-                if hi * k <= highest {
-                    search.stable(hi * k);
-                }
-            }
-            let above = search
-                .trials
-                .iter()
-                .filter(|t| t.dt >= hi && t.summary.outcome.status == OutcomeKind::Unstable);
-            let t = GrowthTrend::of(above, shared.omega);
-            if t.is_some_and(|t| t.every_dt()) {
-                trend = t;
-                growing_below = Some((lo, below.factor));
-            }
-        }
+            .map(|t| t.summary.totals.times.total)
+            .sum();
+        m.set("trials_wall_seconds", cell(Some(total)));
+        m.tables = vec![("trials", trial_table(&self.trials, shared.reference))];
+        m.snapshots = pictured.and_then(|dt| {
+            let mut trials = self.trials;
+            let t = trials.iter_mut().find(|t| t.dt == dt)?;
+            t.snapshots.take()
+        });
+        m
     }
-    // Then no step is stable: the trials below only did not show it within the horizon.
-    let bracket = if growing_below.is_some() {
-        None
-    } else {
-        bracket
-    };
-    // The largest stable step within each error tolerance: what ranks methods that are stable
-    // up to the ceiling (and the rest at their limit's accuracy).
-    let mut within = Vec::new();
-    if let (Some((limit, _)), Some(reference)) = (bracket, shared.reference) {
-        for &tolerance in &ERROR_TOLERANCES {
-            within.push(search.largest_within(
-                limit,
-                lowest,
-                tolerance,
-                settings.error_dt_precision,
-                reference,
-            ));
-        }
-    }
-    let trials = search.trials;
 
-    let verdict = match bracket {
-        Some((_, None)) => "stable-to-ceiling",
-        Some((_, Some(_))) => "limit-found",
-        None if (every_unstable(&trials) || growing_below.is_some())
-            && trend.is_some_and(|t| t.every_dt()) =>
-        {
-            "unstable-at-every-dt"
+    /// The verdict, the bracket, its checks and the steps within each error tolerance.
+    fn set_search_cells(
+        &self,
+        m: &mut Measured,
+        verdict: &str,
+        first_unstable: Option<&Trial>,
+        settings: &StabilitySettings,
+    ) {
+        let bracket = self.bracket;
+        m.set("stability", verdict.to_owned());
+        m.set("max_stable_dt", cell(bracket.map(|(lo, _)| lo)));
+        m.set("first_unstable_dt", cell(bracket.and_then(|(_, hi)| hi)));
+        m.set("non_monotone_dt", cell(self.non_monotone));
+        m.set(
+            "energy_growth_rate",
+            cell(first_unstable.and_then(|t| t.summary.energy_growth.map(|g| g.rate))),
+        );
+        m.set("growth_exponent", cell(self.trend.map(|t| t.exponent)));
+        for (k, name) in ERROR_COLUMNS.iter().enumerate() {
+            let found = self.within.get(k).copied().flatten();
+            m.set(name[0], cell(found.map(|w: Within| w.dt)));
+            m.set(name[1], found.map_or(String::new(), |w| w.bound.into()));
+            m.set(name[2], cell(found.map(|w| w.error)));
+            m.set(name[3], cell(found.map(|w| w.excess)));
         }
-        None => "no-stable-dt-in-range",
-    };
-    let best = bracket.and_then(|(dt, _)| trials.iter().find(|t| t.dt == dt && t.stable()));
-    let first_unstable = match bracket {
-        Some((_, Some(hi))) => trials.iter().find(|t| t.dt == hi),
-        Some((_, None)) => None,
-        // The smallest step tried decides "nothing was stable".
-        None => trials
-            .iter()
-            .filter(|t| !t.stable())
-            .min_by(|a, b| a.dt.total_cmp(&b.dt)),
-    };
-
-    let mut m = Measured::default();
-    match first_unstable {
-        Some(t) => {
-            let (outcome, message) = outcome_of(&t.summary.outcome);
-            m.outcome = outcome;
-            m.message = format!("at dt = {}: {message}", short(t.dt));
-        }
-        None => m.outcome = OutcomeKind::Completed.name().to_owned(),
+        m.set(
+            "error_dt_precision",
+            cell(Some(settings.error_dt_precision)),
+        );
+        m.set(
+            "limit_robust",
+            match bracket {
+                None => String::new(),
+                Some(_) if !settings.robustness_trials => "not-checked".into(),
+                Some(_) if self.not_robust.is_empty() => "yes".into(),
+                Some(_) => "no".into(),
+            },
+        );
     }
-    if let Some(best) = best {
-        m.cells = SUMMARY.cells(&best.summary);
-        let simulated = best.covered.max(f64::MIN_POSITIVE);
-        let totals = &best.summary.totals;
-        // The steady cost: the median step (its quartiles as the spread), the first step's
-        // setup apart (setup_seconds).
-        let s = &best.summary;
-        let per_second = s.steps_completed as f64 / simulated;
-        m.set(
-            "cost_per_simulated_second",
-            cell(Some(s.step_seconds_median * per_second)),
-        );
-        m.set(
-            "cost_per_simulated_second_q1",
-            cell(Some(s.step_seconds_q1 * per_second)),
-        );
-        m.set(
-            "cost_per_simulated_second_q3",
-            cell(Some(s.step_seconds_q3 * per_second)),
-        );
-        let evaluations = totals.evaluations.gradient + totals.evaluations.hessian;
-        m.set(
-            "evaluations_per_simulated_second",
-            cell(Some(evaluations as f64 / simulated)),
-        );
-        if let Some(reference) = shared.reference {
-            m.set("reference_difference", cell(Some(reference.difference)));
-            crate::study::vocabulary::reference::set_phase_cells(
-                &mut m,
-                reference,
-                &best.positions,
+
+    /// The run's message: why nothing was stable, or what is wrong with the bracket.
+    fn explain(&self, m: &mut Measured, verdict: &str, settings: &StabilitySettings) {
+        if verdict != "limit-found" && verdict != "stable-to-ceiling" {
+            let why = self.why_unstable(verdict);
+            m.message = format!(
+                "{verdict} in [{}, {}] s: {why}; {}",
+                short(settings.lowest_dt()),
+                short(settings.highest_dt()),
+                m.message
             );
-            if let Some(error) = reference.relative_l2_error(&best.positions) {
-                let scored = error > reference.floor();
-                m.set("error_at_stable_dt", cell(Some(error)));
-                m.set("error_scored", if scored { "yes" } else { "no" }.into());
-            }
+        } else if !self.not_robust.is_empty() {
+            m.message = format!(
+                "the bracket is not robust: trials at {} (within {ROBUSTNESS:e} of its ends) \
+                 disagree with them",
+                self.not_robust
+                    .iter()
+                    .map(|d| format!("{d:e}"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+        } else if let Some(dt) = self.non_monotone {
+            m.message = format!(
+                "not monotone: the smaller step {} failed ({})",
+                short(dt),
+                self.trials
+                    .iter()
+                    .find(|t| t.dt == dt)
+                    .map(|t| outcome_of(&t.summary.outcome).1)
+                    .unwrap_or_default()
+            );
         }
-        m.series = best.rows.clone();
-    } else if let Some(t) = first_unstable {
-        m.series = t.rows.clone();
     }
-    // The pictures of the reported trial: the largest stable step, or, with nothing stable,
-    // the smallest failing one, which shows how the method breaks.
-    let pictured = best.or(first_unstable).map(|t| t.dt);
-    m.cells.extend(CAPS.cells(spec));
-    m.set("stability", verdict.to_owned());
-    m.set("max_stable_dt", cell(bracket.map(|(lo, _)| lo)));
-    m.set("first_unstable_dt", cell(bracket.and_then(|(_, hi)| hi)));
-    m.set("non_monotone_dt", cell(non_monotone));
-    m.set(
-        "energy_growth_rate",
-        cell(first_unstable.and_then(|t| t.summary.energy_growth.map(|g| g.rate))),
-    );
-    m.set("growth_exponent", cell(trend.map(|t| t.exponent)));
-    for (k, name) in ERROR_COLUMNS.iter().enumerate() {
-        let found = within.get(k).copied().flatten();
-        m.set(name[0], cell(found.map(|w: Within| w.dt)));
-        m.set(name[1], found.map_or(String::new(), |w| w.bound.into()));
-        m.set(name[2], cell(found.map(|w| w.error)));
-        m.set(name[3], cell(found.map(|w| w.excess)));
-    }
-    m.set(
-        "error_dt_precision",
-        cell(Some(settings.error_dt_precision)),
-    );
-    m.set(
-        "limit_robust",
-        match bracket {
-            None => String::new(),
-            Some(_) if !settings.robustness_trials => "not-checked".into(),
-            Some(_) if not_robust.is_empty() => "yes".into(),
-            Some(_) => "no".into(),
-        },
-    );
-    if verdict != "limit-found" && verdict != "stable-to-ceiling" {
-        let why = match (verdict, trend) {
+
+    /// Why no step was found stable, from the growth trend.
+    fn why_unstable(&self, verdict: &str) -> String {
+        match (verdict, self.trend) {
             ("unstable-at-every-dt", Some(t)) => format!(
                 "{}, and the energy's growth rate shrinks like dt^{:.2} as dt shrinks (fitted \
                  from {} s{})",
-                match growing_below {
+                match self.growing_below {
                     Some((lo, factor)) => format!(
                         "trials up to {} s completed, but their energy still grew (x{} over \
                          the last half of the largest), only too slowly to be sustained \
@@ -600,36 +656,133 @@ pub(in crate::study) fn measure(
                     .unwrap_or_default()
             ),
             _ => "no trial was stable".into(),
-        };
-        m.message = format!(
-            "{verdict} in [{}, {}] s: {why}; {}",
-            short(lowest),
-            short(highest),
-            m.message
-        );
-    } else if !not_robust.is_empty() {
-        m.message = format!(
-            "the bracket is not robust: trials at {} (within {ROBUSTNESS:e} of its ends) \
-             disagree with them",
-            not_robust
-                .iter()
-                .map(|d| format!("{d:e}"))
-                .collect::<Vec<_>>()
-                .join(", ")
-        );
-    } else if let Some(dt) = non_monotone {
-        m.message = format!(
-            "not monotone: the smaller step {} failed ({})",
-            short(dt),
-            trials
-                .iter()
-                .find(|t| t.dt == dt)
-                .map(|t| outcome_of(&t.summary.outcome).1)
-                .unwrap_or_default()
-        );
+        }
     }
-    m.set("lowest_dt", cell(Some(lowest)));
-    m.set("highest_dt", cell(Some(highest)));
+}
+
+/// Probe smaller steps below a limit: the first that fails makes the limit non-monotone.
+fn probe_below<F: FnMut(f64) -> Trial>(
+    search: &mut Search<F>,
+    bracket: Option<(f64, Option<f64>)>,
+    settings: &StabilitySettings,
+) -> Option<f64> {
+    let mut non_monotone = None;
+    if let Some((limit, Some(_))) = bracket {
+        let mut dt = limit;
+        for _ in 0..settings.probes {
+            dt /= 2.0;
+            if dt < settings.lowest_dt() {
+                break;
+            }
+            if !search.stable(dt) && non_monotone.is_none() {
+                non_monotone = Some(dt);
+            }
+        }
+    }
+    non_monotone
+}
+
+/// A bracket is robust when trials a hair away from its ends agree with them: the trials
+/// that do not.
+fn robustness<F: FnMut(f64) -> Trial>(
+    search: &mut Search<F>,
+    bracket: Option<(f64, Option<f64>)>,
+    settings: &StabilitySettings,
+) -> Vec<f64> {
+    let mut not_robust = Vec::new();
+    let range = settings.lowest_dt()..=settings.highest_dt();
+    if let Some((lo, hi)) = bracket.filter(|_| settings.robustness_trials) {
+        let ends = [(lo, true)].into_iter().chain(hi.map(|h| (h, false)));
+        for (end, stable) in ends {
+            for dt in [end * (1.0 - ROBUSTNESS), end * (1.0 + ROBUSTNESS)] {
+                if range.contains(&dt) && search.stable(dt) != stable {
+                    not_robust.push(dt);
+                }
+            }
+        }
+    }
+    not_robust
+}
+
+/// A bracket below which the excess still grows, only too slowly to be sustained growth
+/// within the horizon, is where growth became detectable, not where it starts: if the growth
+/// above it follows one power of dt below 2/omega_max (explicit midpoint's dt^3), the method
+/// blows up at every dt and the bracket is the horizon's, not the method's. Returns the
+/// largest completed step and its growth factor, with the trend above it.
+fn growing_below<F: FnMut(f64) -> Trial>(
+    search: &mut Search<F>,
+    bracket: Option<(f64, Option<f64>)>,
+    settings: &StabilitySettings,
+    shared: &RunInputs,
+) -> Option<((f64, f64), GrowthTrend)> {
+    let (lo, Some(hi)) = bracket? else {
+        return None;
+    };
+    let below = search
+        .trials
+        .iter()
+        .find(|t| t.dt == lo)
+        .and_then(|t| t.summary.energy_growth)
+        .filter(|g| g.rate > 0.0 && g.factor >= GROWING_BELOW)?;
+    for k in [SPACING, SPACING * SPACING] {
+        if hi * k <= settings.highest_dt() {
+            search.stable(hi * k);
+        }
+    }
+    let above = search
+        .trials
+        .iter()
+        .filter(|t| t.dt >= hi && t.summary.outcome.status == OutcomeKind::Unstable);
+    let t = GrowthTrend::of(above, shared.omega)?;
+    t.every_dt().then_some(((lo, below.factor), t))
+}
+
+/// The cost and error of the largest stable trial: its summary, its steady cost per simulated
+/// second (the median step, its quartiles as the spread, the first step's setup apart) and
+/// its error against the reference.
+fn set_best_cells(m: &mut Measured, best: &Trial, shared: &RunInputs) {
+    m.cells = SUMMARY.cells(&best.summary);
+    let simulated = best.covered.max(f64::MIN_POSITIVE);
+    let s = &best.summary;
+    let totals = &s.totals;
+    let per_second = s.steps_completed as f64 / simulated;
+    m.set(
+        "cost_per_simulated_second",
+        cell(Some(s.step_seconds_median * per_second)),
+    );
+    m.set(
+        "cost_per_simulated_second_q1",
+        cell(Some(s.step_seconds_q1 * per_second)),
+    );
+    m.set(
+        "cost_per_simulated_second_q3",
+        cell(Some(s.step_seconds_q3 * per_second)),
+    );
+    let evaluations = totals.evaluations.gradient + totals.evaluations.hessian;
+    m.set(
+        "evaluations_per_simulated_second",
+        cell(Some(evaluations as f64 / simulated)),
+    );
+    if let Some(reference) = shared.reference {
+        m.set("reference_difference", cell(Some(reference.difference)));
+        crate::study::vocabulary::reference::set_phase_cells(m, reference, &best.positions);
+        if let Some(error) = reference.relative_l2_error(&best.positions) {
+            let scored = error > reference.floor();
+            m.set("error_at_stable_dt", cell(Some(error)));
+            m.set("error_scored", if scored { "yes" } else { "no" }.into());
+        }
+    }
+}
+
+/// The search's settings and the explicit limit it is judged against.
+fn set_settings_cells(
+    m: &mut Measured,
+    settings: &StabilitySettings,
+    shared: &RunInputs,
+    bracket: Option<(f64, Option<f64>)>,
+) {
+    m.set("lowest_dt", cell(Some(settings.lowest_dt())));
+    m.set("highest_dt", cell(Some(settings.highest_dt())));
     m.set("horizon", cell(Some(settings.horizon)));
     m.set("min_steps", settings.min_steps.to_string());
     m.set("max_steps", settings.max_steps.to_string());
@@ -642,16 +795,6 @@ pub(in crate::study) fn measure(
         "stable_over_theory",
         cell(bracket.zip(theory).map(|((lo, _), th)| lo / th)),
     );
-    m.set("trials", trials.len().to_string());
-    let total: f64 = trials.iter().map(|t| t.summary.totals.times.total).sum();
-    m.set("trials_wall_seconds", cell(Some(total)));
-    m.tables = vec![("trials", trial_table(&trials, shared.reference))];
-    m.snapshots = pictured.and_then(|dt| {
-        let mut trials = trials;
-        let t = trials.iter_mut().find(|t| t.dt == dt)?;
-        t.snapshots.take()
-    });
-    Ok(m)
 }
 
 /// The search over dt: runs trials (each dt once) and keeps them.
