@@ -506,7 +506,12 @@ impl Found {
     }
 
     /// The run's row, series, trials table and pictures.
-    fn measured(self, spec: &RunSpec, settings: &StabilitySettings, shared: &RunInputs) -> Measured {
+    fn measured(
+        self,
+        spec: &RunSpec,
+        settings: &StabilitySettings,
+        shared: &RunInputs,
+    ) -> Measured {
         let verdict = self.verdict();
         let (best, first_unstable) = self.reported();
         let mut m = Measured::default();
