@@ -12,14 +12,9 @@ use softbench_core::parallel::Parallelism;
 pub(in crate::study) trait Measure: Sync {
     /// The measured columns of `runs.csv` (after the identity and parameter columns): its
     /// own, then the groups of [`crate::study::vocabulary::columns`] its runs fill (made by
-    /// [`crate::study::vocabulary::columns::declare`]). Every run fills every one of them, and nothing else.
+    /// [`crate::study::vocabulary::columns::declare`]). A run writes no other column, and some
+    /// run writes each one (`StudyRun::unfilled_columns`).
     fn columns(&self) -> &'static [&'static str];
-
-    /// The kind's own columns: those no group of [`crate::study::vocabulary::columns`] names. A results table
-    /// read back must have them (the groups grow as runs report more).
-    fn own_columns(&self) -> &'static [&'static str] {
-        self.columns()
-    }
 
     /// What the progress line adds after a finished run's outcome (", error 1e-3").
     fn progress(&self, _: &Measured) -> Option<String> {

@@ -66,8 +66,11 @@ fn read_results(dir: &std::path::Path) -> Result<(Meta, table::Table), ResultsEr
     Ok((meta, runs))
 }
 
-/// Before any plot is replaced or removed: `runs.csv` must have the columns its study kind
-/// writes and at least one row (a cut or emptied file would otherwise leave no plots).
+/// Before any plot is replaced or removed: `runs.csv` must have a whole header (the identity
+/// columns first, the trailer last: a header cut short lacks the trailer) and at least one row
+/// (a cut or emptied file would otherwise leave no plots; a row cut short fails to read).
+/// The kind's measured columns are not required: a table an earlier softbench wrote lacks the
+/// columns added since, and its plots are drawn without them.
 fn check_runs_table(
     runs: &table::Table,
     study: &StudyMeta,
@@ -77,13 +80,9 @@ fn check_runs_table(
         path: path.to_owned(),
         message,
     };
-    // The groups of columns grow as runs report more: an earlier softbench's table lacks some,
-    // and its plots are drawn without them.
-    let own = kinds::measure(&study.kind).own_columns();
     if let Some(missing) = columns::IDENTITY
         .iter()
         .chain(&columns::TRAILER)
-        .chain(own)
         .find(|c| runs.column(c).is_none())
     {
         return Err(malformed(format!(

@@ -67,10 +67,6 @@ impl Measure for ContactStudy {
         &COLUMNS
     }
 
-    fn own_columns(&self) -> &'static [&'static str] {
-        &OWN_COLUMNS
-    }
-
     fn progress(&self, m: &Measured) -> Option<String> {
         number(m, "intersecting_frames").map(|n| format!(", {n} intersecting frame(s)"))
     }

@@ -82,10 +82,6 @@ impl Measure for Stability {
         &COLUMNS
     }
 
-    fn own_columns(&self) -> &'static [&'static str] {
-        OWN_COLUMNS
-    }
-
     fn progress(&self, m: &Measured) -> Option<String> {
         Some(format!(
             ", {}{}",

@@ -53,9 +53,10 @@ pub const SUITE_COLUMNS: &[&str] = &[
     "reference_difference",
 ];
 
-/// A suite's own columns: its problems' and verdicts', then a work-precision run's (each run
-/// is measured as one).
-static OWN_COLUMNS: LazyLock<Vec<&'static str>> = LazyLock::new(|| {
+/// A suite's measured columns before the groups: its own ([`SUITE_COLUMNS`]), then a
+/// work-precision run's (each run is measured as one), which a table of an earlier softbench
+/// may lack.
+static WITH_WORK_PRECISION: LazyLock<Vec<&'static str>> = LazyLock::new(|| {
     let mut own = SUITE_COLUMNS.to_vec();
     for c in crate::study::kinds::work_precision::OWN_COLUMNS {
         if !own.contains(c) {
@@ -68,7 +69,7 @@ static OWN_COLUMNS: LazyLock<Vec<&'static str>> = LazyLock::new(|| {
 /// Every measured column of a suite's `runs.csv`: its own, the run's summary and the
 /// integrator's caps.
 pub static COLUMNS: LazyLock<Vec<&'static str>> =
-    LazyLock::new(|| crate::study::vocabulary::columns::declare(&OWN_COLUMNS, true, true));
+    LazyLock::new(|| crate::study::vocabulary::columns::declare(&WITH_WORK_PRECISION, true, true));
 
 /// Size strata by elastic tets (bodies without tets: by free DOFs, at about 0.6 DOF per tet).
 const SIZES: [(&str, f64); 3] = [("small", 5e3), ("medium", 5e4), ("large", f64::INFINITY)];
@@ -76,10 +77,6 @@ const SIZES: [(&str, f64); 3] = [("small", 5e3), ("medium", 5e4), ("large", f64:
 impl Measure for Suite {
     fn columns(&self) -> &'static [&'static str] {
         &COLUMNS
-    }
-
-    fn own_columns(&self) -> &'static [&'static str] {
-        &OWN_COLUMNS
     }
 
     fn progress(&self, m: &Measured) -> Option<String> {

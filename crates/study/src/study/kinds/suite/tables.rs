@@ -5,7 +5,7 @@
 
 use crate::study::kinds::suite::aggregates::{Cost, Problem, Suite, pair};
 use crate::study::present::charts::Emit;
-use crate::study::present::profiles::Steps;
+use crate::study::present::profiles::{CostTable, Steps};
 use crate::study::vocabulary::meta::StudyMeta;
 use crate::study::vocabulary::spec::Omission;
 use crate::study::vocabulary::table::Table;
@@ -43,68 +43,162 @@ pub(in crate::study) fn charts(
 ) -> Result<(), PlotError> {
     let suite = Suite::new(runs, &levels_of(study));
     let out = dir.join("profiles");
-    let io = |path: &Path| {
-        let path = path.to_owned();
-        move |source| PlotError::Io { path, source }
-    };
     std::fs::create_dir_all(&out).map_err(io(&out))?;
-    let header = |cols: &[&str]| Table::new(cols.iter().map(|s| s.to_string()).collect());
-    let mut profiles = header(&[
-        "dimension",
-        "stratum",
-        "level",
-        "cost",
-        "profile",
-        "method",
-        "x",
-        "fraction",
-    ]);
-    let mut summary = header(&[
-        "dimension",
-        "stratum",
-        "level",
-        "cost",
-        "method",
-        "problems",
-        "solved",
-        "best",
-        "rho2",
-        "rho10",
-        "budget",
-    ]);
-    let mut costs = header(&[
-        "problem",
-        "level",
-        "method",
-        "solved",
-        "failure",
-        "error",
-        "tolerance",
-        "evaluations",
-        "wall_seconds",
-    ]);
-    let mut pairwise = header(&[
-        "level",
-        "cost",
-        "a",
-        "b",
-        "both_solved",
-        "a_cheaper",
-        "b_cheaper",
-        "ties",
-        "only_a",
-        "only_b",
-    ]);
+    let mut tables = Aggregates::new();
     for level in &suite.levels {
+        tables.add_costs(&suite, runs, level);
+        let mut groups: Vec<(&str, String)> = vec![("all", "all".to_owned())];
+        for (d, values) in suite.strata() {
+            groups.extend(values.into_iter().map(|v| (d, v)));
+        }
+        for (dimension, value) in &groups {
+            let keep = |p: &Problem| *dimension == "all" || p.stratum(dimension) == value;
+            for cost in Cost::ALL {
+                let table = suite.costs(level, cost, &keep);
+                let budget = suite.budget(cost, &keep);
+                let group = Group {
+                    dimension,
+                    value,
+                    level,
+                    cost,
+                };
+                tables.add_profiles(&group, &table, budget);
+                tables.add_summary(&group, &table, budget);
+                if *dimension == "all" {
+                    tables.add_pairwise(&group, &table);
+                }
+            }
+        }
+        level_charts(&suite, level, emit)?;
+    }
+    tables.write(&out)?;
+    let omissions = omissions_page(&suite, &study.omitted);
+    let path = dir.join("omissions.md");
+    softbench_run::io::write_atomic(&path, |w| w.write_all(omissions.as_bytes()))
+        .map_err(io(&path))?;
+    Ok(())
+}
+
+/// A failed write of `path`, as a plot error.
+fn io(path: &Path) -> impl FnOnce(std::io::Error) -> PlotError + use<> {
+    let path = path.to_owned();
+    move |source| PlotError::Io { path, source }
+}
+
+/// The charts of one level: the public problems, per cost and profile; and at the tightest
+/// level each stratum's data profile (the rest of the strata's profiles are in the CSV).
+fn level_charts(suite: &Suite, level: &String, emit: &mut Emit) -> Result<(), PlotError> {
+    let public = |p: &Problem| p.stratum("tier") != "hidden";
+    for cost in Cost::ALL {
+        for profile in [Profile::Data, Profile::Performance] {
+            profile_chart(suite, level, cost, profile, None, &public, emit)?;
+        }
+    }
+    if Some(level) == suite.levels.last() {
+        for (d, values) in suite.strata() {
+            if d == "tier" {
+                continue;
+            }
+            for v in values {
+                let keep = |p: &Problem| public(p) && p.stratum(d) == v;
+                for cost in Cost::ALL {
+                    profile_chart(
+                        suite,
+                        level,
+                        cost,
+                        Profile::Data,
+                        Some((d, &v)),
+                        &keep,
+                        emit,
+                    )?;
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A set of problems an aggregate row is about: a stratum (or all), a level and a cost.
+struct Group<'a> {
+    dimension: &'a str,
+    value: &'a str,
+    level: &'a str,
+    cost: Cost,
+}
+
+/// The tables of `profiles/`: each profile's breakpoints, each method's summary per group,
+/// each run's cost, and the pairwise counts.
+struct Aggregates {
+    profiles: Table,
+    summary: Table,
+    costs: Table,
+    pairwise: Table,
+}
+
+impl Aggregates {
+    fn new() -> Self {
+        let header = |cols: &[&str]| Table::new(cols.iter().map(|s| s.to_string()).collect());
+        Self {
+            profiles: header(&[
+                "dimension",
+                "stratum",
+                "level",
+                "cost",
+                "profile",
+                "method",
+                "x",
+                "fraction",
+            ]),
+            summary: header(&[
+                "dimension",
+                "stratum",
+                "level",
+                "cost",
+                "method",
+                "problems",
+                "solved",
+                "best",
+                "rho2",
+                "rho10",
+                "budget",
+            ]),
+            costs: header(&[
+                "problem",
+                "level",
+                "method",
+                "solved",
+                "failure",
+                "error",
+                "tolerance",
+                "evaluations",
+                "wall_seconds",
+            ]),
+            pairwise: header(&[
+                "level",
+                "cost",
+                "a",
+                "b",
+                "both_solved",
+                "a_cheaper",
+                "b_cheaper",
+                "ties",
+                "only_a",
+                "only_b",
+            ]),
+        }
+    }
+
+    /// Each run's cost at `level`.
+    fn add_costs(&mut self, suite: &Suite, runs: &Table, level: &str) {
         for p in &suite.problems {
             for m in &suite.methods {
                 let Some(r) = suite.row(&p.name, m, level) else {
                     continue;
                 };
                 let g = |c: &str| runs.get(r, c).unwrap_or_default().to_owned();
-                costs.rows.push(vec![
+                self.costs.rows.push(vec![
                     p.name.clone(),
-                    level.clone(),
+                    level.to_owned(),
                     m.clone(),
                     g("solved"),
                     g("failure"),
@@ -115,121 +209,91 @@ pub(in crate::study) fn charts(
                 ]);
             }
         }
-        let mut groups: Vec<(&str, String)> = vec![("all", "all".to_owned())];
-        for (d, values) in suite.strata() {
-            groups.extend(values.into_iter().map(|v| (d, v)));
-        }
-        for (dimension, value) in &groups {
-            let keep = |p: &Problem| *dimension == "all" || p.stratum(dimension) == value;
-            for cost in Cost::ALL {
-                let table = suite.costs(level, cost, &keep);
-                let budget = suite.budget(cost, &keep);
-                let perf = table.performance();
-                let data = table.data();
-                for (s, method) in table.solvers.iter().enumerate() {
-                    for (profile, steps) in [
-                        ("performance", &perf[s]),
-                        ("data", &within(&data[s], budget)),
-                    ] {
-                        for (x, f) in crate::study::present::profiles::jumps(steps) {
-                            profiles.rows.push(vec![
-                                dimension.to_string(),
-                                value.clone(),
-                                level.clone(),
-                                cost.name().into(),
-                                profile.into(),
-                                method.clone(),
-                                // Six significant digits: a breakpoint, not a measurement
-                                // (costs.csv has each run's cost in full).
-                                format!("{x:.5e}").parse::<f64>().unwrap_or(x).to_string(),
-                                format!("{f:.4}"),
-                            ]);
-                        }
-                    }
-                }
-                for line in table.summary() {
-                    summary.rows.push(vec![
-                        dimension.to_string(),
-                        value.clone(),
-                        level.clone(),
-                        cost.name().into(),
-                        line.solver.clone(),
-                        table.problems.len().to_string(),
-                        line.solved.to_string(),
-                        line.best.to_string(),
-                        format!("{:.4}", line.within2),
-                        format!("{:.4}", line.within10),
-                        budget.map_or(String::new(), |b| format!("{b}")),
+    }
+
+    /// The breakpoints of each method's performance and data profile over the group.
+    fn add_profiles(&mut self, group: &Group, table: &CostTable, budget: Option<f64>) {
+        let perf = table.performance();
+        let data = table.data();
+        for (s, method) in table.solvers.iter().enumerate() {
+            for (profile, steps) in [
+                ("performance", &perf[s]),
+                ("data", &within(&data[s], budget)),
+            ] {
+                for (x, f) in crate::study::present::profiles::jumps(steps) {
+                    self.profiles.rows.push(vec![
+                        group.dimension.to_string(),
+                        group.value.to_owned(),
+                        group.level.to_owned(),
+                        group.cost.name().into(),
+                        profile.into(),
+                        method.clone(),
+                        // Six significant digits: a breakpoint, not a measurement (costs.csv
+                        // has each run's cost in full).
+                        format!("{x:.5e}").parse::<f64>().unwrap_or(x).to_string(),
+                        format!("{f:.4}"),
                     ]);
                 }
-                if *dimension == "all" {
-                    for a in 0..table.solvers.len() {
-                        for b in 0..table.solvers.len() {
-                            if a == b {
-                                continue;
-                            }
-                            let x = pair(&table, a, b);
-                            pairwise.rows.push(vec![
-                                level.clone(),
-                                cost.name().into(),
-                                table.solvers[a].clone(),
-                                table.solvers[b].clone(),
-                                x.both.to_string(),
-                                x.a_cheaper.to_string(),
-                                x.b_cheaper.to_string(),
-                                x.ties.to_string(),
-                                x.only_a.to_string(),
-                                x.only_b.to_string(),
-                            ]);
-                        }
-                    }
-                }
             }
         }
-        // The charts: the public problems, per cost and profile; and each stratum's data
-        // profile at the tightest level (the rest of the strata's profiles are in the CSV).
-        let public = |p: &Problem| p.stratum("tier") != "hidden";
-        for cost in Cost::ALL {
-            for profile in [Profile::Data, Profile::Performance] {
-                profile_chart(&suite, level, cost, profile, None, &public, emit)?;
-            }
+    }
+
+    /// Each method's line of the group's summary.
+    fn add_summary(&mut self, group: &Group, table: &CostTable, budget: Option<f64>) {
+        for line in table.summary() {
+            self.summary.rows.push(vec![
+                group.dimension.to_string(),
+                group.value.to_owned(),
+                group.level.to_owned(),
+                group.cost.name().into(),
+                line.solver.clone(),
+                table.problems.len().to_string(),
+                line.solved.to_string(),
+                line.best.to_string(),
+                format!("{:.4}", line.within2),
+                format!("{:.4}", line.within10),
+                budget.map_or(String::new(), |b| format!("{b}")),
+            ]);
         }
-        if Some(level) == suite.levels.last() {
-            for (d, values) in suite.strata() {
-                if d == "tier" {
+    }
+
+    /// Every ordered pair of methods, counted over the group.
+    fn add_pairwise(&mut self, group: &Group, table: &CostTable) {
+        for a in 0..table.solvers.len() {
+            for b in 0..table.solvers.len() {
+                if a == b {
                     continue;
                 }
-                for v in values {
-                    let keep = |p: &Problem| public(p) && p.stratum(d) == v;
-                    for cost in Cost::ALL {
-                        profile_chart(
-                            &suite,
-                            level,
-                            cost,
-                            Profile::Data,
-                            Some((d, &v)),
-                            &keep,
-                            emit,
-                        )?;
-                    }
-                }
+                let x = pair(table, a, b);
+                self.pairwise.rows.push(vec![
+                    group.level.to_owned(),
+                    group.cost.name().into(),
+                    table.solvers[a].clone(),
+                    table.solvers[b].clone(),
+                    x.both.to_string(),
+                    x.a_cheaper.to_string(),
+                    x.b_cheaper.to_string(),
+                    x.ties.to_string(),
+                    x.only_a.to_string(),
+                    x.only_b.to_string(),
+                ]);
             }
         }
     }
-    for (name, t) in [
-        ("profiles.csv", &profiles),
-        ("summary.csv", &summary),
-        ("costs.csv", &costs),
-        ("pairwise.csv", &pairwise),
-    ] {
-        let path = out.join(name);
-        t.write(&path).map_err(io(&path))?;
+
+    /// Write the tables into `out`.
+    fn write(&self, out: &Path) -> Result<(), PlotError> {
+        for (name, t) in [
+            ("profiles.csv", &self.profiles),
+            ("summary.csv", &self.summary),
+            ("costs.csv", &self.costs),
+            ("pairwise.csv", &self.pairwise),
+        ] {
+            let path = out.join(name);
+            t.write(&path).map_err(io(&path))?;
+        }
+        Ok(())
     }
-    let omissions = omissions_page(&suite, &study.omitted);
-    let path = dir.join("omissions.md");
-    softbench_run::io::write_atomic(&path, |w| w.write_all(omissions.as_bytes()))
-        .map_err(io(&path))?;
-    Ok(())
 }
 
 /// Which profile a chart draws.

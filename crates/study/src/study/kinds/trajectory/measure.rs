@@ -38,10 +38,6 @@ impl Measure for Trajectory {
         &COLUMNS
     }
 
-    fn own_columns(&self) -> &'static [&'static str] {
-        OWN_COLUMNS
-    }
-
     fn progress(&self, m: &Measured) -> Option<String> {
         number(m, "energy_drift_max").map(|d| format!(", energy drift {d}"))
     }

@@ -58,10 +58,6 @@ impl Measure for WorkPrecision {
         &COLUMNS
     }
 
-    fn own_columns(&self) -> &'static [&'static str] {
-        OWN_COLUMNS
-    }
-
     fn progress(&self, m: &Measured) -> Option<String> {
         number(m, "error").map(|e| format!(", error {e}"))
     }
