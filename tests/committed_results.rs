@@ -59,5 +59,8 @@ fn every_committed_study_folder_redraws_with_this_build() {
         }
         studies += 1;
     }
-    assert!(studies >= 15, "only {studies} committed study folders found");
+    assert!(
+        studies >= 15,
+        "only {studies} committed study folders found"
+    );
 }

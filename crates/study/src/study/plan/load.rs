@@ -39,35 +39,9 @@ pub fn load(path: &Path, quick: bool, data: &DataPaths) -> Result<Study, StudyEr
         path: path.to_owned(),
         error,
     })?;
-    let parse_error = |e: toml::de::Error| StudyError::Parse {
-        path: path.to_owned(),
-        message: softbench_core::quote::clip_source(e.to_string().trim_end()),
-    };
-    let mut file: StudyFile = toml::from_str(&text).map_err(parse_error)?;
     let ctx = Context { path, text: &text };
-    check_keys(&text, &ctx)?;
-    // Each kind with a table parses its own (whatever the study's kind: meta.json records
-    // every table as resolved).
-    for k in crate::study::kinds::planning() {
-        if !k.table_names().is_empty() {
-            let table = k.parse_table(&text).map_err(parse_error)?;
-            file.tables.insert(k.name(), table);
-        }
-        let quick = k.parse_quick(&text).map_err(parse_error)?;
-        file.quick.keys.extend(quick);
-    }
-    let kind = check_settings(&file, &ctx)?;
+    let (file, kind) = read_file(&ctx, quick)?;
     let measured_by = crate::study::kinds::plan(kind);
-    measured_by.check_quick(&file, &ctx)?;
-    crate::study::plan::own_keys::check(&file, &ctx, measured_by)?;
-    if quick {
-        // Every kind's table as `[quick]` resolves it, whatever the study's kind (meta.json
-        // records every table as resolved).
-        for k in crate::study::kinds::planning() {
-            k.quick_table(&mut file, &ctx)?;
-        }
-    }
-    let file = file;
     let scenes: Vec<SceneSource> = scene_sources(&file, &ctx, &measured_by.extra_scenes(&file))?
         .into_iter()
         .filter(|s| measured_by.keeps_scene(&file, &s.name, quick))
@@ -85,32 +59,7 @@ pub fn load(path: &Path, quick: bool, data: &DataPaths) -> Result<Study, StudyEr
     if quick {
         measured_by.quick_axes(&file, &mut method_axes);
     }
-    let mut parameters: Vec<String> = Vec::new();
-    let mut distinct: HashMap<String, BTreeSet<String>> = HashMap::new();
-    for entry in &method_axes {
-        for axis in entry {
-            if axis.key != METHOD_KEY && axis.key != SOLVER_KEY && !parameters.contains(&axis.key) {
-                parameters.push(axis.key.clone());
-            }
-            let set = distinct.entry(axis.key.clone()).or_default();
-            set.extend(axis.values.iter().map(|v| v.to_string()));
-        }
-    }
-    // A key that some `[[methods]]` entries set and others do not tells their runs apart
-    // even with one value, so it goes into the run ids.
-    for (key, set) in distinct.iter_mut() {
-        if method_axes
-            .iter()
-            .any(|entry| !entry.iter().any(|a| &a.key == key))
-        {
-            set.insert(String::new());
-        }
-    }
-    let in_id: Vec<&String> = parameters
-        .iter()
-        .filter(|k| distinct.get(*k).is_some_and(|s| s.len() > 1))
-        .collect();
-
+    let (parameters, in_id) = parameters(&method_axes);
     // Bound the grid before expanding it: each run is a resolved and validated scene.
     let size = method_axes.iter().try_fold(0usize, |acc, entry| {
         let counts: Vec<usize> = entry.iter().map(|a| a.values.len()).collect();
@@ -119,86 +68,18 @@ pub fn load(path: &Path, quick: bool, data: &DataPaths) -> Result<Study, StudyEr
     softbench_core::limits::RUNS
         .check_usize(size.and_then(|s| s.checked_mul(scenes.len())))
         .map_err(|e| ctx.invalid(0, "grid", e.to_string()))?;
-
-    let mut runs: Vec<RunSpec> = Vec::new();
-    let mut seen = BTreeSet::new();
-    for source in &scenes {
-        for entry in &method_axes {
-            for combo in product(entry) {
-                stop_if_requested()?;
-                let Some(run) = resolve_run(&ctx, &file, quick, kind, source, &combo, entry)?
-                else {
-                    continue;
-                };
-                let mut id = vec![source.name.clone(), run.0.name().to_owned()];
-                if let Some(solver) = run.1 {
-                    id.push(solver.name().to_owned());
-                }
-                for key in &in_id {
-                    if let Some((_, v)) = combo.iter().find(|(k, _)| k == *key) {
-                        let short = key.rsplit('.').next().unwrap_or(key);
-                        id.push(format!("{short}={}", value_text(v)));
-                    }
-                }
-                let id = sanitize(&id.join("-"));
-                if id.len() > MAX_RUN_ID {
-                    return Err(StudyError::Invalid {
-                        path: path.to_owned(),
-                        line: source.line,
-                        key: "scenes".into(),
-                        message: format!(
-                            "run id `{}...` is {} characters long; at most {MAX_RUN_ID} (it \
-                             names the run's series file): use a shorter scene name",
-                            id.chars().take(40).collect::<String>(),
-                            id.len()
-                        ),
-                    });
-                }
-                let (method, linear_solver, loaded) = run;
-                let hash = run_hash(
-                    &loaded.config,
-                    kind,
-                    measured_by.settings_json(&file),
-                    quick.then_some(&file.quick),
-                );
-                // The same run twice (an entry repeated) is run once; two different runs
-                // under one id would overwrite each other's series, so that is an error.
-                if !seen.insert(id.clone()) {
-                    if runs.iter().any(|r| r.id == id && r.hash == hash) {
-                        continue;
-                    }
-                    return Err(StudyError::Invalid {
-                        path: path.to_owned(),
-                        line: source.line,
-                        key: "methods".into(),
-                        message: format!(
-                            "two different runs get the id `{id}`: give the settings that tell \
-                             them apart as grid or [[methods]] values"
-                        ),
-                    });
-                }
-                let parameters = parameters
-                    .iter()
-                    .map(|p| combo.iter().find(|(k, _)| k == p).map(|(_, v)| v.clone()))
-                    .collect();
-                let physics = physics_hash(&loaded.config);
-                let estimated_steps = measured_by.estimated_steps(&file, &loaded.config);
-                runs.push(RunSpec {
-                    id,
-                    scene: source.name.clone(),
-                    method,
-                    linear_solver,
-                    parameters,
-                    loaded,
-                    hash,
-                    physics,
-                    dofs: 0,
-                    estimated_steps,
-                    data: data.clone(),
-                });
-            }
-        }
-    }
+    let grid = Grid {
+        ctx: &ctx,
+        file: &file,
+        quick,
+        kind,
+        data,
+        scenes: &scenes,
+        method_axes: &method_axes,
+        parameters: &parameters,
+        in_id: &in_id,
+    };
+    let mut runs = grid.expand()?;
     let mut omitted = measured_by.declared_omissions(&file);
     omitted.extend(check_scenes_build(
         &mut runs,
@@ -223,6 +104,186 @@ pub fn load(path: &Path, quick: bool, data: &DataPaths) -> Result<Study, StudyEr
     };
     check_reference_steps(&study, &ctx)?;
     Ok(study)
+}
+
+/// The study file parsed and checked, with every kind's settings table and `[quick]` keys
+/// (whatever the study's kind: meta.json records every table as resolved), resolved by
+/// `[quick]` in quick mode; and the kind that measures it.
+fn read_file(ctx: &Context, quick: bool) -> Result<(StudyFile, &'static str), StudyError> {
+    let parse_error = |e: toml::de::Error| StudyError::Parse {
+        path: ctx.path.to_owned(),
+        message: softbench_core::quote::clip_source(e.to_string().trim_end()),
+    };
+    let mut file: StudyFile = toml::from_str(ctx.text).map_err(parse_error)?;
+    check_keys(ctx.text, ctx)?;
+    for k in crate::study::kinds::planning() {
+        if !k.table_names().is_empty() {
+            let table = k.parse_table(ctx.text).map_err(parse_error)?;
+            file.tables.insert(k.name(), table);
+        }
+        let quick = k.parse_quick(ctx.text).map_err(parse_error)?;
+        file.quick.keys.extend(quick);
+    }
+    let kind = check_settings(&file, ctx)?;
+    let measured_by = crate::study::kinds::plan(kind);
+    measured_by.check_quick(&file, ctx)?;
+    crate::study::plan::own_keys::check(&file, ctx, measured_by)?;
+    if quick {
+        for k in crate::study::kinds::planning() {
+            k.quick_table(&mut file, ctx)?;
+        }
+    }
+    Ok((file, kind))
+}
+
+/// The parameter columns of the grid (every key an axis varies but the method and the
+/// solver, in order of appearance) and those that go into the run ids (more than one value).
+fn parameters(method_axes: &[Vec<Axis>]) -> (Vec<String>, Vec<String>) {
+    let mut parameters: Vec<String> = Vec::new();
+    let mut distinct: HashMap<String, BTreeSet<String>> = HashMap::new();
+    for entry in method_axes {
+        for axis in entry {
+            if axis.key != METHOD_KEY && axis.key != SOLVER_KEY && !parameters.contains(&axis.key) {
+                parameters.push(axis.key.clone());
+            }
+            let set = distinct.entry(axis.key.clone()).or_default();
+            set.extend(axis.values.iter().map(|v| v.to_string()));
+        }
+    }
+    // A key that some `[[methods]]` entries set and others do not tells their runs apart
+    // even with one value, so it goes into the run ids.
+    for (key, set) in distinct.iter_mut() {
+        if method_axes
+            .iter()
+            .any(|entry| !entry.iter().any(|a| &a.key == key))
+        {
+            set.insert(String::new());
+        }
+    }
+    let in_id = parameters
+        .iter()
+        .filter(|k| distinct.get(*k).is_some_and(|s| s.len() > 1))
+        .cloned()
+        .collect();
+    (parameters, in_id)
+}
+
+/// A study's grid, checked and bounded, ready to expand into runs.
+struct Grid<'a> {
+    ctx: &'a Context<'a>,
+    file: &'a StudyFile,
+    quick: bool,
+    kind: &'static str,
+    data: &'a DataPaths,
+    scenes: &'a [SceneSource],
+    /// Each `[[methods]]` entry's axes.
+    method_axes: &'a [Vec<Axis>],
+    /// The parameter columns, and those that go into the run ids.
+    parameters: &'a [String],
+    in_id: &'a [String],
+}
+
+impl Grid<'_> {
+    /// Every run of the grid: each scene by each entry's combinations, resolved, named and
+    /// hashed; a run repeated by two entries once.
+    fn expand(&self) -> Result<Vec<RunSpec>, StudyError> {
+        let measured_by = crate::study::kinds::plan(self.kind);
+        let mut runs: Vec<RunSpec> = Vec::new();
+        let mut seen = BTreeSet::new();
+        for source in self.scenes {
+            for entry in self.method_axes {
+                for combo in product(entry) {
+                    stop_if_requested()?;
+                    let Some((method, linear_solver, loaded)) = resolve_run(
+                        self.ctx, self.file, self.quick, self.kind, source, &combo, entry,
+                    )?
+                    else {
+                        continue;
+                    };
+                    let id = self.run_id(source, method, linear_solver, &combo)?;
+                    let hash = run_hash(
+                        &loaded.config,
+                        self.kind,
+                        measured_by.settings_json(self.file),
+                        self.quick.then_some(&self.file.quick),
+                    );
+                    // The same run twice (an entry repeated) is run once; two different runs
+                    // under one id would overwrite each other's series, so that is an error.
+                    if !seen.insert(id.clone()) {
+                        if runs.iter().any(|r| r.id == id && r.hash == hash) {
+                            continue;
+                        }
+                        return Err(StudyError::Invalid {
+                            path: self.ctx.path.to_owned(),
+                            line: source.line,
+                            key: "methods".into(),
+                            message: format!(
+                                "two different runs get the id `{id}`: give the settings that \
+                                 tell them apart as grid or [[methods]] values"
+                            ),
+                        });
+                    }
+                    let parameters = self
+                        .parameters
+                        .iter()
+                        .map(|p| combo.iter().find(|(k, _)| k == p).map(|(_, v)| v.clone()))
+                        .collect();
+                    let physics = physics_hash(&loaded.config);
+                    let estimated_steps = measured_by.estimated_steps(self.file, &loaded.config);
+                    runs.push(RunSpec {
+                        id,
+                        scene: source.name.clone(),
+                        method,
+                        linear_solver,
+                        parameters,
+                        loaded,
+                        hash,
+                        physics,
+                        dofs: 0,
+                        estimated_steps,
+                        data: self.data.clone(),
+                    });
+                }
+            }
+        }
+        Ok(runs)
+    }
+
+    /// A run's id: its scene, method, solver and the values of the parameters that tell runs
+    /// apart, made safe as a file name and at most [`MAX_RUN_ID`] long.
+    fn run_id(
+        &self,
+        source: &SceneSource,
+        method: Method,
+        linear_solver: Option<LinearSolverKind>,
+        combo: &[(String, toml::Value)],
+    ) -> Result<String, StudyError> {
+        let mut id = vec![source.name.clone(), method.name().to_owned()];
+        if let Some(solver) = linear_solver {
+            id.push(solver.name().to_owned());
+        }
+        for key in self.in_id {
+            if let Some((_, v)) = combo.iter().find(|(k, _)| k == key) {
+                let short = key.rsplit('.').next().unwrap_or(key);
+                id.push(format!("{short}={}", value_text(v)));
+            }
+        }
+        let id = sanitize(&id.join("-"));
+        if id.len() > MAX_RUN_ID {
+            return Err(StudyError::Invalid {
+                path: self.ctx.path.to_owned(),
+                line: source.line,
+                key: "scenes".into(),
+                message: format!(
+                    "run id `{}...` is {} characters long; at most {MAX_RUN_ID} (it names the \
+                     run's series file): use a shorter scene name",
+                    id.chars().take(40).collect::<String>(),
+                    id.len()
+                ),
+            });
+        }
+        Ok(id)
+    }
 }
 
 /// Stop loading if a signal has arrived (loading a large grid or its meshes takes a while).
