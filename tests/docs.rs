@@ -569,12 +569,12 @@ fn the_link_checker_sees_links_and_anchors() {
     assert!(got.contains("title") && got.contains("two-words") && got.len() == 2);
 }
 
-/// DESIGN.md's "Layout" section: the one map of the modules.
+/// DESIGN.md's "Where things are" section: the index of the modules.
 fn design_layout() -> String {
     let text = read(&root().join("DESIGN.md"));
     let start = text
-        .find("\n## Layout")
-        .expect("DESIGN.md has a Layout section");
+        .find("\n## Where things are")
+        .expect("DESIGN.md has a \"Where things are\" section");
     let end = text[start + 1..]
         .find("\n## ")
         .map_or(text.len(), |e| start + 1 + e);
@@ -624,6 +624,6 @@ fn design_md_names_every_module_of_the_crate() {
     assert!(files > 100, "only {files} source files found");
     assert!(
         missing.is_empty(),
-        "DESIGN.md's Layout section does not name {missing:?}: add each to the module map"
+        "DESIGN.md's \"Where things are\" section does not name {missing:?}: add each to the index"
     );
 }

@@ -225,7 +225,7 @@ fn bdf(
 
 /// The built-in methods, in the order `softbench list` shows them: one line each.
 #[rustfmt::skip]
-static BUILTIN: [MethodEntry; 39] = [
+static BUILTIN: &[MethodEntry] = &[
     explicit("explicit-euler", 1, "forward Euler; unstable for undamped oscillation", |_, _| Box::new(explicit_euler::explicit_euler())),
     explicit("symplectic-euler", 1, "semi-implicit Euler, symplectic (bounded energy error)", |_, _| Box::new(SymplecticEuler::new())),
     explicit("velocity-verlet", 2, "central differences / Störmer-Verlet, symplectic, momentum-conserving", |_, _| Box::new(VelocityVerlet::new())),
@@ -268,7 +268,7 @@ static BUILTIN: [MethodEntry; 39] = [
 ];
 
 /// Every method: the built-in ones and those a program registered.
-pub static METHODS: Registry<MethodEntry> = Registry::new("integrator", &BUILTIN);
+pub static METHODS: Registry<MethodEntry> = Registry::new("integrator", BUILTIN);
 
 crate::registry_handle! {
     /// An integration method, by the name scene files use.

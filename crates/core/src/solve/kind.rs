@@ -131,7 +131,7 @@ impl Entry for SolverEntry {
 
 /// The built-in linear solvers, one line each. A new backend adds its line here; a program
 /// that depends on softbench can instead [`Registry::register`] its own in [`LINEAR_SOLVERS`].
-static BUILTIN: [SolverEntry; 5] = [
+static BUILTIN: &[SolverEntry] = &[
     SolverEntry {
         name: "cholesky",
         description: "sparse LL^T (faer, supernodal), symbolic analysis reused; SPD systems",
@@ -170,7 +170,7 @@ static BUILTIN: [SolverEntry; 5] = [
 ];
 
 /// Every linear solver: the built-in ones, then those a program registered.
-pub static LINEAR_SOLVERS: Registry<SolverEntry> = Registry::new("linear solver", &BUILTIN);
+pub static LINEAR_SOLVERS: Registry<SolverEntry> = Registry::new("linear solver", BUILTIN);
 
 crate::registry_handle! {
     /// A linear solver by name (`"cholesky" | "ldlt" | "cg" | "auto" | "dense"`, or a registered

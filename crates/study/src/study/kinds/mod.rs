@@ -12,7 +12,7 @@ pub mod work_precision;
 use crate::study::kind::{Kind, Measure, Plan, Present};
 
 /// Every kind a study can measure.
-pub(in crate::study) static KINDS: [&dyn Kind; 6] = [
+pub(in crate::study) static KINDS: &[&dyn Kind] = &[
     &trajectory::Trajectory,
     &contact::ContactStudy,
     &work_precision::WorkPrecision,
