@@ -148,14 +148,8 @@ scenes = [{scene:?}]
     let data = DataPaths::from_env();
     let study = study::load(&study_file, false, &data)?;
     let options = study::RunOptions {
-        dir: out.join(&study.file.name),
-        only: None,
-        jobs: 1,
         force: true,
-        progress: false,
-        wait: false,
-        shard: None,
-        threads: None,
+        ..study::RunOptions::new(out.join(&study.file.name))
     };
     let done = study::run(&study, &options)?;
 

@@ -16,25 +16,7 @@ use softbench::render::Snapshots;
 use softbench::scene;
 use std::path::Path;
 
-/// Wall times differ between two runs of the same scene; everything else must not.
-fn is_timing(key: &str) -> bool {
-    key.contains("seconds") || key == "times"
-}
-
-/// A CSV file without its timing columns.
-fn csv_without_timings(path: &Path) -> Vec<Vec<String>> {
-    let mut reader = csv::Reader::from_path(path).unwrap();
-    let header: Vec<String> = reader.headers().unwrap().iter().map(String::from).collect();
-    let keep: Vec<usize> = (0..header.len())
-        .filter(|&i| !is_timing(&header[i]))
-        .collect();
-    let mut rows = vec![keep.iter().map(|&i| header[i].clone()).collect()];
-    for record in reader.records() {
-        let record = record.unwrap();
-        rows.push(keep.iter().map(|&i| record[i].to_owned()).collect());
-    }
-    rows
-}
+use common::{csv_without_timings, is_timing};
 
 /// A JSON document without its timing fields.
 fn json_without_timings(value: serde_json::Value) -> serde_json::Value {
@@ -264,14 +246,8 @@ fn a_study_draws_the_display_mesh_as_simulate_render_does() {
     let study_file = one_run_study(&dir, &scene_file);
     let study = softbench::study::load(&study_file, false, &DataPaths::new(None)).unwrap();
     let options = softbench::study::RunOptions {
-        dir: dir.path().join("results"),
-        only: None,
-        jobs: 1,
         force: true,
-        progress: false,
-        wait: false,
-        shard: None,
-        threads: None,
+        ..softbench::study::RunOptions::new(dir.path().join("results"))
     };
     let done = softbench::study::run(&study, &options).unwrap();
     assert_eq!(done.ran, 1);

@@ -42,16 +42,7 @@ fn twisted() -> String {
 }
 
 fn options(dir: &Path) -> RunOptions {
-    RunOptions {
-        dir: dir.to_owned(),
-        only: None,
-        jobs: 1,
-        force: false,
-        progress: false,
-        wait: false,
-        shard: None,
-        threads: None,
-    }
+    RunOptions::new(dir.to_owned())
 }
 
 /// Runs a solver study over `beam.toml` and `twisted.toml` with `body` after the header;

@@ -50,20 +50,8 @@ fn every_registered_study_kind_runs_from_its_example() {
             .unwrap_or_else(|e| panic!("{}: its example does not load: {e}\n{text}", kind.name));
         assert!(!study.runs.is_empty(), "{}: no runs", kind.name);
         let dir = tmp.path().join("out");
-        let done = run(
-            &study,
-            &RunOptions {
-                dir: dir.clone(),
-                only: None,
-                jobs: 1,
-                force: false,
-                progress: false,
-                wait: false,
-                shard: None,
-                threads: None,
-            },
-        )
-        .unwrap_or_else(|e| panic!("{}: the study failed: {e}", kind.name));
+        let done = run(&study, &RunOptions::new(dir.clone()))
+            .unwrap_or_else(|e| panic!("{}: the study failed: {e}", kind.name));
         assert_eq!(done.ran, study.runs.len(), "{}", kind.name);
         // Every column the kind declares is written by some run: a kind's columns and what
         // its runs write cannot drift apart (a value for an undeclared column fails the run).

@@ -23,7 +23,8 @@ static SEEN: Mutex<Vec<usize>> = Mutex::new(Vec::new());
 /// Held by a test that reads [`SEEN`], so two such tests do not mix their steps.
 static PROBING: Mutex<()> = Mutex::new(());
 
-/// Symplectic Euler on unit masses that records the size of the pool each step runs in.
+/// Records the size of the pool each step runs in, and evaluates the forces (so the step
+/// does the model's parallel work); the body stays where it is.
 struct Probe {
     g: Vec<f64>,
 }
@@ -42,17 +43,14 @@ impl Integrator for Probe {
         &mut self,
         model: &mut Model,
         state: &mut State,
-        dt: f64,
+        _dt: f64,
         _report: &mut StepReport,
     ) -> Result<(), StepError> {
         SEEN.lock().unwrap().push(rayon::current_num_threads());
         self.g.resize(state.q.len(), 0.0);
-        model.gradient(&state.q, &mut self.g)?;
-        for ((q, v), g) in state.q.iter_mut().zip(state.v.iter_mut()).zip(&self.g) {
-            *v -= dt * g * 1e-3;
-            *q += dt * *v;
-        }
-        Ok(())
+        model
+            .gradient(&state.q, &mut self.g)
+            .map_err(StepError::from)
     }
 }
 
@@ -91,21 +89,6 @@ fn simulate(out: &Path, overrides: &[&str], threads: Option<usize>) {
     .unwrap();
 }
 
-/// Every column of a CSV file but wall times.
-fn without_timings(path: &Path) -> Vec<Vec<String>> {
-    let mut reader = csv::Reader::from_path(path).unwrap();
-    let header: Vec<String> = reader.headers().unwrap().iter().map(String::from).collect();
-    let keep: Vec<usize> = (0..header.len())
-        .filter(|&i| !header[i].contains("seconds"))
-        .collect();
-    let mut rows = vec![keep.iter().map(|&i| header[i].clone()).collect()];
-    for record in reader.records() {
-        let record = record.unwrap();
-        rows.push(keep.iter().map(|&i| record[i].to_owned()).collect());
-    }
-    rows
-}
-
 #[test]
 fn two_runs_side_by_side_take_their_own_thread_counts_and_agree_to_the_bit() {
     let _probing = PROBING.lock().unwrap_or_else(|e| e.into_inner());
@@ -130,8 +113,8 @@ fn two_runs_side_by_side_take_their_own_thread_counts_and_agree_to_the_bit() {
     });
     for file in ["trajectory.csv", "final_positions.csv"] {
         assert_eq!(
-            without_timings(&dir.path().join("be-1").join(file)),
-            without_timings(&dir.path().join("be-3").join(file)),
+            common::csv_without_timings(&dir.path().join("be-1").join(file)),
+            common::csv_without_timings(&dir.path().join("be-3").join(file)),
             "{file}"
         );
     }
@@ -175,14 +158,8 @@ fn a_study_runs_in_its_own_pool() {
     study::run(
         &study,
         &RunOptions {
-            dir: dir.path().join("out"),
-            only: None,
-            jobs: 1,
-            force: false,
-            progress: false,
-            wait: false,
-            shard: None,
             threads: Some(2),
+            ..RunOptions::new(dir.path().join("out"))
         },
     )
     .unwrap();

@@ -134,3 +134,23 @@ pub fn scene(name: &str) -> PathBuf {
         .join("experiments/scenes")
         .join(name)
 }
+
+/// Wall times differ between two runs of the same scene; everything else must not.
+pub fn is_timing(key: &str) -> bool {
+    key.contains("seconds") || key == "times"
+}
+
+/// A CSV file without its timing columns.
+pub fn csv_without_timings(path: &Path) -> Vec<Vec<String>> {
+    let mut reader = csv::Reader::from_path(path).unwrap();
+    let header: Vec<String> = reader.headers().unwrap().iter().map(String::from).collect();
+    let keep: Vec<usize> = (0..header.len())
+        .filter(|&i| !is_timing(&header[i]))
+        .collect();
+    let mut rows = vec![keep.iter().map(|&i| header[i].clone()).collect()];
+    for record in reader.records() {
+        let record = record.unwrap();
+        rows.push(keep.iter().map(|&i| record[i].to_owned()).collect());
+    }
+    rows
+}

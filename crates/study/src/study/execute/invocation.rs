@@ -32,6 +32,24 @@ pub struct RunOptions {
     pub threads: Option<usize>,
 }
 
+impl RunOptions {
+    /// The whole study into `dir`, one run at a time in the caller's thread pool, resuming
+    /// (finished runs reused), without a progress display, not waiting for another holder of
+    /// the folder: set the fields that differ.
+    pub fn new(dir: PathBuf) -> Self {
+        Self {
+            dir,
+            only: None,
+            jobs: 1,
+            force: false,
+            progress: false,
+            wait: false,
+            shard: None,
+            threads: None,
+        }
+    }
+}
+
 /// What a study invocation did.
 #[derive(Clone, Debug)]
 pub struct StudyRun {
