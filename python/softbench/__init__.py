@@ -26,6 +26,11 @@ import scipy.sparse
 
 from . import _native
 from ._native import BadInputError, SoftbenchError, __version__
+from . import peers
+
+# The field's own implementations, registered as methods (installed or not: a scene naming a
+# missing package is refused with its `pip install` line).
+peers.register_all()
 
 __all__ = [
     "BadInputError",
@@ -36,6 +41,7 @@ __all__ = [
     "__version__",
     "load_mesh",
     "methods",
+    "peers",
     "register_method",
     "run_study",
     "simulate",
@@ -332,8 +338,8 @@ def register_method(
 
 
 def methods() -> pd.DataFrame:
-    """Every method softbench knows (built-in, then registered): name, order, explicit,
-    description."""
+    """Every method softbench knows (built-in, then registered, the peer methods among them):
+    name, order, explicit, description."""
     rows = _native.methods()
     return pd.DataFrame(rows, columns=["name", "order", "explicit", "description"])
 

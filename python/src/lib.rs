@@ -12,6 +12,7 @@ mod errors;
 mod mesh;
 mod method;
 mod model;
+mod peer;
 mod scene;
 mod simulate;
 mod study;
@@ -30,6 +31,15 @@ create_exception!(
      line's exit code 2). Nothing was written."
 );
 
+/// The `softbench` command line with every method registered in this process (peers
+/// included): `argv` as the binary takes it (the first word is the program's name); returns
+/// the exit status. `host` is the command that runs it, written into Slurm job scripts.
+#[pyfunction]
+fn cli(py: Python<'_>, argv: Vec<String>, host: Vec<std::path::PathBuf>) -> u8 {
+    softbench::cli::set_host_command(host);
+    py.detach(|| softbench::cli::status(argv))
+}
+
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
@@ -40,6 +50,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(study::run_study, m)?)?;
     m.add_function(wrap_pyfunction!(method::register_method, m)?)?;
     m.add_function(wrap_pyfunction!(method::methods, m)?)?;
+    m.add_function(wrap_pyfunction!(peer::register_peer, m)?)?;
+    m.add_function(wrap_pyfunction!(cli, m)?)?;
     m.add_class::<model::Model>()?;
     m.add_class::<method::StepModel>()?;
     Ok(())

@@ -51,6 +51,7 @@ pub fn register_method(
         constrained_contact: false,
         adaptive: false,
         build: build_python_method,
+        peer: None,
     })
     .py_err()?;
     STEPS
@@ -173,7 +174,7 @@ impl Integrator for PythonMethod {
 }
 
 /// A Python exception as one line: its type and message.
-fn python_error(py: Python<'_>, e: PyErr) -> String {
+pub(crate) fn python_error(py: Python<'_>, e: PyErr) -> String {
     let kind = e
         .get_type(py)
         .name()

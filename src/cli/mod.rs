@@ -20,7 +20,6 @@
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::process::ExitCode;
 
 mod args;
 use args::*;
@@ -57,12 +56,51 @@ use crate::error::{Context, Error, Failure};
 /// Run the command line of this process's arguments (`std::env::args_os`) with every method,
 /// solver and material registered so far, and return the exit code. Parse errors and `--help`
 /// are clap's: printed, then the process exits (2 for a usage error).
-pub fn main() -> ExitCode {
+pub fn main() -> std::process::ExitCode {
     run(std::env::args_os())
 }
 
 /// [`main`] with the given arguments (the first is the program's name).
-pub fn run<I, T>(args: I) -> ExitCode
+pub fn run<I, T>(args: I) -> std::process::ExitCode
+where
+    I: IntoIterator<Item = T>,
+    T: Into<std::ffi::OsString> + Clone,
+{
+    std::process::ExitCode::from(status(args))
+}
+
+/// [`run`]'s exit status as a number, for a host that exits itself (the Python package's
+/// `python -m softbench`).
+pub fn status<I, T>(args: I) -> u8
+where
+    I: IntoIterator<Item = T>,
+    T: Into<std::ffi::OsString> + Clone,
+{
+    dispatch(args).0
+}
+
+/// The command that runs this command line when it is not the process's own binary (the
+/// Python package's `python3 -m softbench`): what `softbench slurm` writes into job scripts.
+static HOST_COMMAND: std::sync::OnceLock<Vec<PathBuf>> = std::sync::OnceLock::new();
+
+/// Say which command runs this command line (see [`status`]); the first call counts.
+pub fn set_host_command(words: Vec<PathBuf>) {
+    let _ = HOST_COMMAND.set(words);
+}
+
+/// An exit status: the process's `ExitCode` without its opacity, so [`status`] can return it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct ExitCode(u8);
+
+impl ExitCode {
+    const SUCCESS: Self = Self(0);
+    const FAILURE: Self = Self(1);
+    fn from(code: u8) -> Self {
+        Self(code)
+    }
+}
+
+fn dispatch<I, T>(args: I) -> ExitCode
 where
     I: IntoIterator<Item = T>,
     T: Into<std::ffi::OsString> + Clone,
@@ -660,7 +698,10 @@ fn slurm(args: &SlurmArgs) -> Result<ExitCode, Error> {
         study_file: absolute(&args.study)?,
         name: study.file.name.clone(),
         out: absolute(&args.out)?,
-        exe: std::env::current_exe().context("cannot find the softbench binary")?,
+        exe: match HOST_COMMAND.get() {
+            Some(words) => words.clone(),
+            None => vec![std::env::current_exe().context("cannot find the softbench binary")?],
+        },
         shards,
         partition: args.partition.clone(),
         time: args.time.clone(),

@@ -16,8 +16,9 @@ pub struct SlurmJob {
     pub name: String,
     /// The parent of the study's results folder (absolute), as `run --out`.
     pub out: PathBuf,
-    /// The softbench binary the jobs run (absolute; on a file system every node sees).
-    pub exe: PathBuf,
+    /// The command the jobs run softbench with: the binary (absolute; on a file system every
+    /// node sees), or a host and its arguments (`python3 -m softbench`, for peer methods).
+    pub exe: Vec<PathBuf>,
     /// Tasks of the array: shards of the study.
     pub shards: usize,
     /// `--partition`, if any (else the cluster's default partition).
@@ -113,6 +114,14 @@ pub fn check_partition(partition: &str) -> Result<(), SlurmError> {
 }
 
 /// A path for a shell command line, single-quoted.
+impl SlurmJob {
+    /// The command, each word quoted for the shell.
+    fn command(&self) -> String {
+        let words: Vec<String> = self.exe.iter().map(|w| shell_quote(w)).collect();
+        words.join(" ")
+    }
+}
+
 fn shell_quote(path: &Path) -> String {
     format!("'{}'", path.display().to_string().replace('\'', r"'\''"))
 }
@@ -197,7 +206,7 @@ impl SlurmJob {
         lines.push(format!(
             "exec {} run {} --out {} --shard \"$SLURM_ARRAY_TASK_ID/$SLURM_ARRAY_TASK_COUNT\" \
              --jobs {}{}",
-            shell_quote(&self.exe),
+            self.command(),
             shell_quote(&self.study_file),
             shell_quote(&self.out),
             self.cpus_per_task,
@@ -224,7 +233,7 @@ impl SlurmJob {
         self.environment(&mut lines);
         lines.push(format!(
             "exec {} merge {} --wait",
-            shell_quote(&self.exe),
+            self.command(),
             shell_quote(&self.study_dir())
         ));
         Ok(lines.join("\n") + "\n")
@@ -322,7 +331,7 @@ mod tests {
             study_file: "/home/me/softbench/experiments/quickstart.toml".into(),
             name: "quickstart".into(),
             out: "/scratch/me/results".into(),
-            exe: "/home/me/softbench/target/release/softbench".into(),
+            exe: vec!["/home/me/softbench/target/release/softbench".into()],
             shards: 3,
             partition: Some("short".into()),
             time: Some("0:30:00".into()),

@@ -22,6 +22,7 @@ use super::newmark::{
 };
 use super::newton::NewtonContact;
 use super::newton::NewtonSettings;
+use super::peer::{PeerFacts, PeerSettings};
 use super::projective_dynamics::ProjectiveDynamics;
 use super::projective_dynamics::ProjectiveDynamicsSettings;
 use super::radau_iia::RadauIIA;
@@ -67,6 +68,9 @@ pub struct MethodEntry {
     pub adaptive: bool,
     /// Builds it.
     pub build: BuildMethod,
+    /// Set for a peer method (another package's implementation, registered at run time):
+    /// its package, version, twin, materials and settings.
+    pub peer: Option<&'static PeerFacts>,
 }
 
 impl Entry for MethodEntry {
@@ -94,6 +98,16 @@ impl Entry for MethodEntry {
             ("linear-solver", yes_no(self.linear_solver)),
             ("constrained-contact", yes_no(self.constrained_contact)),
             ("adaptive", yes_no(self.adaptive)),
+            (
+                "peer",
+                self.peer.map_or("-".to_owned(), |p| {
+                    format!(
+                        "{} {}",
+                        p.package,
+                        p.version.as_deref().unwrap_or("(not installed)")
+                    )
+                }),
+            ),
         ]
     }
 }
@@ -115,6 +129,7 @@ pub const fn explicit(
         constrained_contact: false,
         adaptive: false,
         build,
+        peer: None,
     }
 }
 
@@ -137,6 +152,7 @@ pub const fn implicit(
         constrained_contact: end_position,
         adaptive: false,
         build,
+        peer: None,
     }
 }
 
@@ -210,6 +226,7 @@ const fn linearly_implicit(
         constrained_contact: false,
         adaptive: false,
         build,
+        peer: None,
     }
 }
 
@@ -236,7 +253,7 @@ static BUILTIN: &[MethodEntry] = &[
     explicit("adaptive-midpoint", 2, "explicit midpoint with step-doubling error control", |s, _| adaptive("adaptive-midpoint", s, Box::new(midpoint::midpoint()))).with_error_control(),
     explicit("adaptive-rk4", 4, "RK4 with step-doubling error control", |s, _| adaptive("adaptive-rk4", s, Box::new(rk4::rk4()))).with_error_control(),
     explicit("dopri5", 5, "Dormand-Prince 5(4) with embedded error control", |s, _| Box::new(Adaptive::embedded(Box::new(dopri5::dopri5()), s.adaptive))).with_error_control(),
-    MethodEntry { name: "linearly-implicit-euler", description: "one Newton step of backward Euler per step", order: 1, explicit: false, newton: false, linear_solver: true, constrained_contact: false, adaptive: false, build: |s, _| Box::new(LinearlyImplicitEuler::new(s.linear_solver.build(&s.solver), s.newton.filter_settings())) },
+    MethodEntry { name: "linearly-implicit-euler", description: "one Newton step of backward Euler per step", order: 1, explicit: false, newton: false, linear_solver: true, constrained_contact: false, adaptive: false, build: |s, _| Box::new(LinearlyImplicitEuler::new(s.linear_solver.build(&s.solver), s.newton.filter_settings())), peer: None },
     linearly_implicit("ros2", 2, "Rosenbrock-W ROS2: 2 solves with one factorization per step, L-stable", |s, _| fixed(rosenbrock(ros2::TABLEAU, s), s)),
     linearly_implicit("rodas3", 3, "Rosenbrock RODAS3: 4 solves with one factorization per step, stiffly accurate, L-stable", |s, _| fixed(rosenbrock(rodas3::TABLEAU, s), s)),
     linearly_implicit("adaptive-ros2", 2, "ROS2 with its embedded first-order error estimate (adaptive = {..})", |s, _| controlled("adaptive-ros2", rosenbrock(ros2::TABLEAU, s), s)).with_error_control(),
@@ -252,9 +269,9 @@ static BUILTIN: &[MethodEntry] = &[
     implicit("newmark", 2, true, "Newmark(β, γ); default trapezoidal (1/4, 1/2), order 1 if γ ≠ 1/2", |s, c| newton_scheme(s, c, Newmark::new("newmark", NewmarkParameters::newmark(s.newmark)))),
     implicit("generalized-alpha", 2, true, "generalized-α (Chung-Hulbert), high frequencies damped to ρ∞", |s, c| newton_scheme(s, c, Newmark::new("generalized-alpha", NewmarkParameters::generalized_alpha(s.generalized_alpha)))),
     implicit("hht-alpha", 2, true, "Hilber-Hughes-Taylor α, high-frequency dissipation", |s, c| newton_scheme(s, c, Newmark::new("hht-alpha", NewmarkParameters::hht(s.hht)))),
-    MethodEntry { name: "vbd", description: "vertex block descent: colored Gauss-Seidel 3x3 Newton steps; converges to the backward Euler step (any material)", order: 1, explicit: false, newton: false, linear_solver: false, constrained_contact: false, adaptive: false, build: |s, _| Box::new(Vbd::new(s.vbd)) },
-    MethodEntry { name: "projective-dynamics", description: "local/global iterations, prefactored global matrix; converges to backward Euler on its projective energy (corotated)", order: 1, explicit: false, newton: false, linear_solver: true, constrained_contact: false, adaptive: false, build: |s, _| Box::new(ProjectiveDynamics::new(s.projective_dynamics, s.linear_solver.build(&s.solver))) },
-    MethodEntry { name: "xpbd", description: "XPBD with Neo-Hookean constraints, substepped; converges to the dynamics of its constraint energy (xpbd-neo-hookean)", order: 1, explicit: false, newton: false, linear_solver: false, constrained_contact: false, adaptive: false, build: |s, _| Box::new(Xpbd::new(s.xpbd)) },
+    MethodEntry { name: "vbd", description: "vertex block descent: colored Gauss-Seidel 3x3 Newton steps; converges to the backward Euler step (any material)", order: 1, explicit: false, newton: false, linear_solver: false, constrained_contact: false, adaptive: false, build: |s, _| Box::new(Vbd::new(s.vbd)), peer: None },
+    MethodEntry { name: "projective-dynamics", description: "local/global iterations, prefactored global matrix; converges to backward Euler on its projective energy (corotated)", order: 1, explicit: false, newton: false, linear_solver: true, constrained_contact: false, adaptive: false, build: |s, _| Box::new(ProjectiveDynamics::new(s.projective_dynamics, s.linear_solver.build(&s.solver))), peer: None },
+    MethodEntry { name: "xpbd", description: "XPBD with Neo-Hookean constraints, substepped; converges to the dynamics of its constraint energy (xpbd-neo-hookean)", order: 1, explicit: false, newton: false, linear_solver: false, constrained_contact: false, adaptive: false, build: |s, _| Box::new(Xpbd::new(s.xpbd)), peer: None },
     implicit("tr-bdf2", 2, false, "TR-BDF2: trapezoidal then BDF2 stage, L-stable, stiffly accurate (ESDIRK, 2 Newton solves per step)", |s, _| fixed(dirk(tr_bdf2::TABLEAU, s), s)),
     implicit("esdirk32", 3, false, "ESDIRK3(2)4L[2]SA (Kennedy-Carpenter), L-stable, stiffly accurate, 3 Newton solves per step", |s, _| fixed(dirk(esdirk32::TABLEAU, s), s)),
     implicit("esdirk43", 4, false, "ESDIRK4(3)6L[2]SA (Kennedy-Carpenter), L-stable, stiffly accurate, 5 Newton solves per step", |s, _| fixed(dirk(esdirk43::TABLEAU, s), s)),
@@ -342,6 +359,9 @@ pub struct IntegratorSettings {
     pub projective_dynamics: ProjectiveDynamicsSettings,
     /// Substeps and iterations of `xpbd`.
     pub xpbd: XpbdSettings,
+    /// A peer method's own settings (see [`super::peer`]); empty for softbench's methods.
+    #[serde(skip_serializing_if = "PeerSettings::is_empty")]
+    pub peer: PeerSettings,
 }
 
 impl Default for IntegratorSettings {
@@ -360,6 +380,7 @@ impl Default for IntegratorSettings {
             vbd: VbdSettings::default(),
             projective_dynamics: ProjectiveDynamicsSettings::default(),
             xpbd: XpbdSettings::default(),
+            peer: PeerSettings::default(),
         }
     }
 }

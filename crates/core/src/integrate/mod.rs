@@ -44,6 +44,7 @@ pub mod midpoint;
 pub mod newmark;
 pub mod newton;
 mod pattern_extension;
+pub mod peer;
 pub mod projective_dynamics;
 pub mod radau_iia;
 mod report;

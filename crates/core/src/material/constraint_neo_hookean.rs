@@ -23,6 +23,8 @@ pub struct ConstraintNeoHookean {
     pub lambda: f64,
     /// The rest volume ratio alpha = 1 + mu/lambda.
     pub alpha: f64,
+    /// The Lamé parameters given (lambda before the shift above).
+    pub lame: LameParameters,
 }
 
 impl ConstraintNeoHookean {
@@ -38,12 +40,17 @@ impl ConstraintNeoHookean {
             mu: lame.mu,
             lambda,
             alpha,
+            lame,
         }
     }
 }
 
 impl Material for ConstraintNeoHookean {
     const HANDLES_INVERSION: bool = true;
+
+    fn lame(&self) -> LameParameters {
+        self.lame
+    }
 
     #[inline]
     fn energy_density(&self, f: &Matrix3<f64>) -> Result<f64, InvalidDeformation> {

@@ -50,6 +50,13 @@ impl Corotated {
 impl Material for Corotated {
     const HANDLES_INVERSION: bool = true;
 
+    fn lame(&self) -> LameParameters {
+        LameParameters {
+            mu: self.mu,
+            lambda: self.lambda,
+        }
+    }
+
     /// `Err` only for a non-finite F (the SVD has no answer there).
     #[inline]
     fn energy_density(&self, f: &Matrix3<f64>) -> Result<f64, InvalidDeformation> {

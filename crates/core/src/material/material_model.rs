@@ -156,6 +156,11 @@ impl MaterialModel {
         self.kind().name()
     }
 
+    /// [`Material::lame`] of the model: the Lamé parameters it was built from.
+    pub fn lame(&self) -> LameParameters {
+        with_material!(self, |m| m.lame())
+    }
+
     /// [`Material::HANDLES_INVERSION`] of the model.
     pub fn handles_inversion(&self) -> bool {
         self.kind().facts().handles_inversion

@@ -52,6 +52,10 @@ pub trait Material: Copy + Send + Sync + std::fmt::Debug {
     /// Whether the energy is defined for inverted elements (det F <= 0).
     const HANDLES_INVERSION: bool;
 
+    /// The Lamé parameters the model was built from (before any reparameterization of its
+    /// own), so that another package's implementation can be given the same material.
+    fn lame(&self) -> LameParameters;
+
     /// psi(F), energy per unit rest volume.
     fn energy_density(&self, f: &Matrix3<f64>) -> Result<f64, InvalidDeformation>;
 

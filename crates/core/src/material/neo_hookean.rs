@@ -63,6 +63,13 @@ impl NeoHookean {
 impl Material for NeoHookean {
     const HANDLES_INVERSION: bool = false;
 
+    fn lame(&self) -> LameParameters {
+        LameParameters {
+            mu: 2.0 * self.c,
+            lambda: 2.0 * self.d,
+        }
+    }
+
     #[inline]
     fn energy_density(&self, f: &Matrix3<f64>) -> Result<f64, InvalidDeformation> {
         let (j, j13) = Self::volume_ratio(f)?;

@@ -29,6 +29,8 @@ pub struct StableNeoHookean {
     alpha: f64,
     /// The paper's energy at F = I, subtracted so that psi(I) = 0.
     rest_energy: f64,
+    /// The Lamé parameters given (before the reparameterization above).
+    lame: LameParameters,
 }
 
 impl StableNeoHookean {
@@ -51,6 +53,7 @@ impl StableNeoHookean {
             lambda,
             alpha,
             rest_energy: 0.0,
+            lame,
         };
         snh.rest_energy = snh.unshifted_energy(&Matrix3::identity());
         snh
@@ -82,6 +85,10 @@ impl StableNeoHookean {
 
 impl Material for StableNeoHookean {
     const HANDLES_INVERSION: bool = true;
+
+    fn lame(&self) -> LameParameters {
+        self.lame
+    }
 
     #[inline]
     fn energy_density(&self, f: &Matrix3<f64>) -> Result<f64, InvalidDeformation> {

@@ -49,6 +49,13 @@ impl StVenantKirchhoff {
 impl Material for StVenantKirchhoff {
     const HANDLES_INVERSION: bool = true;
 
+    fn lame(&self) -> LameParameters {
+        LameParameters {
+            mu: self.mu,
+            lambda: self.lambda,
+        }
+    }
+
     #[inline]
     fn energy_density(&self, f: &Matrix3<f64>) -> Result<f64, InvalidDeformation> {
         let e = (f.tr_mul(f) - Matrix3::identity()) * 0.5;

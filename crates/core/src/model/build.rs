@@ -96,6 +96,7 @@ impl Model {
             spring_gather,
             vertex_mass,
             mass,
+            density,
             gravity,
             parallelism,
             counters: EvalCounters::default(),

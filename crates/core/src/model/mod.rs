@@ -205,6 +205,8 @@ pub struct Model {
     spring_gather: ElementGather,
     vertex_mass: Vec<f64>,
     mass: MassMatrix,
+    /// The tets' mass density (kg/m^3), if they have mass.
+    density: Option<f64>,
     gravity: Option<Vector3<f64>>,
     parallelism: Parallelism,
     counters: EvalCounters,
@@ -252,6 +254,11 @@ impl Model {
     /// The mass matrix over free DOFs.
     pub fn mass(&self) -> &MassMatrix {
         &self.mass
+    }
+
+    /// The tets' mass density (kg/m^3), or `None` when mass comes only from point masses.
+    pub fn density(&self) -> Option<f64> {
+        self.density
     }
 
     /// Gravitational acceleration, if any.

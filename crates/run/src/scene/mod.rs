@@ -8,6 +8,7 @@ mod budget;
 mod config;
 mod fixed;
 mod overrides;
+mod peer;
 mod problem;
 mod springs;
 
@@ -176,7 +177,7 @@ pub fn from_table(
     text: Option<&str>,
     path: &Path,
 ) -> Result<SceneConfig, SceneError> {
-    let config: SceneConfig = match table.try_into() {
+    let mut config: SceneConfig = match table.try_into() {
         Ok(c) => c,
         Err(e) => {
             // Deserializing the file text directly gives the error its line and column; if the
@@ -201,6 +202,11 @@ pub fn from_table(
             });
         }
     };
+    peer::resolve(&mut config).map_err(|r| SceneError::Invalid {
+        path: path.to_owned(),
+        key: r.key,
+        message: r.message,
+    })?;
     validate(&config, path)?;
     Ok(config)
 }
@@ -363,6 +369,7 @@ fn validate(c: &SceneConfig, path: &Path) -> Result<(), SceneError> {
         .validate()
         .map_err(|m| invalid("integrator", m))?;
     validate_newton_components(c, path)?;
+    peer::validate(c).map_err(|r| invalid(&r.key, r.message))?;
     for (i, o) in c.obstacles.iter().enumerate() {
         o.validate(&format!("obstacles[{i}]"))
             .map_err(|e| invalid(&e.key, e.message))?;

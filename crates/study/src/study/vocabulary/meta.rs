@@ -5,6 +5,7 @@ use crate::study::vocabulary::format::now_utc;
 use crate::study::vocabulary::machine::Machine;
 use crate::study::vocabulary::spec::Study;
 use softbench_run::io::write_atomic;
+use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 /// `meta.json`: what ran, where, when.
@@ -29,6 +30,40 @@ pub struct Meta {
     /// Runs of the study that no shard has finished (a merge of an incomplete study).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub missing: Vec<String>,
+    /// The peer methods the study ran (another package's code), by method name: the package,
+    /// its version and the softbench method it implements. Their settings are in each run's
+    /// resolved integrator (`integrator.peer`).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub peers: BTreeMap<String, PeerMeta>,
+}
+
+/// A peer method as `meta.json` records it.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct PeerMeta {
+    pub package: String,
+    pub version: Option<String>,
+    pub twin: Option<String>,
+}
+
+/// The peer methods among `study`'s runs.
+fn peers_of(study: &Study) -> BTreeMap<String, PeerMeta> {
+    study
+        .runs
+        .iter()
+        .filter_map(|r| {
+            let method = r.loaded.config.integrator.method;
+            method.entry().peer.map(|p| {
+                (
+                    method.name().to_owned(),
+                    PeerMeta {
+                        package: p.package.clone(),
+                        version: p.version.clone(),
+                        twin: p.twin.clone(),
+                    },
+                )
+            })
+        })
+        .collect()
 }
 
 /// The parts of a study the plots and report need.
@@ -146,6 +181,7 @@ impl Meta {
             },
             shards: Vec::new(),
             missing: Vec::new(),
+            peers: peers_of(study),
         }
     }
 }

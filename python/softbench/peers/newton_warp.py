@@ -1,0 +1,173 @@
+"""Newton's (on NVIDIA Warp) semi-implicit Euler, XPBD and VBD solvers on tet meshes.
+
+Conventions matched: Newton's tet elasticity is Smith et al.'s Stable Neo-Hookean written with
+the paper's parameters, α = 1 + 3μ/(4λ); softbench's ``stable-neo-hookean`` applies the
+paper's reparameterization μ' = 4μ/3, λ' = λ + 5μ/6 to the Lamé parameters, so Newton is given
+μ', λ'. Masses are lumped from the density by ``add_soft_mesh``; a fixed vertex has zero mass.
+Newton runs in float32 (Warp's ``vec3``), so its states round to ~1e-7 relative. Its
+particle-particle contact and triangle contact are switched off: softbench runs peers without
+contact. The device is a setting (``"cpu"`` here; ``"cuda"`` where a GPU is present).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+PACKAGE = "newton"
+PINS = "newton==1.8.0 warp-lang==1.19.0"
+
+
+def _stable_neo_hookean(problem):
+    mu, lam = problem["mu"], problem["lambda"]
+    return 4.0 / 3.0 * mu, lam + 5.0 / 6.0 * mu
+
+
+def _constraint_neo_hookean(problem):
+    # softbench's xpbd-neo-hookean: C_D weight μ, C_H weight λ + μ (Macklin and Müller 2021).
+    mu, lam = problem["mu"], problem["lambda"]
+    return mu, lam + mu
+
+
+def _build(problem, parameters, colour=False):
+    import newton
+    import warp as wp
+
+    wp.config.quiet = True
+    s = problem["settings"]
+    k_mu, k_lambda = parameters(problem)
+    gravity = tuple(float(g) for g in problem["gravity"])
+    builder = newton.ModelBuilder(up_axis=newton.Axis.Y, gravity=gravity)
+    builder.add_soft_mesh(
+        pos=wp.vec3(0.0, 0.0, 0.0),
+        rot=wp.quat_identity(),
+        scale=1.0,
+        vel=wp.vec3(0.0, 0.0, 0.0),
+        vertices=[wp.vec3(*p) for p in problem["rest_positions"]],
+        indices=[int(i) for i in np.asarray(problem["tets"]).reshape(-1)],
+        density=float(problem["density"]),
+        k_mu=float(k_mu),
+        k_lambda=float(k_lambda),
+        k_damp=0.0,
+    )
+    for v in np.asarray(problem["fixed"], dtype=np.int64):
+        builder.particle_mass[int(v)] = 0.0
+    if colour:
+        builder.color()
+    model = builder.finalize(device=s["device"])
+    model.particle_grid = None
+    model.particle_max_radius = 0.0
+    return model
+
+
+class _Stepper:
+    """Steps a Newton solver from softbench's state (``(n, 3)`` float64, rounded to float32)."""
+
+    def __init__(self, model, solver, substeps, iterations=None):
+        self.model = model
+        self.solver = solver
+        self.substeps = int(substeps)
+        self.iterations = iterations
+        self.state_0 = model.state()
+        self.state_1 = model.state()
+        self.control = model.control()
+
+    def step(self, x, v, dt):
+        self.state_0.particle_q.assign(np.asarray(x, dtype=np.float32))
+        self.state_0.particle_qd.assign(np.asarray(v, dtype=np.float32))
+        h = dt / self.substeps
+        for _ in range(self.substeps):
+            self.state_0.clear_forces()
+            self.solver.step(self.state_0, self.state_1, self.control, None, h)
+            self.state_0, self.state_1 = self.state_1, self.state_0
+        counts = {"substeps": self.substeps}
+        if self.iterations is not None:
+            counts["iterations"] = self.iterations * self.substeps
+        return (
+            self.state_0.particle_q.numpy().astype(np.float64),
+            self.state_0.particle_qd.numpy().astype(np.float64),
+            counts,
+        )
+
+
+def make_semi_implicit(problem):
+    """Newton's ``SolverSemiImplicit`` (symplectic Euler on Newton's forces)."""
+    import newton
+
+    model = _build(problem, _stable_neo_hookean)
+    solver = newton.solvers.SolverSemiImplicit(model, enable_tri_contact=False)
+    return _Stepper(model, solver, problem["settings"]["substeps"])
+
+
+def make_xpbd(problem):
+    """Newton's ``SolverXPBD`` with its tet constraints."""
+    import newton
+
+    s = problem["settings"]
+    model = _build(problem, _constraint_neo_hookean)
+    solver = newton.solvers.SolverXPBD(
+        model, iterations=s["iterations"], soft_body_relaxation=s["soft_body_relaxation"]
+    )
+    return _Stepper(model, solver, s["substeps"], s["iterations"])
+
+
+def make_vbd(problem):
+    """Newton's ``SolverVBD`` (its tet energy: Stable Neo-Hookean)."""
+    import newton
+
+    s = problem["settings"]
+    model = _build(problem, _stable_neo_hookean, colour=True)
+    solver = newton.solvers.SolverVBD(model, iterations=s["iterations"])
+    return _Stepper(model, solver, s["substeps"], s["iterations"])
+
+
+_DEVICE = ("device", "cpu", ["cpu", "cuda"], False, "Warp device the kernels run on")
+_SUBSTEPS = ("substeps", 1, [], True, "Newton steps per softbench step (Newton has no default)")
+
+PEERS = [
+    dict(
+        name="newton-semi-implicit",
+        make=make_semi_implicit,
+        package=PACKAGE,
+        pins=PINS,
+        description="Newton's own semi-implicit Euler (SolverSemiImplicit), float32, without contact",
+        materials=["stable-neo-hookean"],
+        settings=[_SUBSTEPS, _DEVICE],
+        twin="symplectic-euler",
+        explicit=True,
+    ),
+    dict(
+        name="newton-xpbd",
+        make=make_xpbd,
+        package=PACKAGE,
+        pins=PINS,
+        description="Newton's own XPBD (SolverXPBD), float32, without contact",
+        materials=["xpbd-neo-hookean"],
+        settings=[
+            ("iterations", 2, [], True, "constraint sweeps per substep (SolverXPBD's default: 2)"),
+            ("substeps", 20, [], True, "XPBD substeps per step (softbench's xpbd default: 20)"),
+            (
+                "soft_body_relaxation",
+                0.9,
+                [],
+                True,
+                "relaxation of the tet constraints' deltas (SolverXPBD's default: 0.9)",
+            ),
+            _DEVICE,
+        ],
+        twin="xpbd",
+    ),
+    dict(
+        name="newton-vbd",
+        make=make_vbd,
+        package=PACKAGE,
+        pins=PINS,
+        description="Newton's own vertex block descent (SolverVBD), float32, without contact",
+        materials=["stable-neo-hookean"],
+        settings=[
+            ("iterations", 10, [], True, "VBD sweeps per substep (SolverVBD's default: 10)"),
+            _SUBSTEPS,
+            _DEVICE,
+        ],
+        twin="vbd",
+    ),
+]

@@ -1,0 +1,295 @@
+//! Peer methods: `register_peer(name, make, ...)` adds a method that runs another package's
+//! own implementation (see `softbench.peers`). Unlike `register_method`, a peer keeps state
+//! of its own: on a run's first step softbench calls `make(problem)` with the run's model —
+//! rest positions, tets, fixed vertices, lumped masses, density, the material's name and Lamé
+//! parameters, gravity, the step and the peer's resolved `[integrator.peer]` settings — and
+//! then, every step, `stepper.step(x, v, dt)` with every vertex's positions and velocities
+//! (`(n, 3)` float64, fixed vertices at their prescribed positions and zero velocity). It
+//! returns the end-of-step `(x, v)`, optionally with a dict of counts
+//! (`{"iterations": k, "substeps": s}`). softbench keeps the free vertices' rows.
+
+use std::collections::BTreeMap;
+use std::sync::Mutex;
+
+use numpy::ndarray::Array2;
+use numpy::{IntoPyArray, PyArray1, PyReadonlyArray2};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use softbench::integrate::methods::{IntegratorSettings, MethodEntry};
+use softbench::integrate::newton::NewtonContact;
+use softbench::integrate::peer::{PeerFacts, PeerSetting, PeerValue};
+use softbench::integrate::{Integrator, State, StepError, StepReport, register_method};
+use softbench::model::Model as FemModel;
+
+use crate::errors::IntoPy;
+
+/// The Python `make` functions, by method name.
+static MAKERS: Mutex<Vec<(&'static str, Py<PyAny>)>> = Mutex::new(Vec::new());
+
+/// A setting as Python gives it: `(key, default, choices, positive, description)`.
+type SettingTuple<'py> = (String, Bound<'py, PyAny>, Vec<String>, bool, String);
+
+/// Register a peer method. `settings` is a list of `(key, default, choices, positive,
+/// description)`; `explicit`: it never solves with the stiffness (Newton's semi-implicit
+/// Euler), which decides the stability checks studies make; `version` is `None` when the package is not installed (scenes naming the
+/// method are then refused with `install` as the remedy).
+#[pyfunction]
+#[pyo3(signature = (name, make, package, version, install, description, order, materials, settings, twin=None, explicit=false))]
+#[allow(clippy::too_many_arguments)]
+pub fn register_peer(
+    name: String,
+    make: Py<PyAny>,
+    package: String,
+    version: Option<String>,
+    install: String,
+    description: String,
+    order: u32,
+    materials: Vec<String>,
+    settings: Vec<SettingTuple<'_>>,
+    twin: Option<String>,
+    explicit: bool,
+) -> PyResult<()> {
+    let settings = settings
+        .into_iter()
+        .map(|(key, default, choices, positive, description)| {
+            Ok(PeerSetting {
+                default: peer_value(&default).ok_or_else(|| {
+                    PyValueError::new_err(format!(
+                        "setting `{key}`: the default must be a bool, int, float or str"
+                    ))
+                })?,
+                key,
+                choices,
+                positive,
+                description,
+            })
+        })
+        .collect::<PyResult<Vec<_>>>()?;
+    let facts: &'static PeerFacts = Box::leak(Box::new(PeerFacts {
+        package,
+        version,
+        install,
+        twin,
+        materials,
+        settings,
+    }));
+    let name: &'static str = Box::leak(name.into_boxed_str());
+    register_method(MethodEntry {
+        name,
+        description: Box::leak(description.into_boxed_str()),
+        order,
+        explicit,
+        newton: false,
+        linear_solver: false,
+        constrained_contact: false,
+        adaptive: false,
+        build: build_peer,
+        peer: Some(facts),
+    })
+    .py_err()?;
+    MAKERS
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .push((name, make));
+    Ok(())
+}
+
+/// A Python value as a setting's value (bool before int: Python's bool is an int).
+fn peer_value(v: &Bound<'_, PyAny>) -> Option<PeerValue> {
+    if let Ok(b) = v.extract::<bool>()
+        && v.is_instance_of::<pyo3::types::PyBool>()
+    {
+        return Some(PeerValue::Bool(b));
+    }
+    if v.is_instance_of::<pyo3::types::PyInt>() {
+        return v.extract::<i64>().ok().map(PeerValue::Int);
+    }
+    if v.is_instance_of::<pyo3::types::PyFloat>() {
+        return v.extract::<f64>().ok().map(PeerValue::Float);
+    }
+    v.extract::<String>().ok().map(PeerValue::Text)
+}
+
+fn build_peer(
+    settings: &IntegratorSettings,
+    _contact: Option<NewtonContact>,
+) -> Box<dyn Integrator> {
+    let entry = settings.method.entry();
+    let make = Python::attach(|py| {
+        MAKERS
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .iter()
+            .find(|(n, _)| *n == entry.name)
+            .map(|(_, m)| m.clone_ref(py))
+            .expect("a peer's make is stored when it is registered")
+    });
+    Box::new(PeerMethod {
+        name: entry.name,
+        order: entry.order,
+        explicit: entry.explicit,
+        make,
+        settings: settings.peer.values().clone(),
+        stepper: None,
+    })
+}
+
+/// An integrator whose steps are another package's.
+struct PeerMethod {
+    name: &'static str,
+    order: u32,
+    explicit: bool,
+    make: Py<PyAny>,
+    settings: BTreeMap<String, PeerValue>,
+    /// Made on the first step, from the run's model.
+    stepper: Option<Py<PyAny>>,
+}
+
+impl Integrator for PeerMethod {
+    fn name(&self) -> &'static str {
+        self.name
+    }
+    fn order(&self) -> u32 {
+        self.order
+    }
+    fn is_explicit(&self) -> bool {
+        self.explicit
+    }
+
+    fn advance(
+        &mut self,
+        model: &mut FemModel,
+        state: &mut State,
+        dt: f64,
+        report: &mut StepReport,
+    ) -> Result<(), StepError> {
+        let name = self.name;
+        let failed = |e: String| StepError::Method(format!("{name}: {e}"));
+        Python::attach(|py| -> Result<(), StepError> {
+            if self.stepper.is_none() {
+                let problem = problem(py, model, &self.settings, dt)
+                    .map_err(|e| failed(crate::method::python_error(py, e)))?;
+                let stepper = self
+                    .make
+                    .call1(py, (problem,))
+                    .map_err(|e| failed(crate::method::python_error(py, e)))?;
+                self.stepper = Some(stepper);
+            }
+            let stepper = self.stepper.as_ref().expect("made above");
+            let x = to_rows(&model.full_positions(&state.q));
+            let mut v = Array2::<f64>::zeros((model.rest_positions().len(), 3));
+            for (k, &vertex) in model.dofs().free_vertices().iter().enumerate() {
+                for c in 0..3 {
+                    v[(vertex, c)] = state.v[3 * k + c];
+                }
+            }
+            let result = stepper
+                .call_method1(py, "step", (x.into_pyarray(py), v.into_pyarray(py), dt))
+                .map_err(|e| failed(crate::method::python_error(py, e)))?;
+            read_step(result.bind(py), model, state, report).map_err(failed)
+        })?;
+        Ok(())
+    }
+}
+
+fn to_rows<P: std::ops::Index<usize, Output = f64>>(points: &[P]) -> Array2<f64> {
+    Array2::from_shape_fn((points.len(), 3), |(i, c)| points[i][c])
+}
+
+/// The stepper's `(x, v[, counts])` into the state's free DOFs and the report.
+fn read_step(
+    result: &Bound<'_, PyAny>,
+    model: &FemModel,
+    state: &mut State,
+    report: &mut StepReport,
+) -> Result<(), String> {
+    let shape = "step must return (x, v) or (x, v, counts): (n, 3) float64 arrays";
+    let n = model.rest_positions().len();
+    let parts: Vec<Bound<'_, PyAny>> = result.extract().map_err(|_| shape.to_owned())?;
+    if !(2..=3).contains(&parts.len()) {
+        return Err(shape.into());
+    }
+    let x: PyReadonlyArray2<f64> = parts[0].extract().map_err(|_| shape.to_owned())?;
+    let v: PyReadonlyArray2<f64> = parts[1].extract().map_err(|_| shape.to_owned())?;
+    let (x, v) = (x.as_array(), v.as_array());
+    if x.dim() != (n, 3) || v.dim() != (n, 3) {
+        return Err(format!(
+            "step returned arrays of shapes {:?} and {:?}; the model has {n} vertices",
+            x.dim(),
+            v.dim()
+        ));
+    }
+    for (k, &vertex) in model.dofs().free_vertices().iter().enumerate() {
+        for c in 0..3 {
+            state.q[3 * k + c] = x[(vertex, c)];
+            state.v[3 * k + c] = v[(vertex, c)];
+        }
+    }
+    report.substeps = 1;
+    if let Some(counts) = parts.get(2) {
+        let get = |key: &str| -> Result<Option<u32>, String> {
+            match counts.get_item(key) {
+                Ok(value) => value
+                    .extract::<u32>()
+                    .map(Some)
+                    .map_err(|_| format!("counts[\"{key}\"] must be a non-negative integer")),
+                Err(_) => Ok(None),
+            }
+        };
+        if let Some(iterations) = get("iterations")? {
+            report.local_iterations = iterations;
+        }
+        if let Some(substeps) = get("substeps")? {
+            report.substeps = substeps.max(1);
+        }
+    }
+    Ok(())
+}
+
+/// What `make` is given: the run's model as arrays and numbers.
+fn problem<'py>(
+    py: Python<'py>,
+    model: &FemModel,
+    settings: &BTreeMap<String, PeerValue>,
+    dt: f64,
+) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item(
+        "rest_positions",
+        to_rows(model.rest_positions()).into_pyarray(py),
+    )?;
+    let tets = model.tets();
+    let tets = Array2::from_shape_fn((tets.len(), 4), |(e, k)| tets[e][k] as i64);
+    d.set_item("tets", tets.into_pyarray(py))?;
+    let n = model.rest_positions().len();
+    let fixed: Vec<i64> = (0..n)
+        .filter(|&v| model.dofs().is_fixed(v))
+        .map(|v| v as i64)
+        .collect();
+    d.set_item("fixed", PyArray1::from_vec(py, fixed))?;
+    d.set_item(
+        "vertex_masses",
+        PyArray1::from_slice(py, model.vertex_masses()),
+    )?;
+    d.set_item("density", model.density())?;
+    let material = model.material();
+    d.set_item("material", material.map(|m| m.name()))?;
+    let lame = material.map(|m| m.lame());
+    d.set_item("mu", lame.map(|l| l.mu))?;
+    d.set_item("lambda", lame.map(|l| l.lambda))?;
+    let g = model.gravity().unwrap_or_default();
+    d.set_item("gravity", PyArray1::from_slice(py, g.as_slice()))?;
+    d.set_item("dt", dt)?;
+    let s = PyDict::new(py);
+    for (key, value) in settings {
+        match value {
+            PeerValue::Bool(b) => s.set_item(key, b)?,
+            PeerValue::Int(i) => s.set_item(key, i)?,
+            PeerValue::Float(x) => s.set_item(key, x)?,
+            PeerValue::Text(t) => s.set_item(key, t)?,
+        }
+    }
+    d.set_item("settings", s)?;
+    Ok(d)
+}
