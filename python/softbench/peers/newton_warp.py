@@ -1,9 +1,18 @@
 """Newton's (on NVIDIA Warp) semi-implicit Euler, XPBD and VBD solvers on tet meshes.
 
-Conventions matched: Newton's tet elasticity is Smith et al.'s Stable Neo-Hookean written with
-the paper's parameters, α = 1 + 3μ/(4λ); softbench's ``stable-neo-hookean`` applies the
-paper's reparameterization μ' = 4μ/3, λ' = λ + 5μ/6 to the Lamé parameters, so Newton is given
-μ', λ'. Masses are lumped from the density by ``add_soft_mesh``; a fixed vertex has zero mass.
+Conventions matched, solver by solver (each has its own tet energy):
+
+- ``SolverSemiImplicit``: Smith et al.'s Stable Neo-Hookean with its log term, in the paper's
+  parameters (α = 1 + 3μ/(4λ)); softbench's ``stable-neo-hookean`` reparameterizes the Lamé
+  parameters the same way (μ' = 4μ/3, λ' = λ + 5μ/6), so Newton is given μ', λ'.
+- ``SolverVBD``: ψ = μ/2 (I_C − 3) + λ'/2 (J − 1 − μ/λ')² with λ' = λ + μ from the Lamé
+  parameters it is given: softbench's ``xpbd-neo-hookean``.
+- ``SolverXPBD``: two constraints, I_C − 3 (compliance 1/(μV)) and J − 1 (1/(λV)): an energy
+  of Newton's own (quartic in the stretch, rest volume ratio 1) that no softbench material
+  has. It accepts ``xpbd-neo-hookean`` scenes, given their Lamé parameters, and says so in its
+  description: a trajectory beside softbench's ``xpbd`` differs by the energy as well as by
+  the method.
+ Masses are lumped from the density by ``add_soft_mesh``; a fixed vertex has zero mass.
 Newton runs in float32 (Warp's ``vec3``), so its states round to ~1e-7 relative. Its
 particle-particle contact and triangle contact are switched off: softbench runs peers without
 contact. The device is a setting (``"cpu"`` here; ``"cuda"`` where a GPU is present).
@@ -22,10 +31,8 @@ def _stable_neo_hookean(problem):
     return 4.0 / 3.0 * mu, lam + 5.0 / 6.0 * mu
 
 
-def _constraint_neo_hookean(problem):
-    # softbench's xpbd-neo-hookean: C_D weight μ, C_H weight λ + μ (Macklin and Müller 2021).
-    mu, lam = problem["mu"], problem["lambda"]
-    return mu, lam + mu
+def _lame(problem):
+    return problem["mu"], problem["lambda"]
 
 
 def _build(problem, parameters, colour=False):
@@ -103,7 +110,7 @@ def make_xpbd(problem):
     import newton
 
     s = problem["settings"]
-    model = _build(problem, _constraint_neo_hookean)
+    model = _build(problem, _lame)
     solver = newton.solvers.SolverXPBD(
         model, iterations=s["iterations"], soft_body_relaxation=s["soft_body_relaxation"]
     )
@@ -115,7 +122,7 @@ def make_vbd(problem):
     import newton
 
     s = problem["settings"]
-    model = _build(problem, _stable_neo_hookean, colour=True)
+    model = _build(problem, _lame, colour=True)
     solver = newton.solvers.SolverVBD(model, iterations=s["iterations"])
     return _Stepper(model, solver, s["substeps"], s["iterations"])
 
@@ -140,7 +147,8 @@ PEERS = [
         make=make_xpbd,
         package=PACKAGE,
         pins=PINS,
-        description="Newton's own XPBD (SolverXPBD), float32, without contact",
+        description="Newton's own XPBD (SolverXPBD), float32, without contact; its constraints "
+        "minimize an energy of Newton's own, not xpbd-neo-hookean's",
         materials=["xpbd-neo-hookean"],
         settings=[
             ("iterations", 2, [], True, "constraint sweeps per substep (SolverXPBD's default: 2)"),
@@ -162,7 +170,7 @@ PEERS = [
         package=PACKAGE,
         pins=PINS,
         description="Newton's own vertex block descent (SolverVBD), float32, without contact",
-        materials=["stable-neo-hookean"],
+        materials=["xpbd-neo-hookean"],
         settings=[
             ("iterations", 10, [], True, "VBD sweeps per substep (SolverVBD's default: 10)"),
             _SUBSTEPS,

@@ -1,9 +1,11 @@
 """pbatoolkit's vertex block descent and XPBD (``pbat.sim.vbd``, ``pbat.sim.xpbd``).
 
-Conventions matched: pbatoolkit takes column-major ``3 x n`` positions and ``4 x m`` tets, the
-Lamé parameters softbench's material was built from (its Stable Neo-Hookean applies the same
-reparameterization as softbench's), a lumped mass from the density, and gravity as an external
-acceleration. Its VBD builds vertex-triangle contact from the boundary mesh it requires;
+Conventions matched: pbatoolkit takes column-major ``3 x n`` positions and ``4 x m`` tets, a
+lumped mass from the density, and gravity as an external acceleration. Its "Stable Neo-Hookean"
+is ψ = μ/2 (I_C − 3) + λ/2 (J − 1 − μ/λ)², without Smith et al.'s log term: softbench's
+``xpbd-neo-hookean`` (Macklin and Müller's energy) with λ the Lamé λ + μ, which is what it is
+given (measured: the two energies agree to pbatoolkit's quadrature weight, 1 + 2e-6). Its XPBD
+projects the constraints of the same energy. Its VBD builds vertex-triangle contact from the boundary mesh it requires;
 softbench runs peers without contact, so the collision penalty and friction are set to zero.
 """
 
@@ -19,6 +21,12 @@ def _pbat():
     from pbatoolkit import pbat
 
     return pbat
+
+
+def _lame(problem):
+    """pbatoolkit's (μ, λ) for softbench's xpbd-neo-hookean built from Lamé (μ, λ)."""
+    mu, lam = problem["mu"], problem["lambda"]
+    return mu, lam + mu
 
 
 def _mesh(problem):
@@ -66,8 +74,8 @@ def make_vbd(problem):
         .with_surface_mesh(V, F)
         .with_material(
             np.full(m, problem["density"]),
-            np.full(m, problem["mu"]),
-            np.full(m, problem["lambda"]),
+            np.full(m, _lame(problem)[0]),
+            np.full(m, _lame(problem)[1]),
         )
         .with_acceleration(_gravity_field(problem, n))
         .with_initialization_strategy(strategy)
@@ -91,7 +99,8 @@ def make_xpbd(problem):
     V, F = pbat.geometry.simplex_mesh_boundary(E, n)
     minv = 1.0 / np.asarray(problem["vertex_masses"], dtype=np.float64)
     minv[np.asarray(problem["fixed"], dtype=np.int64)] = 0.0
-    lame = np.asfortranarray(np.vstack([np.full(m, problem["mu"]), np.full(m, problem["lambda"])]))
+    mu, lam = _lame(problem)
+    lame = np.asfortranarray(np.vstack([np.full(m, mu), np.full(m, lam)]))
     ptr, adj, _ = pypbat.sim.xpbd.partition_mesh_constraints(X, E)
     data = (
         pbat.sim.xpbd.Data()
@@ -118,7 +127,7 @@ PEERS = [
         package=PACKAGE,
         pins=PINS,
         description="pbatoolkit's own vertex block descent (pbat.sim.vbd), without contact",
-        materials=["stable-neo-hookean"],
+        materials=["xpbd-neo-hookean"],
         settings=[
             ("iterations", 20, [], True, "VBD sweeps per substep (pbatoolkit's examples: 20)"),
             ("substeps", 1, [], True, "substeps per step (pbatoolkit's default: 1)"),
@@ -144,7 +153,7 @@ PEERS = [
         make=make_xpbd,
         package=PACKAGE,
         pins=PINS,
-        description="pbatoolkit's own XPBD with Stable Neo-Hookean constraints (pbat.sim.xpbd)",
+        description="pbatoolkit's own XPBD with Macklin's Stable Neo-Hookean constraints (pbat.sim.xpbd)",
         materials=["xpbd-neo-hookean"],
         settings=[
             ("iterations", 1, [], True, "constraint sweeps per substep (pbatoolkit's examples: 1)"),
