@@ -17,6 +17,9 @@ fn facts(version: Option<&str>) -> &'static PeerFacts {
         choices: choices.iter().map(|c| c.to_string()).collect(),
         positive: true,
         description: String::new(),
+        twin_key: None,
+        twin_values: Vec::new(),
+        neutral: None,
     };
     Box::leak(Box::new(PeerFacts {
         package: "peerpkg".into(),

@@ -18,7 +18,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use softbench::integrate::methods::{IntegratorSettings, MethodEntry};
 use softbench::integrate::newton::NewtonContact;
-use softbench::integrate::peer::{PeerFacts, PeerSetting, PeerValue};
+use softbench::integrate::peer::{PeerConventions, PeerFacts, PeerSetting, PeerValue};
 use softbench::integrate::{Integrator, State, StepError, StepReport, register_method};
 use softbench::model::Model as FemModel;
 
@@ -27,11 +27,9 @@ use crate::errors::IntoPy;
 /// The Python `make` functions, by method name.
 static MAKERS: Mutex<Vec<(&'static str, Py<PyAny>)>> = Mutex::new(Vec::new());
 
-/// A setting as Python gives it: `(key, default, choices, positive, description)`.
-type SettingTuple<'py> = (String, Bound<'py, PyAny>, Vec<String>, bool, String);
-
-/// Register a peer method. `settings` is a list of `(key, default, choices, positive,
-/// description)`; `explicit`: it never solves with the stiffness (Newton's semi-implicit
+/// Register a peer method. `settings` is a list of dicts: `key`, `default`, `description`
+/// and optionally `choices`, `positive`, `twin_key`, `twin_values` (a dict from this setting's
+/// values to the twin's) and `neutral` (see [`PeerSetting`]); `explicit`: it never solves with the stiffness (Newton's semi-implicit
 /// Euler), which decides the stability checks studies make; `version` is `None` when the package is not installed (scenes naming the
 /// method are then refused with `install` as the remedy).
 #[pyfunction]
@@ -46,25 +44,13 @@ pub fn register_peer(
     description: String,
     order: u32,
     materials: Vec<String>,
-    settings: Vec<SettingTuple<'_>>,
+    settings: Vec<Bound<'_, PyDict>>,
     twin: Option<String>,
     explicit: bool,
 ) -> PyResult<()> {
     let settings = settings
-        .into_iter()
-        .map(|(key, default, choices, positive, description)| {
-            Ok(PeerSetting {
-                default: peer_value(&default).ok_or_else(|| {
-                    PyValueError::new_err(format!(
-                        "setting `{key}`: the default must be a bool, int, float or str"
-                    ))
-                })?,
-                key,
-                choices,
-                positive,
-                description,
-            })
-        })
+        .iter()
+        .map(peer_setting)
         .collect::<PyResult<Vec<_>>>()?;
     let facts: &'static PeerFacts = Box::leak(Box::new(PeerFacts {
         package,
@@ -93,6 +79,52 @@ pub fn register_peer(
         .unwrap_or_else(|e| e.into_inner())
         .push((name, make));
     Ok(())
+}
+
+/// One setting from its dict.
+fn peer_setting(d: &Bound<'_, PyDict>) -> PyResult<PeerSetting> {
+    let item = |key: &str| d.get_item(key).ok().flatten().filter(|v| !v.is_none());
+    let key: String = item("key")
+        .ok_or_else(|| PyValueError::new_err("a setting needs a `key`"))?
+        .extract()?;
+    let value = |v: &Bound<'_, PyAny>| {
+        peer_value(v).ok_or_else(|| {
+            PyValueError::new_err(format!(
+                "setting `{key}`: values must be bool, int, float or str"
+            ))
+        })
+    };
+    let default = value(
+        &item("default")
+            .ok_or_else(|| PyValueError::new_err(format!("setting `{key}` needs a `default`")))?,
+    )?;
+    let twin_values = match item("twin_values") {
+        None => Vec::new(),
+        Some(map) => map
+            .downcast::<PyDict>()?
+            .iter()
+            .map(|(from, to)| Ok((value(&from)?, value(&to)?)))
+            .collect::<PyResult<Vec<_>>>()?,
+    };
+    Ok(PeerSetting {
+        default,
+        choices: item("choices")
+            .map(|c| c.extract())
+            .transpose()?
+            .unwrap_or_default(),
+        positive: item("positive")
+            .map(|p| p.extract())
+            .transpose()?
+            .unwrap_or(false),
+        description: item("description")
+            .map(|t| t.extract())
+            .transpose()?
+            .unwrap_or_default(),
+        twin_key: item("twin_key").map(|t| t.extract()).transpose()?,
+        twin_values,
+        neutral: item("neutral").map(|n| value(&n)).transpose()?,
+        key,
+    })
 }
 
 /// A Python value as a setting's value (bool before int: Python's bool is an int).
@@ -157,6 +189,15 @@ impl Integrator for PeerMethod {
         self.explicit
     }
 
+    fn peer_conventions(
+        &mut self,
+        model: &mut FemModel,
+        positions: &[nalgebra::Vector3<f64>],
+        dt: f64,
+    ) -> Option<Result<PeerConventions, StepError>> {
+        Python::attach(|py| self.conventions(py, model, positions, dt)).transpose()
+    }
+
     fn advance(
         &mut self,
         model: &mut FemModel,
@@ -167,16 +208,7 @@ impl Integrator for PeerMethod {
         let name = self.name;
         let failed = |e: String| StepError::Method(format!("{name}: {e}"));
         Python::attach(|py| -> Result<(), StepError> {
-            if self.stepper.is_none() {
-                let problem = problem(py, model, &self.settings, dt)
-                    .map_err(|e| failed(crate::method::python_error(py, e)))?;
-                let stepper = self
-                    .make
-                    .call1(py, (problem,))
-                    .map_err(|e| failed(crate::method::python_error(py, e)))?;
-                self.stepper = Some(stepper);
-            }
-            let stepper = self.stepper.as_ref().expect("made above");
+            let stepper = self.stepper(py, model, dt)?;
             let x = to_rows(&model.full_positions(&state.q));
             let mut v = Array2::<f64>::zeros((model.rest_positions().len(), 3));
             for (k, &vertex) in model.dofs().free_vertices().iter().enumerate() {
@@ -190,6 +222,75 @@ impl Integrator for PeerMethod {
             read_step(result.bind(py), model, state, report).map_err(failed)
         })?;
         Ok(())
+    }
+}
+
+impl PeerMethod {
+    /// The peer's stepper, made from the run's model on first use.
+    fn stepper(
+        &mut self,
+        py: Python<'_>,
+        model: &FemModel,
+        dt: f64,
+    ) -> Result<Py<PyAny>, StepError> {
+        let name = self.name;
+        let failed =
+            |e: PyErr| StepError::Method(format!("{name}: {}", crate::method::python_error(py, e)));
+        if self.stepper.is_none() {
+            let problem = problem(py, model, &self.settings, dt).map_err(failed)?;
+            self.stepper = Some(self.make.call1(py, (problem,)).map_err(failed)?);
+        }
+        Ok(self.stepper.as_ref().expect("made above").clone_ref(py))
+    }
+
+    /// `stepper.conventions(x)`, if the stepper has it, as [`PeerConventions`].
+    fn conventions(
+        &mut self,
+        py: Python<'_>,
+        model: &FemModel,
+        positions: &[nalgebra::Vector3<f64>],
+        dt: f64,
+    ) -> Result<Option<PeerConventions>, StepError> {
+        let name = self.name;
+        let failed =
+            |e: PyErr| StepError::Method(format!("{name}: {}", crate::method::python_error(py, e)));
+        let stepper = self.stepper(py, model, dt)?;
+        let stepper = stepper.bind(py);
+        if !stepper.hasattr("conventions").map_err(failed)? {
+            return Ok(None);
+        }
+        let found = stepper
+            .call_method1("conventions", (to_rows(positions).into_pyarray(py),))
+            .map_err(failed)?;
+        let get = |key: &str| -> Option<Bound<'_, PyAny>> {
+            found.get_item(key).ok().filter(|v| !v.is_none())
+        };
+        let wrong = |key: &str| {
+            StepError::Method(format!(
+                "{name}: conventions()[\"{key}\"] has the wrong type"
+            ))
+        };
+        let vector = |key: &str| -> Result<Option<Vec<f64>>, StepError> {
+            get(key)
+                .map(|v| {
+                    let a: numpy::PyReadonlyArrayDyn<f64> = v.extract().map_err(|_| wrong(key))?;
+                    Ok(a.as_array().iter().copied().collect())
+                })
+                .transpose()
+        };
+        Ok(Some(PeerConventions {
+            masses: vector("masses")?,
+            fixed: get("fixed")
+                .map(|v| v.extract::<Vec<usize>>().map_err(|_| wrong("fixed")))
+                .transpose()?,
+            elastic_energy: get("elastic_energy")
+                .map(|v| v.extract::<f64>().map_err(|_| wrong("elastic_energy")))
+                .transpose()?,
+            elastic_forces: vector("elastic_forces")?,
+            note: get("note")
+                .map(|v| v.extract::<String>().map_err(|_| wrong("note")))
+                .transpose()?,
+        }))
     }
 }
 

@@ -16,12 +16,29 @@ and returns the peer's end-of-step state, so a step is a function of the state a
 from __future__ import annotations
 
 from importlib import metadata
-from typing import Callable, List, Optional, Sequence, Tuple
+from typing import Callable, List, Optional, Sequence
 
 from .. import _native
 
-#: A setting: (key, the package's default, allowed values (empty: any), positive, description).
-Setting = Tuple[str, object, Sequence[str], bool, str]
+
+def setting(
+    key: str,
+    default,
+    description: str,
+    choices: Sequence[str] = (),
+    positive: bool = False,
+    twin_key: Optional[str] = None,
+    twin_values: Optional[dict] = None,
+    neutral=None,
+) -> dict:
+    """One of a peer's settings: its key under ``[integrator.peer]``, the package's default,
+    what it does, the values it may take, and how it matches the twin's settings
+    (``twin_key``, ``twin_values`` translating values; ``neutral``: the value that needs no
+    match, such as one substep)."""
+    return dict(
+        key=key, default=default, description=description, choices=list(choices),
+        positive=positive, twin_key=twin_key, twin_values=twin_values, neutral=neutral,
+    )
 
 
 def installed(package: str) -> Optional[str]:
@@ -39,7 +56,7 @@ def _register(
     pins: str,
     description: str,
     materials: List[str],
-    settings: List[Setting],
+    settings: List[dict],
     twin: Optional[str],
     explicit: bool = False,
 ) -> None:
@@ -52,7 +69,7 @@ def _register(
         description,
         1,
         materials,
-        [(k, d, list(c), p, t) for (k, d, c, p, t) in settings],
+        settings,
         twin,
         explicit,
     )

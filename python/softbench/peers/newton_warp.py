@@ -22,6 +22,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import setting
+
 PACKAGE = "newton"
 PINS = "newton==1.8.0 warp-lang==1.19.0"
 
@@ -35,11 +37,18 @@ def _lame(problem):
     return problem["mu"], problem["lambda"]
 
 
-def _build(problem, parameters, colour=False):
-    import newton
+def _newton():
+    """Newton, with Warp's start-up and module-load messages off (set before Warp starts)."""
     import warp as wp
 
     wp.config.quiet = True
+    import newton
+
+    return newton, wp
+
+
+def _build(problem, parameters, colour=False):
+    newton, wp = _newton()
     s = problem["settings"]
     k_mu, k_lambda = parameters(problem)
     gravity = tuple(float(g) for g in problem["gravity"])
@@ -69,7 +78,9 @@ def _build(problem, parameters, colour=False):
 class _Stepper:
     """Steps a Newton solver from softbench's state (``(n, 3)`` float64, rounded to float32)."""
 
-    def __init__(self, model, solver, substeps, iterations=None):
+    def __init__(self, model, solver, substeps, iterations=None, forces=None, note=None):
+        self.forces = forces
+        self.note = note
         self.model = model
         self.solver = solver
         self.substeps = int(substeps)
@@ -77,6 +88,22 @@ class _Stepper:
         self.state_0 = model.state()
         self.state_1 = model.state()
         self.control = model.control()
+
+    def conventions(self, x):
+        """Newton's own masses and fixed set (zero mass) and, for the semi-implicit solver,
+        the elastic forces of its tet kernel at ``x``."""
+        masses = self.model.particle_mass.numpy().astype(np.float64)
+        found = {"masses": masses, "fixed": [int(i) for i in np.nonzero(masses == 0.0)[0]]}
+        if self.forces is None:
+            found["note"] = self.note
+            return found
+        state = self.model.state()
+        state.particle_q.assign(np.asarray(x, dtype=np.float32))
+        state.particle_qd.zero_()
+        state.particle_f.zero_()
+        self.forces(self.model, state, self.control, state.particle_f)
+        found["elastic_forces"] = state.particle_f.numpy().astype(np.float64).ravel()
+        return found
 
     def step(self, x, v, dt):
         self.state_0.particle_q.assign(np.asarray(x, dtype=np.float32))
@@ -98,37 +125,40 @@ class _Stepper:
 
 def make_semi_implicit(problem):
     """Newton's ``SolverSemiImplicit`` (symplectic Euler on Newton's forces)."""
-    import newton
-
+    newton, _ = _newton()
     model = _build(problem, _stable_neo_hookean)
+    from newton._src.solvers.semi_implicit.kernels_particle import eval_tetrahedra_forces
+
     solver = newton.solvers.SolverSemiImplicit(model, enable_tri_contact=False)
-    return _Stepper(model, solver, problem["settings"]["substeps"])
+    return _Stepper(model, solver, problem["settings"]["substeps"], forces=eval_tetrahedra_forces)
 
 
 def make_xpbd(problem):
     """Newton's ``SolverXPBD`` with its tet constraints."""
-    import newton
-
+    newton, _ = _newton()
     s = problem["settings"]
     model = _build(problem, _lame)
     solver = newton.solvers.SolverXPBD(
         model, iterations=s["iterations"], soft_body_relaxation=s["soft_body_relaxation"]
     )
-    return _Stepper(model, solver, s["substeps"], s["iterations"])
+    note = "SolverXPBD exposes no energy or force evaluation of its constraints"
+    return _Stepper(model, solver, s["substeps"], s["iterations"], note=note)
 
 
 def make_vbd(problem):
     """Newton's ``SolverVBD`` (its tet energy: Stable Neo-Hookean)."""
-    import newton
-
+    newton, _ = _newton()
     s = problem["settings"]
     model = _build(problem, _lame, colour=True)
     solver = newton.solvers.SolverVBD(model, iterations=s["iterations"])
-    return _Stepper(model, solver, s["substeps"], s["iterations"])
+    note = "SolverVBD evaluates its energy per vertex inside its kernels only"
+    return _Stepper(model, solver, s["substeps"], s["iterations"], note=note)
 
 
-_DEVICE = ("device", "cpu", ["cpu", "cuda"], False, "Warp device the kernels run on")
-_SUBSTEPS = ("substeps", 1, [], True, "Newton steps per softbench step (Newton has no default)")
+_DEVICE = setting("device", "cpu", "Warp device the kernels run on", choices=["cpu", "cuda"],
+                  neutral="cpu")
+_SUBSTEPS = setting("substeps", 1, "Newton steps per softbench step (Newton has no default)",
+                    positive=True, neutral=1)
 
 PEERS = [
     dict(
@@ -151,15 +181,13 @@ PEERS = [
         "minimize an energy of Newton's own, not xpbd-neo-hookean's",
         materials=["xpbd-neo-hookean"],
         settings=[
-            ("iterations", 2, [], True, "constraint sweeps per substep (SolverXPBD's default: 2)"),
-            ("substeps", 20, [], True, "XPBD substeps per step (softbench's xpbd default: 20)"),
-            (
-                "soft_body_relaxation",
-                0.9,
-                [],
-                True,
-                "relaxation of the tet constraints' deltas (SolverXPBD's default: 0.9)",
-            ),
+            setting("iterations", 2, "constraint sweeps per substep (SolverXPBD's default: 2)",
+                    positive=True, twin_key="integrator.xpbd.iterations"),
+            setting("substeps", 20, "XPBD substeps per step (softbench's xpbd default: 20)",
+                    positive=True, twin_key="integrator.xpbd.substeps"),
+            setting("soft_body_relaxation", 0.9,
+                    "relaxation of the tet constraints' deltas (SolverXPBD's default: 0.9)",
+                    positive=True, neutral=1.0),
             _DEVICE,
         ],
         twin="xpbd",
@@ -172,7 +200,8 @@ PEERS = [
         description="Newton's own vertex block descent (SolverVBD), float32, without contact",
         materials=["xpbd-neo-hookean"],
         settings=[
-            ("iterations", 10, [], True, "VBD sweeps per substep (SolverVBD's default: 10)"),
+            setting("iterations", 10, "VBD sweeps per substep (SolverVBD's default: 10)",
+                    positive=True, twin_key="integrator.vbd.iterations"),
             _SUBSTEPS,
             _DEVICE,
         ],

@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import setting
+
 PACKAGE = "pbatoolkit"
 PINS = "pbatoolkit==0.0.11"
 
@@ -40,13 +42,59 @@ def _gravity_field(problem, n):
     return np.asfortranarray(np.tile(g[:, None], (1, n)))
 
 
+class _Energy:
+    """pbatoolkit's own Stable Neo-Hookean energy (``pbat.fem.hyper_elastic_potential``) on
+    the mesh, measured from the rest state (pbatoolkit's is not zero there)."""
+
+    def __init__(self, problem):
+        pbat = _pbat()
+        self.fem = pbat.fem
+        X, self.E = _mesh(problem)
+        self.n = X.shape[1]
+        element = pbat.fem.Element.Tetrahedron
+        self.element = element
+        self.wg = pbat.fem.mesh_quadrature_weights(self.E, X, element, order=1, quadrature_order=1)
+        self.wg = self.wg.ravel(order="F")
+        self.eg = pbat.fem.mesh_quadrature_elements(self.E.shape[1], 1).ravel(order="F")
+        self.GNeg = pbat.fem.shape_function_gradients(
+            self.E, X, element, order=1, dims=3, quadrature_order=1
+        )
+        mu, lam = _lame(problem)
+        self.mug = np.full(self.wg.size, mu)
+        self.lambdag = np.full(self.wg.size, lam)
+        self.rest = self.energy(problem["rest_positions"], from_rest=False)
+
+    def energy(self, x, from_rest=True):
+        flags = int(self.fem.ElementElasticityComputationFlags.Potential)
+        u = self.fem.hyper_elastic_potential(
+            self.E, self.n, self.eg, self.wg, self.GNeg, self.mug, self.lambdag,
+            np.ascontiguousarray(x, dtype=np.float64).ravel(),
+            energy=self.fem.HyperElasticEnergy.StableNeoHookean, flags=flags,
+            element=self.element,
+        )[0]
+        return u - self.rest if from_rest else u
+
+
 class _Stepper:
     """Steps a pbatoolkit integrator from softbench's state: ``x``, ``v`` are ``(n, 3)``."""
 
-    def __init__(self, integrator, iterations, substeps):
+    def __init__(self, integrator, iterations, substeps, problem, masses):
         self.integrator = integrator
         self.iterations = int(iterations)
         self.substeps = int(substeps)
+        self.problem = problem
+        self.masses = masses
+        self._energy = None
+
+    def conventions(self, x):
+        """pbatoolkit's own masses, fixed set and elastic energy at ``x`` (every vertex)."""
+        if self._energy is None:
+            self._energy = _Energy(self.problem)
+        return {
+            "masses": np.asarray(self.masses(self.integrator.data), dtype=np.float64),
+            "fixed": [int(i) for i in np.asarray(self.integrator.data.dbc).ravel()],
+            "elastic_energy": float(self._energy.energy(x)),
+        }
 
     def step(self, x, v, dt):
         self.integrator.x = np.asfortranarray(x.T)
@@ -85,7 +133,9 @@ def make_vbd(problem):
     if fixed.size:
         data = data.with_dirichlet_vertices(fixed, muD=s["dirichlet_penalty"])
     data = data.construct(validate=True)
-    return _Stepper(pbat.sim.vbd.Integrator(data), s["iterations"], s["substeps"])
+    return _Stepper(
+        pbat.sim.vbd.Integrator(data), s["iterations"], s["substeps"], problem, lambda d: d.m
+    )
 
 
 def make_xpbd(problem):
@@ -117,8 +167,16 @@ def make_xpbd(problem):
     if fixed.size:
         data = data.with_dirichlet_vertices(fixed)
     data = data.construct(validate=True)
-    return _Stepper(pbat.sim.xpbd.Integrator(data), s["iterations"], s["substeps"])
+    # Its masses are the inverses it was given (infinite where fixed, reported as 0); its
+    # energy is pbat.fem's Stable Neo-Hookean, the energy its constraints are built from.
+    def masses(d):
+        minv = np.asarray(d.minv)
+        return np.where(minv > 0, 1.0 / np.where(minv > 0, minv, 1.0), 0.0)
 
+    return _Stepper(pbat.sim.xpbd.Integrator(data), s["iterations"], s["substeps"], problem, masses)
+
+
+INITIALIZATIONS = ["Position", "Inertia", "KineticEnergyMinimum", "AdaptiveVbd", "AdaptivePbat"]
 
 PEERS = [
     dict(
@@ -129,22 +187,18 @@ PEERS = [
         description="pbatoolkit's own vertex block descent (pbat.sim.vbd), without contact",
         materials=["xpbd-neo-hookean"],
         settings=[
-            ("iterations", 20, [], True, "VBD sweeps per substep (pbatoolkit's examples: 20)"),
-            ("substeps", 1, [], True, "substeps per step (pbatoolkit's default: 1)"),
-            (
-                "initialization",
-                "AdaptivePbat",
-                ["Position", "Inertia", "KineticEnergyMinimum", "AdaptiveVbd", "AdaptivePbat"],
-                False,
-                "the first iterate (pbat.sim.vbd.InitializationStrategy; its default)",
-            ),
-            (
-                "dirichlet_penalty",
-                1.0,
-                [],
-                True,
-                "muD of with_dirichlet_vertices (pbatoolkit's default 1.0)",
-            ),
+            setting("iterations", 20, "VBD sweeps per substep (pbatoolkit's examples: 20)",
+                    positive=True, twin_key="integrator.vbd.iterations"),
+            setting("substeps", 1, "substeps per step (pbatoolkit's default: 1)",
+                    positive=True, neutral=1),
+            setting("initialization", "AdaptivePbat",
+                    "the first iterate (pbat.sim.vbd.InitializationStrategy; its default)",
+                    choices=INITIALIZATIONS, twin_key="integrator.vbd.initialization",
+                    twin_values={"Position": "previous", "Inertia": "inertia",
+                                 "AdaptiveVbd": "adaptive"}),
+            setting("dirichlet_penalty", 1.0,
+                    "muD of with_dirichlet_vertices (pbatoolkit's default 1.0)", positive=True,
+                    neutral=1.0),
         ],
         twin="vbd",
     ),
@@ -156,8 +210,10 @@ PEERS = [
         description="pbatoolkit's own XPBD with Macklin's Stable Neo-Hookean constraints (pbat.sim.xpbd)",
         materials=["xpbd-neo-hookean"],
         settings=[
-            ("iterations", 1, [], True, "constraint sweeps per substep (pbatoolkit's examples: 1)"),
-            ("substeps", 50, [], True, "substeps per step (pbatoolkit's examples: 50)"),
+            setting("iterations", 1, "constraint sweeps per substep (pbatoolkit's examples: 1)",
+                    positive=True, twin_key="integrator.xpbd.iterations"),
+            setting("substeps", 50, "substeps per step (pbatoolkit's examples: 50)",
+                    positive=True, twin_key="integrator.xpbd.substeps"),
         ],
         twin="xpbd",
     ),

@@ -134,6 +134,19 @@ pub trait Integrator: Send {
     /// changed from outside.
     fn reset(&mut self) {}
 
+    /// For a peer method ([`peer`]): what the peer's own code says of its problem at every
+    /// vertex's `positions` (its masses, fixed set, elastic energy or forces), so a study can
+    /// check its conventions against the model's before comparing trajectories. `None` (the
+    /// default) for softbench's own methods.
+    fn peer_conventions(
+        &mut self,
+        _model: &mut Model,
+        _positions: &[nalgebra::Vector3<f64>],
+        _dt: f64,
+    ) -> Option<Result<peer::PeerConventions, StepError>> {
+        None
+    }
+
     /// The accepted internal step sizes of the last successful `advance`, in order (s):
     /// adaptive methods' controller steps. Empty for fixed-step methods (default).
     fn internal_steps(&self) -> &[f64] {

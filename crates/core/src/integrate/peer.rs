@@ -71,6 +71,58 @@ pub struct PeerSetting {
     pub positive: bool,
     /// One line on what it does.
     pub description: String,
+    /// The scene key of the twin method's matching setting (`integrator.vbd.iterations`), if
+    /// it has one.
+    pub twin_key: Option<String>,
+    /// How values translate to the twin's (`"Inertia"` → `"inertia"`); empty: the same value.
+    /// A value not listed has no twin equivalent.
+    pub twin_values: Vec<(PeerValue, PeerValue)>,
+    /// The value at which the setting changes nothing the twin would need to match (one
+    /// substep); any other value without a twin equivalent is reported unmatched.
+    pub neutral: Option<PeerValue>,
+}
+
+/// A peer's resolved settings as its twin's: the overrides that match them (`key=value`), and
+/// the settings that have no equivalent (`key=value`).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TwinSettings {
+    pub overrides: Vec<String>,
+    pub unmatched: Vec<String>,
+}
+
+impl PeerFacts {
+    /// The twin's settings matching `resolved` (see [`TwinSettings`]).
+    pub fn twin_settings(&self, resolved: &BTreeMap<String, PeerValue>) -> TwinSettings {
+        let mut twin = TwinSettings::default();
+        for s in &self.settings {
+            let Some(value) = resolved.get(&s.key) else {
+                continue;
+            };
+            let mapped = match &s.twin_key {
+                None => None,
+                Some(key) if s.twin_values.is_empty() => Some((key, value.clone())),
+                Some(key) => s
+                    .twin_values
+                    .iter()
+                    .find(|(from, _)| from == value)
+                    .map(|(_, to)| (key, to.clone())),
+            };
+            match mapped {
+                Some((key, to)) => twin.overrides.push(format!("{key}={}", toml_value(&to))),
+                None if s.neutral.as_ref() == Some(value) => {}
+                None => twin.unmatched.push(format!("{}={value}", s.key)),
+            }
+        }
+        twin
+    }
+}
+
+/// `value` as a TOML literal (strings quoted), for a `key=value` override.
+fn toml_value(value: &PeerValue) -> String {
+    match value {
+        PeerValue::Text(t) => format!("\"{t}\""),
+        other => other.to_string(),
+    }
 }
 
 /// What a peer method is and what it can run.
@@ -167,6 +219,19 @@ impl PeerSetting {
     }
 }
 
+/// What a peer's own code says of its problem, each where its API exposes it: the lumped
+/// mass of every vertex, the fixed vertices, the elastic energy and the elastic forces at
+/// given positions (every vertex, `3 n` values, force = −gradient).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PeerConventions {
+    pub masses: Option<Vec<f64>>,
+    pub fixed: Option<Vec<usize>>,
+    pub elastic_energy: Option<f64>,
+    pub elastic_forces: Option<Vec<f64>>,
+    /// Where the peer's API exposes neither energy nor forces: what it offers instead.
+    pub note: Option<String>,
+}
+
 /// A scene's `[integrator.peer]` table, interned so that the integrator settings stay `Copy`
 /// (a study holds thousands of them; the distinct tables are few).
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
@@ -224,6 +289,9 @@ mod tests {
             choices: Vec::new(),
             positive: true,
             description: String::new(),
+            twin_key: None,
+            twin_values: Vec::new(),
+            neutral: None,
         };
         PeerFacts {
             package: "pkg".into(),
@@ -270,6 +338,28 @@ mod tests {
         assert!(e.message.contains("positive"), "{}", e.message);
         let e = bad("device", PeerValue::Text("gpu".into()));
         assert!(e.message.contains("\"cpu\", \"cuda\""), "{}", e.message);
+    }
+
+    #[test]
+    fn twin_settings_translate_values_and_report_what_has_no_twin() {
+        let mut f = facts();
+        f.settings[0].twin_key = Some("integrator.vbd.iterations".into());
+        f.settings[1].neutral = Some(PeerValue::Float(1.0));
+        f.settings[2].twin_key = Some("integrator.x.device".into());
+        f.settings[2].twin_values =
+            vec![(PeerValue::Text("cpu".into()), PeerValue::Text("c".into()))];
+        let resolved = f.resolve("m", &BTreeMap::new()).unwrap();
+        let t = f.twin_settings(&resolved);
+        assert_eq!(
+            t.overrides,
+            ["integrator.vbd.iterations=20", "integrator.x.device=\"c\""]
+        );
+        assert!(t.unmatched.is_empty(), "{:?}", t.unmatched);
+        let mut given = BTreeMap::new();
+        given.insert("omega".to_owned(), PeerValue::Float(2.0));
+        given.insert("device".to_owned(), PeerValue::Text("cuda".into()));
+        let t = f.twin_settings(&f.resolve("m", &given).unwrap());
+        assert_eq!(t.unmatched, ["omega=2.0", "device=\"cuda\""]);
     }
 
     #[test]

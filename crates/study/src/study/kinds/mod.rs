@@ -7,6 +7,7 @@ pub mod solver;
 pub mod stability;
 pub mod suite;
 pub mod trajectory;
+pub mod twins;
 pub mod work_precision;
 
 use crate::study::kind::{Kind, Measure, Plan, Present};
@@ -19,6 +20,7 @@ pub(in crate::study) static KINDS: &[&dyn Kind] = &[
     &stability::Stability,
     &solver::Solver,
     &suite::Suite,
+    &twins::Twins,
 ];
 
 /// The registered kind named `name`, if there is one.

@@ -10,7 +10,7 @@ use softbench_run::run::{Observer, Outcome, RunSummary, Sample};
 use softbench_run::scene::{self, RunConfig, Scene};
 
 /// The names of the tables a run may write next to its series ([`Measured::tables`]).
-pub const SERIES_TABLES: [&str; 3] = ["trials", "iterations", "solves"];
+pub const SERIES_TABLES: [&str; 4] = ["trials", "iterations", "solves", "steps"];
 
 /// The result of one run.
 #[derive(Clone, Debug, Default)]
