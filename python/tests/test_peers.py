@@ -72,7 +72,8 @@ def test_every_peer_is_registered_with_its_package_and_twin():
     listed = softbench.methods().set_index("name")
     for name in softbench.peers.NAMES:
         assert name in listed.index
-    assert not listed.loc["newton-semi-implicit", "explicit"] is False
+    assert bool(listed.loc["newton-semi-implicit", "explicit"])
+    assert not bool(listed.loc["pbat-vbd", "explicit"])
 
 
 def test_pbat_vbd_steps_equal_pbatoolkits_own_integrator():
@@ -285,3 +286,40 @@ def test_a_peer_whose_package_is_missing_is_refused_with_its_install_line():
         )
     with pytest.raises(softbench.BadInputError, match="pip install absentpkg==1.0"):
         softbench.simulate(scene(name))
+
+
+def test_the_shipped_twins_study_checks_conventions_and_compares_every_pair(root, tmp_path):
+    need("pbatoolkit")
+    need("newton")
+    if not os.environ.get("SOFTBENCH_DATA"):
+        if os.environ.get("CI"):
+            pytest.fail("SOFTBENCH_DATA is not set (the twins study loads the course armadillo)")
+        print("skipped: the twins study loads the course armadillo: set SOFTBENCH_DATA")
+        pytest.skip("SOFTBENCH_DATA is not set")
+    runs = softbench.run_study(
+        root / "experiments" / "twins.toml", tmp_path, quick=True, only="twins_box*"
+    )
+    assert set(runs["outcome"]) == {"completed"}, runs[["run_id", "message"]]
+    pairs = dict(zip(runs["method"], runs["partner"]))
+    assert pairs == {
+        "pbat-vbd": "vbd",
+        "pbat-xpbd": "xpbd",
+        "newton-vbd": "vbd",
+        "newton-xpbd": "xpbd",
+        "newton-semi-implicit": "symplectic-euler",
+    }
+    assert runs["check_fixed_equal"].astype(str).str.lower().eq("true").all()
+    pbat = runs[runs["method"].str.startswith("pbat")]
+    # pbatoolkit's energy is softbench's xpbd-neo-hookean up to its quadrature weight.
+    assert np.allclose(pbat["check_energy_ratio"].astype(float), 1.0, atol=1e-5)
+    semi = runs[runs["method"] == "newton-semi-implicit"]
+    assert float(semi["check_force_difference"].iloc[0]) < 1e-4
+    assert (runs["check_mass_difference"].astype(float) < 1e-5).all()
+    # Converged VBD twins are the same step: ten-fold iterations bring them together.
+    vbd = runs[runs["method"] == "pbat-vbd"].set_index("integrator.peer.iterations")
+    assert float(vbd.loc[200, "difference_first_step"]) < 1e-2 * float(
+        vbd.loc[20, "difference_first_step"]
+    )
+    steps = pd.read_csv(tmp_path / "twins" / "series" / f"{runs['run_id'].iloc[0]}-steps.csv")
+    assert list(steps.columns)[:3] == ["step", "t", "difference"] and len(steps) == 5
+    assert (tmp_path / "twins" / "difference-twins_box.png").stat().st_size > 5_000
