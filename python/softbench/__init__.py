@@ -284,6 +284,22 @@ class Model(_Evaluations):
         """How many potential, gradient and Hessian evaluations this model has done."""
         return self._inner.evaluations()
 
+    def ipc_probe(self, positions: Any, displacement: Any = None, t: float = 0.0) -> dict:
+        """softbench's incremental potential contact at every vertex's ``positions``
+        ``(n, 3)``: ``barrier`` (κ = 1), its ``gradient`` ``(n, 3)``, ``contacts`` within d̂ and
+        their ``min_distance``, and with a ``displacement`` ``(n, 3)`` its collision-free
+        fraction ``step``. For comparisons with ipc-toolkit; the scene must use
+        ``contact.response = "ipc"``."""
+        x = np.ascontiguousarray(positions, dtype=np.float64)
+        dx = None if displacement is None else np.ascontiguousarray(displacement, dtype=np.float64)
+        return self._inner.ipc_probe(x, dx, t)
+
+    def ipc_collision_mesh(self) -> dict:
+        """The collision mesh softbench's IPC computes on: ``num_body``,
+        ``obstacle_positions`` (vertices ``num_body + i``), the collision ``vertices``,
+        ``edges`` and ``faces`` over both, ``dhat`` and ``self_contact``."""
+        return self._inner.ipc_collision_mesh()
+
 
 class StepModel(_Evaluations):
     """The run's model as a Python method's ``step`` sees it; valid only during that call.

@@ -32,6 +32,21 @@ pub struct Model {
     threads: Threads,
 }
 
+impl Model {
+    /// The scene's incremental potential contact, or an error saying it has none.
+    fn ipc(&self) -> PyResult<&std::sync::Arc<softbench::contact::ipc::Ipc>> {
+        self.scene
+            .contact
+            .as_ref()
+            .and_then(|c| c.ipc())
+            .ok_or_else(|| {
+                crate::BadInputError::new_err(
+                    "the scene has no incremental potential contact (contact.response = \"ipc\")",
+                )
+            })
+    }
+}
+
 #[pymethods]
 impl Model {
     /// Build the scene (mesh, material, fixed vertices, forces, obstacles).
@@ -150,6 +165,71 @@ impl Model {
     }
     fn evaluations<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         evaluations(py, &self.scene.model)
+    }
+
+    /// softbench's incremental potential contact at every vertex's `positions` (n, 3) and
+    /// time `t`: the barrier with κ = 1, its gradient (n, 3), the contacts within d̂ and their
+    /// smallest distance, and with a `displacement` (n, 3) its collision-free fraction (CCD).
+    /// For comparison with another implementation (ipc-toolkit); the scene must use
+    /// `contact.response = "ipc"`.
+    #[pyo3(signature = (positions, displacement=None, t=0.0))]
+    fn ipc_probe<'py>(
+        &self,
+        py: Python<'py>,
+        positions: numpy::PyReadonlyArray2<'py, f64>,
+        displacement: Option<numpy::PyReadonlyArray2<'py, f64>>,
+        t: f64,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let ipc = self.ipc()?;
+        let n = self.scene.model.rest_positions().len();
+        let rows = |a: &numpy::PyReadonlyArray2<'py, f64>, what: &str| {
+            let a = a.as_array();
+            if a.dim() != (n, 3) {
+                return Err(PyValueError::new_err(format!(
+                    "{what} must be ({n}, 3), one row per vertex (got {:?})",
+                    a.dim()
+                )));
+            }
+            Ok((0..n)
+                .map(|i| nalgebra::Vector3::new(a[(i, 0)], a[(i, 1)], a[(i, 2)]))
+                .collect::<Vec<_>>())
+        };
+        let x = rows(&positions, "positions")?;
+        let dx = displacement.map(|d| rows(&d, "displacement")).transpose()?;
+        let probe = ipc.probe(&x, t, dx.as_deref());
+        let d = PyDict::new(py);
+        d.set_item("barrier", probe.barrier)?;
+        let g = Array2::from_shape_fn((n, 3), |(i, c)| probe.gradient[i][c]);
+        d.set_item("gradient", g.into_pyarray(py))?;
+        d.set_item("contacts", probe.contacts)?;
+        d.set_item("min_distance", probe.min_distance)?;
+        d.set_item("step", probe.step)?;
+        Ok(d)
+    }
+
+    /// The collision mesh softbench's IPC computes on: `num_body` (the body's vertices come
+    /// first), `obstacle_positions` (k, 3) (vertices `num_body + i`), the collision `vertices`,
+    /// `edges` (E, 2) and `faces` (F, 3) over both, `dhat` and `self_contact`.
+    fn ipc_collision_mesh<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let ipc = self.ipc()?;
+        let m = ipc.collision_mesh_arrays();
+        let d = PyDict::new(py);
+        d.set_item("num_body", m.num_body)?;
+        let o = &m.obstacle_positions;
+        d.set_item(
+            "obstacle_positions",
+            Array2::from_shape_fn((o.len(), 3), |(i, c)| o[i][c]).into_pyarray(py),
+        )?;
+        let vertices: Vec<i64> = m.vertices.iter().map(|&v| i64::from(v)).collect();
+        d.set_item("vertices", PyArray1::from_vec(py, vertices))?;
+        let edges = Array2::from_shape_fn((m.edges.len(), 2), |(e, k)| i64::from(m.edges[e][k]));
+        d.set_item("edges", edges.into_pyarray(py))?;
+        let faces = Array2::from_shape_fn((m.faces.len(), 3), |(f, k)| i64::from(m.faces[f][k]));
+        d.set_item("faces", faces.into_pyarray(py))?;
+        let (dhat, self_contact) = ipc.dhat_and_self_contact();
+        d.set_item("dhat", dhat)?;
+        d.set_item("self_contact", self_contact)?;
+        Ok(d)
     }
 }
 

@@ -65,6 +65,11 @@ impl CollisionMesh {
         mesh
     }
 
+    /// Positions of the obstacle vertices (collision vertex `num_body + k` is the `k`-th).
+    pub fn obstacle_positions(&self) -> &[Vector3<f64>] {
+        &self.obstacle_positions
+    }
+
     /// Whether collision vertex `v` belongs to an obstacle (never moves, has no DOF).
     #[inline]
     pub fn is_obstacle(&self, v: u32) -> bool {

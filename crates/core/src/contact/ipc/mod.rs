@@ -50,11 +50,13 @@ mod collision_mesh;
 pub mod contacts;
 pub mod distance;
 pub mod friction;
+mod probe;
 mod settings;
 
 pub use crate::contact::mesh_obstacle::MeshObstacle;
 pub use barrier::BarrierKind;
 pub use collision_mesh::CollisionMesh;
+pub use probe::{CollisionMeshArrays, IpcProbe};
 pub use settings::{IpcConfig, Stiffness};
 
 use super::obstacle::Obstacles;
@@ -472,11 +474,27 @@ impl Ipc {
     /// The largest fraction of the step from stacked free positions `q` by `dq` that keeps
     /// every pair apart (CCD), at time `t`.
     fn max_step(&self, q: &[f64], dq: &[f64], t: f64, buffers: &mut FilterBuffers) -> f64 {
-        self.full_positions(q, &mut buffers.x);
-        buffers.dx.clear();
-        buffers.dx.resize(self.rest.len(), Vector3::zeros());
-        self.dofs.scatter(dq, &mut buffers.dx);
-        let (x, dx) = (&buffers.x, &buffers.dx);
+        let (mut x, mut dx) = (
+            std::mem::take(&mut buffers.x),
+            std::mem::take(&mut buffers.dx),
+        );
+        self.full_positions(q, &mut x);
+        dx.clear();
+        dx.resize(self.rest.len(), Vector3::zeros());
+        self.dofs.scatter(dq, &mut dx);
+        let alpha = self.max_step_of(&x, &dx, t, buffers);
+        (buffers.x, buffers.dx) = (x, dx);
+        alpha
+    }
+
+    /// [`Self::max_step`] for every vertex's positions `x` and displacement `dx`.
+    fn max_step_of(
+        &self,
+        x: &[Vector3<f64>],
+        dx: &[Vector3<f64>],
+        t: f64,
+        buffers: &mut FilterBuffers,
+    ) -> f64 {
         let settings = ccd::CcdSettings {
             min_separation: self.config.min_separation,
             ..ccd::CcdSettings::default()

@@ -126,5 +126,14 @@ impl Present for ContactStudy {
             );
         }
         let _ = writeln!(out);
+        let _ = writeln!(
+            out,
+            "The response `ipc` is checked against ipc-toolkit (`ipctk`), the reference \
+             implementation, on configurations from its own runs with self-contact and a thin \
+             triangle-mesh plate (`python/tests/test_ipctk.py`): the barrier and its gradient \
+             agree to 1e-9 relative, the smallest distance to 1e-12 m, and the collision-free \
+             step to 15 % of ipctk's additive CCD, safe by ipctk's own distances along the \
+             path ([Contact](../../docs/contact.md#checked-against-ipc-toolkit)).\n"
+        );
     }
 }
