@@ -368,6 +368,25 @@ mod tests {
     }
 
     #[test]
+    fn a_host_command_runs_every_job_the_way_the_study_was_started() {
+        // `python -m softbench slurm ...` (peer methods registered in that process) writes
+        // jobs that run `python -m softbench` again.
+        let job = SlurmJob {
+            exe: vec!["/usr/bin/python3".into(), "-m".into(), "softbench".into()],
+            ..job()
+        };
+        let array = job.array_script().unwrap();
+        assert!(
+            array
+                .lines()
+                .any(|l| l.starts_with("exec '/usr/bin/python3' '-m' 'softbench' run ")),
+            "{array}"
+        );
+        let merge = job.merge_script().unwrap();
+        assert!(merge.contains("exec '/usr/bin/python3' '-m' 'softbench' merge "));
+    }
+
+    #[test]
     fn bad_options_are_refused_with_what_is_valid() {
         for ok in [
             "30",
