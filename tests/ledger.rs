@@ -374,6 +374,81 @@ fn a_claim_whose_results_are_missing_is_unmeasured_with_the_reason() {
     assert!(judged[0].verdict.condition.contains("no column `x`"));
 }
 
+/// A claim about one method is judged on softbench's implementation and on each original,
+/// each verdict naming which; a timed claim its paper makes on a GPU gets an open GPU verdict
+/// for an original that can run on one, and its CPU verdict reads the CPU rows alone.
+#[test]
+fn a_claim_about_a_method_is_judged_on_each_implementation() {
+    let tmp = TempDir::new("ledger-originals");
+    let rule = "kind = \"dominates\"\na = { method = \"vbd\" }\nb = { method = \"newton\" }\n\
+                group_by = [\"scene\"]\ncost = \"wall_seconds\"\nerror = \"error\"";
+    let originals = "\n[[originals]]\nmethod = \"peer-vbd\"\npackage = \"peerpkg\"\ngpu = true\n";
+    let text = claim_file(rule, "subject = \"vbd\"\nclaimed_on = \"gpu\"") + originals;
+    let path = tmp.write("c.toml", &text);
+    std::fs::create_dir_all(tmp.path().join("results/s")).unwrap();
+    // softbench's vbd is beaten by Newton in all three scenes; the peer beats Newton in all.
+    let mut rows = String::from("scene,method,wall_seconds,error\n");
+    for scene in ["p1", "p2", "p3"] {
+        rows += &format!("{scene},newton,1,0.1\n{scene},vbd,2,0.2\n{scene},peer-vbd,0.5,0.05\n");
+    }
+    tmp.write("results/s/runs.csv", &rows);
+    let judged = judge(&[Claim::read(&path).unwrap()], &tmp.path().join("results"));
+    let verdicts: Vec<(String, Class)> = judged
+        .iter()
+        .map(|j| {
+            (
+                j.implementation.as_ref().unwrap().label(j.timed()),
+                j.verdict.class,
+            )
+        })
+        .collect();
+    assert_eq!(
+        verdicts,
+        [
+            ("softbench's `vbd`, CPU".to_owned(), Class::Refuted),
+            ("peerpkg's `peer-vbd`, CPU".to_owned(), Class::Validated),
+            ("peerpkg's `peer-vbd`, GPU".to_owned(), Class::Unmeasured),
+        ]
+    );
+    assert!(
+        judged[2]
+            .verdict
+            .condition
+            .starts_with("open: no run of `peer-vbd` on a GPU"),
+        "{}",
+        judged[2].verdict.condition
+    );
+    let page = page::render(&judged, "results");
+    assert!(
+        page.contains("- Judged on peerpkg's `peer-vbd`, CPU: **validated**"),
+        "{page}"
+    );
+    assert!(
+        page.contains("the paper claims its speed on a GPU"),
+        "{page}"
+    );
+    // Rows run on a GPU are judged apart: here the GPU rows lose, the CPU rows still win.
+    let mut rows = String::from("scene,method,wall_seconds,error,integrator.peer.device\n");
+    for scene in ["p1", "p2", "p3"] {
+        rows += &format!(
+            "{scene},newton,1,0.1,\n{scene},peer-vbd,0.5,0.05,cpu\n{scene},peer-vbd,3,0.3,cuda\n"
+        );
+    }
+    tmp.write("results/s/runs.csv", &rows);
+    let judged = judge(&[Claim::read(&path).unwrap()], &tmp.path().join("results"));
+    assert_eq!(judged[1].verdict.class, Class::Validated);
+    assert_eq!(judged[2].verdict.class, Class::Refuted);
+    // Originals need the subject they implement; `claimed_on` is cpu or gpu.
+    for (extra, want) in [
+        ("", "originals: name the method"),
+        ("subject = \"vbd\"\nclaimed_on = \"tpu\"", "claimed_on"),
+    ] {
+        let path = tmp.write("d.toml", &(claim_file(rule, extra) + originals));
+        let message = Claim::read(&path).unwrap_err().to_string();
+        assert!(message.contains(want), "{message}");
+    }
+}
+
 /// The committed ledger page is what the committed claims and results give, byte for byte:
 /// every verdict on it was computed, and a change of results or rules shows here until the
 /// page is rendered again (`softbench ledger`).

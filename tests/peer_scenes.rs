@@ -37,8 +37,14 @@ fn facts(version: Option<&str>) -> &'static PeerFacts {
 fn register() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
+        // Loading a study asks the method whether it can run each scene, which builds it:
+        // stand in with symplectic Euler (these tests do not step).
         let build = |_: &_, _| -> Box<dyn softbench::integrate::Integrator> {
-            unreachable!("these tests load scenes, they do not run them")
+            softbench::integrate::methods::IntegratorSettings {
+                method: softbench::integrate::Method::from_name("symplectic-euler").unwrap(),
+                ..Default::default()
+            }
+            .build()
         };
         let peer = |name: &'static str, version| MethodEntry {
             peer: Some(facts(version)),
@@ -184,5 +190,126 @@ fn an_obstacle_or_a_drag_is_refused_for_a_peer() {
             assert!(message.contains("peerpkg"), "{message}");
         }
         other => panic!("a drag was not refused: {other:?}"),
+    }
+}
+
+/// A trajectory study of `blocks` on two boxes, one of them damped (which a peer cannot run),
+/// written into `dir`; `extra` goes at the top.
+fn peer_study(dir: &Path, extra: &str, blocks: &str) -> std::path::PathBuf {
+    let plain = BOX.replace("method = \"test-peer\"", "method = \"backward-euler\"");
+    std::fs::write(dir.join("plain.toml"), &plain).unwrap();
+    std::fs::write(
+        dir.join("damped.toml"),
+        format!("{plain}\n[damping]\nrayleigh = {{ alpha = 0.1, beta = 0.0 }}\n"),
+    )
+    .unwrap();
+    let study = format!(
+        "name = \"peers\"\nstudy = \"trajectory\"\nscenes = [\"plain.toml\", \"damped.toml\"]\n\
+         {extra}\n[[methods]]\nmethod = \"symplectic-euler\"\n\n{blocks}"
+    );
+    let path = dir.join("study.toml");
+    std::fs::write(&path, study).unwrap();
+    path
+}
+
+fn load_study(path: &Path) -> Result<softbench::study::Study, String> {
+    register();
+    softbench::study::load(path, false, &softbench::data::DataPaths::new(None))
+        .map_err(|e| e.to_string())
+}
+
+#[test]
+fn a_peer_block_runs_where_its_peer_is_registered_and_is_an_omission_where_not() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = peer_study(
+        dir.path(),
+        "leave_out_what_cannot_run = true",
+        "[[methods]]\nmethod = \"test-peer\"\npeer = \"peerpkg\"\n\
+         \"integrator.peer.iterations\" = [5, 10]\n\n\
+         [[methods]]\nmethod = \"unregistered-peer\"\npeer = \"otherpkg\"\n",
+    );
+    let study = load_study(&path).unwrap();
+    let runs: Vec<(&str, &str)> = study
+        .runs
+        .iter()
+        .map(|r| (r.scene.as_str(), r.method.name()))
+        .collect();
+    // The registered peer runs the plain box at both counts; the damped box it cannot run.
+    assert_eq!(
+        runs.iter().filter(|(_, m)| *m == "test-peer").count(),
+        2,
+        "{runs:?}"
+    );
+    assert!(!runs.contains(&("damped", "test-peer")), "{runs:?}");
+    assert!(runs.contains(&("damped", "symplectic-euler")), "{runs:?}");
+    assert!(
+        study
+            .parameters
+            .contains(&"integrator.peer.iterations".to_owned()),
+        "{:?}",
+        study.parameters
+    );
+    let omitted = |method: &str| {
+        study
+            .omitted
+            .iter()
+            .find(|o| o.method.as_deref() == Some(method))
+            .unwrap_or_else(|| panic!("{method} not omitted: {:?}", study.omitted))
+            .clone()
+    };
+    let damped = omitted("test-peer");
+    assert_eq!(damped.scene, "damped");
+    assert!(
+        damped.reason.contains("damping.rayleigh") && damped.reason.contains("peerpkg"),
+        "{}",
+        damped.reason
+    );
+    let absent = omitted("unregistered-peer");
+    assert_eq!(absent.scene, "", "left out of every scene");
+    assert!(
+        absent.reason.contains("otherpkg") && absent.reason.contains("python -m softbench"),
+        "{}",
+        absent.reason
+    );
+}
+
+#[test]
+fn without_leave_out_a_scene_a_peer_cannot_run_refuses_the_study() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = peer_study(
+        dir.path(),
+        "",
+        "[[methods]]\nmethod = \"test-peer\"\npeer = \"peerpkg\"\n",
+    );
+    let error = load_study(&path).unwrap_err();
+    assert!(
+        error.contains("damping.rayleigh") && error.contains("peerpkg"),
+        "{error}"
+    );
+}
+
+#[test]
+fn a_peer_key_that_does_not_match_its_method_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    for (block, expected) in [
+        (
+            "[[methods]]\nmethod = \"test-peer\"\npeer = \"wrongpkg\"\n",
+            "runs peerpkg's code, not wrongpkg's",
+        ),
+        (
+            "[[methods]]\nmethod = \"vbd\"\npeer = \"pbatoolkit\"\n",
+            "`vbd` is softbench's own method",
+        ),
+        (
+            "[[methods]]\nmethod = \"test-peer\"\npeer = 3\n",
+            "must be the peer's package as a string",
+        ),
+    ] {
+        let path = peer_study(dir.path(), "leave_out_what_cannot_run = true", block);
+        let error = load_study(&path).unwrap_err();
+        assert!(
+            error.contains("methods[1].peer") && error.contains(expected),
+            "{block}: {error}"
+        );
     }
 }

@@ -6,7 +6,8 @@
 //! then, every step, `stepper.step(x, v, dt)` with every vertex's positions and velocities
 //! (`(n, 3)` float64, fixed vertices at their prescribed positions and zero velocity). It
 //! returns the end-of-step `(x, v)`, optionally with a dict of counts
-//! (`{"iterations": k, "substeps": s}`). softbench keeps the free vertices' rows.
+//! (`{"iterations": k, "substeps": s, "gradient_passes": g, "hessian_passes": h}`, the last two
+//! the element passes the step made). softbench keeps the free vertices' rows.
 
 use std::collections::BTreeMap;
 use std::sync::Mutex;
@@ -301,7 +302,7 @@ fn to_rows<P: std::ops::Index<usize, Output = f64>>(points: &[P]) -> Array2<f64>
 /// The stepper's `(x, v[, counts])` into the state's free DOFs and the report.
 fn read_step(
     result: &Bound<'_, PyAny>,
-    model: &FemModel,
+    model: &mut FemModel,
     state: &mut State,
     report: &mut StepReport,
 ) -> Result<(), String> {
@@ -344,6 +345,12 @@ fn read_step(
         if let Some(substeps) = get("substeps")? {
             report.substeps = substeps.max(1);
         }
+        // Element passes, counted as softbench's own local solvers count theirs (a VBD sweep
+        // evaluates every element's gradient and Hessian, an XPBD sweep every constraint's
+        // gradient), so a suite's evaluation budgets and profiles treat both alike.
+        let gradient = get("gradient_passes")?.unwrap_or(0);
+        let hessian = get("hessian_passes")?.unwrap_or(0);
+        model.count_local_passes(u64::from(gradient), u64::from(hessian));
     }
     Ok(())
 }

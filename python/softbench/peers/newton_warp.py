@@ -78,7 +78,12 @@ def _build(problem, parameters, colour=False):
 class _Stepper:
     """Steps a Newton solver from softbench's state (``(n, 3)`` float64, rounded to float32)."""
 
-    def __init__(self, model, solver, substeps, iterations=None, forces=None, note=None):
+    def __init__(self, model, solver, substeps, iterations=None, forces=None, note=None,
+                 hessians=False):
+        # Element passes per step, counted as softbench's own methods count theirs: a force
+        # evaluation per substep (semi-implicit), a constraint sweep per iteration (XPBD), a
+        # gradient-and-Hessian sweep per iteration (VBD).
+        self.hessians = hessians
         self.forces = forces
         self.note = note
         self.model = model
@@ -113,9 +118,12 @@ class _Stepper:
             self.state_0.clear_forces()
             self.solver.step(self.state_0, self.state_1, self.control, None, h)
             self.state_0, self.state_1 = self.state_1, self.state_0
-        counts = {"substeps": self.substeps}
+        counts = {"substeps": self.substeps, "gradient_passes": self.substeps}
         if self.iterations is not None:
-            counts["iterations"] = self.iterations * self.substeps
+            sweeps = self.iterations * self.substeps
+            counts["iterations"] = sweeps
+            counts["gradient_passes"] = sweeps
+            counts["hessian_passes"] = sweeps if self.hessians else 0
         return (
             self.state_0.particle_q.numpy().astype(np.float64),
             self.state_0.particle_qd.numpy().astype(np.float64),
@@ -152,7 +160,7 @@ def make_vbd(problem):
     model = _build(problem, _lame, colour=True)
     solver = newton.solvers.SolverVBD(model, iterations=s["iterations"])
     note = "SolverVBD evaluates its energy per vertex inside its kernels only"
-    return _Stepper(model, solver, s["substeps"], s["iterations"], note=note)
+    return _Stepper(model, solver, s["substeps"], s["iterations"], note=note, hessians=True)
 
 
 _DEVICE = setting("device", "cpu", "Warp device the kernels run on", choices=["cpu", "cuda"],

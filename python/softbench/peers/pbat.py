@@ -78,8 +78,11 @@ class _Energy:
 class _Stepper:
     """Steps a pbatoolkit integrator from softbench's state: ``x``, ``v`` are ``(n, 3)``."""
 
-    def __init__(self, integrator, iterations, substeps, problem, masses):
+    def __init__(self, integrator, iterations, substeps, problem, masses, hessians):
         self.integrator = integrator
+        # Each sweep evaluates every element's gradient (VBD: and its Hessian); counted as
+        # softbench's own local solvers count their sweeps.
+        self.hessians = bool(hessians)
         self.iterations = int(iterations)
         self.substeps = int(substeps)
         self.problem = problem
@@ -100,7 +103,13 @@ class _Stepper:
         self.integrator.x = np.asfortranarray(x.T)
         self.integrator.v = np.asfortranarray(v.T)
         self.integrator.step(dt, self.iterations, self.substeps)
-        counts = {"iterations": self.iterations * self.substeps, "substeps": self.substeps}
+        sweeps = self.iterations * self.substeps
+        counts = {
+            "iterations": sweeps,
+            "substeps": self.substeps,
+            "gradient_passes": sweeps,
+            "hessian_passes": sweeps if self.hessians else 0,
+        }
         return (
             np.ascontiguousarray(self.integrator.x.T),
             np.ascontiguousarray(self.integrator.v.T),
@@ -134,7 +143,8 @@ def make_vbd(problem):
         data = data.with_dirichlet_vertices(fixed, muD=s["dirichlet_penalty"])
     data = data.construct(validate=True)
     return _Stepper(
-        pbat.sim.vbd.Integrator(data), s["iterations"], s["substeps"], problem, lambda d: d.m
+        pbat.sim.vbd.Integrator(data), s["iterations"], s["substeps"], problem, lambda d: d.m,
+        hessians=True,
     )
 
 
@@ -173,7 +183,10 @@ def make_xpbd(problem):
         minv = np.asarray(d.minv)
         return np.where(minv > 0, 1.0 / np.where(minv > 0, minv, 1.0), 0.0)
 
-    return _Stepper(pbat.sim.xpbd.Integrator(data), s["iterations"], s["substeps"], problem, masses)
+    return _Stepper(
+        pbat.sim.xpbd.Integrator(data), s["iterations"], s["substeps"], problem, masses,
+        hessians=False,
+    )
 
 
 INITIALIZATIONS = ["Position", "Inertia", "KineticEnergyMinimum", "AdaptiveVbd", "AdaptivePbat"]

@@ -177,6 +177,23 @@ pub fn from_table(
     text: Option<&str>,
     path: &Path,
 ) -> Result<SceneConfig, SceneError> {
+    let config = from_table_leaving_refusals(table, text, path)?;
+    peer::validate(&config).map_err(|r| SceneError::Invalid {
+        path: path.to_owned(),
+        key: r.key,
+        message: r.message,
+    })?;
+    Ok(config)
+}
+
+/// [`from_table`] without a peer method's refusals of the scene (a material, damping, drags it
+/// lacks): a study that leaves out what a method cannot run (a suite) learns them from
+/// [`applicable`] instead, and records them as omissions.
+pub fn from_table_leaving_refusals(
+    table: toml::Table,
+    text: Option<&str>,
+    path: &Path,
+) -> Result<SceneConfig, SceneError> {
     let mut config: SceneConfig = match table.try_into() {
         Ok(c) => c,
         Err(e) => {
@@ -369,7 +386,6 @@ fn validate(c: &SceneConfig, path: &Path) -> Result<(), SceneError> {
         .validate()
         .map_err(|m| invalid("integrator", m))?;
     validate_newton_components(c, path)?;
-    peer::validate(c).map_err(|r| invalid(&r.key, r.message))?;
     for (i, o) in c.obstacles.iter().enumerate() {
         o.validate(&format!("obstacles[{i}]"))
             .map_err(|e| invalid(&e.key, e.message))?;
@@ -502,6 +518,9 @@ impl Scene {
 /// Whether the integrator `config` names can run `scene`'s model (built from a config of the
 /// same physics): `Err` with why not (a local solver with no form for the material, ...).
 pub fn applicable(config: &SceneConfig, scene: &Scene) -> Result<(), String> {
+    let method = config.integrator.method;
+    peer::validate(config)
+        .map_err(|r| format!("`{method}` cannot run this scene: {}: {}", r.key, r.message))?;
     new_integrator(config, &scene.model, scene.contact.as_ref())
         .check_model(&scene.model)
         .map_err(|e| format!("`{}` cannot run this scene: {e}", config.integrator.method))

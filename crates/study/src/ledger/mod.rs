@@ -5,15 +5,20 @@
 //! A claim is one TOML file in a folder (`claims/`): the paper, the claim in one sentence,
 //! its dimension (speed, robustness, accuracy, convergence), the study whose results test it
 //! (`results/<study>/`), optionally the two methods it ranks (`beats = ["a", "b"]`, an edge of
-//! the claims graph), and a `[rule]` (see [`rule`]; [`verdict`] counts its cases). `softbench ledger` evaluates every claim
-//! and renders the ledger as one page ([`page`]).
+//! the claims graph), and a `[rule]` (see [`rule`]; [`verdict`] counts its cases). A claim
+//! about one method names it (`subject = "vbd"`) and the field's own implementations of it
+//! (`[[originals]]`, peer methods): it is then judged on each, and every verdict says which
+//! implementation, and for a time on which device, it is about ([`implementation`]).
+//! `softbench ledger` evaluates every claim and renders the ledger as one page ([`page`]).
 
 pub mod filter;
+pub mod implementation;
 pub mod page;
 pub mod rule;
 pub mod verdict;
 
 use crate::study::table::Table;
+use implementation::{DEVICE_COLUMN, Device, Implementation, Original};
 use rule::RuleSpec;
 use std::path::{Path, PathBuf};
 use verdict::Verdict;
@@ -64,7 +69,12 @@ pub struct Claim {
     pub beats: Option<[String; 2]>,
     /// What the test does not cover of the claim (hardware, features softbench lacks).
     pub caveats: Option<String>,
+    /// Where the paper claims its results (`gpu`, `cpu`), when it says.
+    pub claimed_on: Option<String>,
     pub rule: RuleSpec,
+    /// The implementations it is judged on: softbench's own method (its `subject`) and the
+    /// field's own (`[[originals]]`); empty for a claim about no one method.
+    pub implementations: Vec<Implementation>,
 }
 
 #[derive(serde::Deserialize)]
@@ -84,6 +94,12 @@ struct ClaimFile {
     beats: Option<[String; 2]>,
     #[serde(default)]
     caveats: Option<String>,
+    #[serde(default)]
+    subject: Option<String>,
+    #[serde(default)]
+    claimed_on: Option<String>,
+    #[serde(default)]
+    originals: Vec<Original>,
     rule: toml::Table,
 }
 
@@ -121,6 +137,29 @@ impl Claim {
         }
         crate::study::check_study_name(&file.study).map_err(|m| invalid(format!("study: {m}")))?;
         let rule = RuleSpec::parse(&file.rule).map_err(|m| invalid(format!("rule: {m}")))?;
+        if let Some(c) = &file.claimed_on
+            && !["cpu", "gpu"].contains(&c.as_str())
+        {
+            return Err(invalid(format!(
+                "claimed_on: `{c}`: expected `cpu` or `gpu`"
+            )));
+        }
+        let implementations = match &file.subject {
+            Some(subject) => implementation::implementations(
+                subject,
+                &file.rule,
+                &rule,
+                &file.originals,
+                file.claimed_on.as_deref() == Some("gpu"),
+            )
+            .map_err(invalid)?,
+            None if !file.originals.is_empty() => {
+                return Err(invalid(
+                    "originals: name the method they implement with `subject = \"...\"`".into(),
+                ));
+            }
+            None => Vec::new(),
+        };
         Ok(Self {
             id: path
                 .file_stem()
@@ -135,7 +174,9 @@ impl Claim {
             study: file.study,
             beats: file.beats,
             caveats: file.caveats,
+            claimed_on: file.claimed_on,
             rule,
+            implementations,
         })
     }
 }
@@ -164,56 +205,115 @@ pub fn read_claims(dir: &Path) -> Result<Vec<Claim>, LedgerError> {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Judged {
     pub claim: Claim,
+    /// The implementation judged, for a claim about one method (see [`Claim::implementations`]).
+    pub implementation: Option<Implementation>,
     /// The table the rule read, relative to the results folder.
     pub table: String,
     pub verdict: Verdict,
 }
 
-/// Evaluate every claim against the committed results under `results` (`<results>/<study>/`).
+impl Judged {
+    /// Whether the verdict rests on a measured time, so the page names the device.
+    pub fn timed(&self) -> bool {
+        self.implementation
+            .as_ref()
+            .is_some_and(|i| i.rule.reads_time())
+    }
+}
+
+/// Evaluate every claim against the committed results under `results` (`<results>/<study>/`):
+/// one verdict per claim, or per implementation for a claim about one method.
 pub fn judge(claims: &[Claim], results: &Path) -> Vec<Judged> {
-    claims
-        .iter()
-        .map(|claim| {
-            let table_path = results.join(&claim.study).join(&claim.rule.table);
-            let shown = format!("{}/{}", claim.study, claim.rule.table);
-            let unmeasured = |why: String| Verdict {
-                class: verdict::Class::Unmeasured,
-                condition: why,
-                held: 0,
-                decided: 0,
-                ties: 0,
-                strata: Vec::new(),
-                examples: Vec::new(),
-            };
-            let verdict = match Table::read(&table_path) {
-                Ok(Some(table)) => {
-                    let missing: Vec<String> = claim
-                        .rule
-                        .columns()
-                        .into_iter()
-                        .filter(|c| table.column(c).is_none())
-                        .collect();
-                    if missing.is_empty() {
-                        verdict::evaluate(&claim.rule, &table)
-                    } else {
-                        unmeasured(format!(
-                            "`{shown}` has no column {}",
-                            missing
-                                .iter()
-                                .map(|c| format!("`{c}`"))
-                                .collect::<Vec<_>>()
-                                .join(", ")
-                        ))
-                    }
-                }
+    let mut out = Vec::new();
+    for claim in claims {
+        let table_path = results.join(&claim.study).join(&claim.rule.table);
+        let shown = format!("{}/{}", claim.study, claim.rule.table);
+        let table = Table::read(&table_path);
+        let judged = |implementation: Option<&Implementation>| {
+            let rule = implementation.map_or(&claim.rule, |i| &i.rule);
+            let verdict = match &table {
+                Ok(Some(table)) => judge_one(rule, table, implementation, &shown),
                 Ok(None) => unmeasured(format!("no committed results: `{shown}` does not exist")),
                 Err(e) => unmeasured(format!("`{shown}` cannot be read: {e}")),
             };
             Judged {
                 claim: claim.clone(),
-                table: shown,
+                implementation: implementation.cloned(),
+                table: shown.clone(),
                 verdict,
             }
-        })
-        .collect()
+        };
+        if claim.implementations.is_empty() {
+            out.push(judged(None));
+        } else {
+            out.extend(claim.implementations.iter().map(|i| judged(Some(i))));
+        }
+    }
+    out
+}
+
+fn unmeasured(why: String) -> Verdict {
+    Verdict {
+        class: verdict::Class::Unmeasured,
+        condition: why,
+        held: 0,
+        decided: 0,
+        ties: 0,
+        strata: Vec::new(),
+        examples: Vec::new(),
+    }
+}
+
+/// `rule` on `table`, or why it cannot be: a column it reads is missing, or (a GPU verdict) no
+/// row of the implementation ran on a GPU. A table without the device column ran every peer
+/// on its default device, the CPU.
+fn judge_one(
+    rule: &RuleSpec,
+    table: &Table,
+    implementation: Option<&Implementation>,
+    shown: &str,
+) -> Verdict {
+    let mut with_device;
+    let mut table = table;
+    if table.column(DEVICE_COLUMN).is_none() && rule.columns().iter().any(|c| c == DEVICE_COLUMN) {
+        with_device = table.clone();
+        with_device.header.push(DEVICE_COLUMN.to_owned());
+        for row in &mut with_device.rows {
+            row.push("cpu".to_owned());
+        }
+        table = &with_device;
+    }
+    if let Some(i) = implementation
+        && i.device == Device::Gpu
+    {
+        let on_gpu = table.rows.iter().any(|row| {
+            table.get(row, "method") == Some(i.method.as_str())
+                && table.get(row, DEVICE_COLUMN) == Some("cuda")
+        });
+        if !on_gpu {
+            return unmeasured(format!(
+                "open: no run of `{}` on a GPU in `{shown}` (the machine that ran it has none); \
+                 it is judged when a machine with a GPU runs the study with \
+                 `{DEVICE_COLUMN} = \"cuda\"`",
+                i.method
+            ));
+        }
+    }
+    let missing: Vec<String> = rule
+        .columns()
+        .into_iter()
+        .filter(|c| table.column(c).is_none())
+        .collect();
+    if missing.is_empty() {
+        verdict::evaluate(rule, table)
+    } else {
+        unmeasured(format!(
+            "`{shown}` has no column {}",
+            missing
+                .iter()
+                .map(|c| format!("`{c}`"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ))
+    }
 }

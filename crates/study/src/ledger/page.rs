@@ -1,7 +1,9 @@
 //! The ledger as one Markdown page: a summary of the verdicts, the graph of "A beats B"
 //! claims coloured by verdict (Mermaid), and one section per claim with the paper, its words,
-//! the rule in words, the evidence and the verdict. The page holds nothing but what the claim
-//! files and the results give, so rendering it again from the same files gives the same bytes.
+//! the rule in words, the evidence and the verdict — for a claim about one method, a verdict
+//! per implementation (softbench's own and the field's), each saying which one it judges and,
+//! when it rests on a time, on which device. The page holds nothing but what the claim files
+//! and the results give, so rendering it again from the same files gives the same bytes.
 
 use super::Judged;
 use super::verdict::Class;
@@ -15,10 +17,15 @@ pub fn render(judged: &[Judged], results: &str) -> String {
     let _ = writeln!(
         out,
         "{} claims from the literature on the methods softbench has, each tested by a committed \
-         study under `{results}/`. Every verdict below is computed by `softbench ledger` from the \
-         claim's rule (written next to it in `claims/<id>.toml`) and those results: \
+         study under `{results}/`; a claim about one method is judged on softbench's own \
+         implementation and on the field's own (the peer methods of docs/peers.md), so the \
+         {} claims give {} verdicts. Every verdict below is computed by `softbench ledger` from \
+         the claim's rule (written next to it in `claims/<id>.toml`) and those results: \
          **{} validated, {} qualified, {} refuted, {} unmeasured**. A verdict is only as wide \
-         as the study behind it: the caveats say what the test does not cover.\n",
+         as the study behind it: the caveats say what the test does not cover, and a verdict \
+         that rests on a time names the device it was measured on.\n",
+        claims(judged).len(),
+        claims(judged).len(),
         judged.len(),
         count(Class::Validated),
         count(Class::Qualified),
@@ -27,14 +34,15 @@ pub fn render(judged: &[Judged], results: &str) -> String {
     );
     let _ = writeln!(
         out,
-        "| claim | dimension | tested by | verdict |\n|---|---|---|---|"
+        "| claim | judged on | dimension | tested by | verdict |\n|---|---|---|---|---|"
     );
     for j in judged {
         let _ = writeln!(
             out,
-            "| [{}](#{}) | {} | `{}` | **{}**{} |",
+            "| [{}](#{}) | {} | {} | `{}` | **{}**{} |",
             j.claim.claim.replace('|', "\\|"),
             j.claim.id,
+            judged_on(j),
             j.claim.dimension,
             j.table,
             j.verdict.class.name(),
@@ -46,10 +54,22 @@ pub fn render(judged: &[Judged], results: &str) -> String {
         );
     }
     graph(&mut out, judged);
-    for j in judged {
-        section(&mut out, j);
+    for group in claims(judged) {
+        section(&mut out, group);
     }
     out
+}
+
+/// The verdicts grouped by claim, in file order.
+fn claims(judged: &[Judged]) -> Vec<&[Judged]> {
+    judged.chunk_by(|a, b| a.claim.id == b.claim.id).collect()
+}
+
+/// Which implementation a verdict judges ("softbench's `vbd`, CPU"), or `-`.
+fn judged_on(j: &Judged) -> String {
+    j.implementation
+        .as_ref()
+        .map_or_else(|| "-".to_owned(), |i| i.label(j.timed()))
 }
 
 /// The "A beats B" claims as a graph: an arrow from the method claimed better, labelled with
@@ -67,9 +87,15 @@ fn graph(out: &mut String, judged: &[Judged]) {
     let node = |m: &str| m.replace(|c: char| !c.is_ascii_alphanumeric(), "_");
     for j in &edges {
         let [a, b] = j.claim.beats.as_ref().expect("filtered");
+        // A verdict on an original starts at the original's node.
+        let (a, device) = match &j.implementation {
+            Some(i) if j.timed() => (i.method.as_str(), format!(", {}", i.device.name())),
+            Some(i) => (i.method.as_str(), String::new()),
+            None => (a.as_str(), String::new()),
+        };
         let _ = writeln!(
             out,
-            "  {}[\"{a}\"] -->|\"{}: {}\"| {}[\"{b}\"]",
+            "  {}[\"{a}\"] -->|\"{}{device}: {}\"| {}[\"{b}\"]",
             node(a),
             j.claim.dimension,
             j.verdict.class.name(),
@@ -79,20 +105,18 @@ fn graph(out: &mut String, judged: &[Judged]) {
     let _ = writeln!(out, "```");
 }
 
-fn section(out: &mut String, j: &Judged) {
+fn section(out: &mut String, group: &[Judged]) {
+    let j = &group[0];
     let c = &j.claim;
-    let v = &j.verdict;
     let _ = writeln!(out, "\n<a id=\"{}\"></a>\n## {}\n", c.id, c.claim);
-    let _ = writeln!(
-        out,
-        "**{}**{}\n",
-        v.class.name(),
-        if v.condition.is_empty() {
-            String::new()
-        } else {
-            format!(": {}", v.condition)
+    if j.implementation.is_none() {
+        let _ = writeln!(out, "{}\n", verdict_line(j));
+    } else {
+        for j in group {
+            let _ = writeln!(out, "- Judged on {}: {}", judged_on(j), verdict_line(j));
         }
-    );
+        let _ = writeln!(out);
+    }
     let _ = writeln!(
         out,
         "- Paper: {}{}",
@@ -114,10 +138,49 @@ fn section(out: &mut String, j: &Judged) {
         "- Dimension: {}. Tested by `{}` (claim file `claims/{}.toml`).",
         c.dimension, j.table, c.id
     );
-    let _ = writeln!(out, "- Rule: {}", c.rule.describe());
+    if let (Some("gpu"), true) = (c.claimed_on.as_deref(), j.timed()) {
+        let _ = writeln!(
+            out,
+            "- Device: the paper claims its speed on a GPU; a CPU verdict here is a verdict on \
+             the CPU only, and a GPU verdict stays open until a machine with a GPU runs the \
+             study."
+        );
+    }
+    for j in group {
+        if j.implementation.is_some() {
+            let _ = writeln!(out, "- Judged on {}:", judged_on(j));
+            evidence(out, j, "  ");
+        } else {
+            evidence(out, j, "");
+        }
+    }
+    if let Some(caveats) = &c.caveats {
+        let _ = writeln!(out, "- Caveats: {}", caveats.trim());
+    }
+}
+
+/// The verdict in bold, with its condition.
+fn verdict_line(j: &Judged) -> String {
+    let v = &j.verdict;
+    format!(
+        "**{}**{}",
+        v.class.name(),
+        if v.condition.is_empty() {
+            String::new()
+        } else {
+            format!(": {}", v.condition)
+        }
+    )
+}
+
+/// The rule in words and what it found, indented by `at`.
+fn evidence(out: &mut String, j: &Judged, at: &str) {
+    let v = &j.verdict;
+    let rule = j.implementation.as_ref().map_or(&j.claim.rule, |i| &i.rule);
+    let _ = writeln!(out, "{at}- Rule: {}", rule.describe());
     let _ = writeln!(
         out,
-        "- Evidence: it held in {} of {} decided cases{}.",
+        "{at}- Evidence: it held in {} of {} decided cases{}.",
         v.held,
         v.decided,
         if v.ties > 0 {
@@ -136,18 +199,15 @@ fn section(out: &mut String, j: &Judged) {
             }
         }
         for (column, list) in by_column {
-            let _ = writeln!(out, "  - by {column}: {}", list.join(", "));
+            let _ = writeln!(out, "{at}  - by {column}: {}", list.join(", "));
         }
     }
     for (label, held) in &v.examples {
         let _ = writeln!(
             out,
-            "  - {}: {}",
+            "{at}  - {}: {}",
             if *held { "holds" } else { "does not hold" },
             label
         );
-    }
-    if let Some(caveats) = &c.caveats {
-        let _ = writeln!(out, "- Caveats: {}", caveats.trim());
     }
 }

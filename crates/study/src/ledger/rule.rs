@@ -406,6 +406,12 @@ impl RuleSpec {
         )
     }
 
+    /// Whether the verdict rests on a measured time (a `wall_*` column), so it holds for the
+    /// device its rows ran on.
+    pub fn reads_time(&self) -> bool {
+        self.columns().iter().any(|c| c.starts_with("wall"))
+    }
+
     /// The columns the rule reads (checked against the table before it is evaluated).
     pub fn columns(&self) -> Vec<String> {
         let mut out: Vec<String> = self.qualify_by.clone();

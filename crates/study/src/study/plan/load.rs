@@ -1,6 +1,7 @@
 //! Loading a study: parse the file, resolve its scenes, expand the grid into runs and check
 //! every run's scene before anything is run or written.
 
+use crate::study::plan::peer_blocks::take_peer_blocks;
 use crate::study::vocabulary::config::{
     METHOD_KEY, SOLVER_KEY, STUDY_KEYS, SWEEP, StudyFile, line_of,
 };
@@ -40,7 +41,7 @@ pub fn load(path: &Path, quick: bool, data: &DataPaths) -> Result<Study, StudyEr
         error,
     })?;
     let ctx = Context { path, text: &text };
-    let (file, kind) = read_file(&ctx, quick)?;
+    let (file, kind, unregistered_peers) = read_file(&ctx, quick)?;
     let measured_by = crate::study::kinds::plan(kind);
     let scenes: Vec<SceneSource> = scene_sources(&file, &ctx, &measured_by.extra_scenes(&file))?
         .into_iter()
@@ -81,12 +82,13 @@ pub fn load(path: &Path, quick: bool, data: &DataPaths) -> Result<Study, StudyEr
     };
     let mut runs = grid.expand()?;
     let mut omitted = measured_by.declared_omissions(&file);
+    omitted.extend(unregistered_peers);
     omitted.extend(check_scenes_build(
         &mut runs,
         &scenes,
         &ctx,
         data,
-        measured_by.leaves_out_what_cannot_run(),
+        leaves_out(&file, measured_by),
     )?);
     let levels = measured_by.levels(&file);
     let study = Study {
@@ -106,16 +108,26 @@ pub fn load(path: &Path, quick: bool, data: &DataPaths) -> Result<Study, StudyEr
     Ok(study)
 }
 
+/// Whether runs whose method cannot run their scene are left out (the kind always does, or
+/// the file asks to) rather than refused.
+fn leaves_out(file: &StudyFile, kind: &dyn crate::study::kind::Plan) -> bool {
+    file.leave_out_what_cannot_run || kind.leaves_out_what_cannot_run()
+}
+
 /// The study file parsed and checked, with every kind's settings table and `[quick]` keys
 /// (whatever the study's kind: meta.json records every table as resolved), resolved by
 /// `[quick]` in quick mode; and the kind that measures it.
-fn read_file(ctx: &Context, quick: bool) -> Result<(StudyFile, &'static str), StudyError> {
+fn read_file(
+    ctx: &Context,
+    quick: bool,
+) -> Result<(StudyFile, &'static str, Vec<Omission>), StudyError> {
     let parse_error = |e: toml::de::Error| StudyError::Parse {
         path: ctx.path.to_owned(),
         message: softbench_core::quote::clip_source(e.to_string().trim_end()),
     };
     let mut file: StudyFile = toml::from_str(ctx.text).map_err(parse_error)?;
     check_keys(ctx.text, ctx)?;
+    let unregistered_peers = take_peer_blocks(&mut file, ctx)?;
     for k in crate::study::kinds::planning() {
         if !k.table_names().is_empty() {
             let table = k.parse_table(ctx.text).map_err(parse_error)?;
@@ -133,7 +145,7 @@ fn read_file(ctx: &Context, quick: bool) -> Result<(StudyFile, &'static str), St
             k.quick_table(&mut file, ctx)?;
         }
     }
-    Ok((file, kind))
+    Ok((file, kind, unregistered_peers))
 }
 
 /// The parameter columns of the grid (every key an axis varies but the method and the
@@ -495,12 +507,15 @@ fn resolve_run(
             (k.as_str(), v, line)
         }))
         .collect();
-    let config = match configure(source, &assignments, file, quick) {
+    // A kind that leaves out what a method cannot run learns a peer's refusals when the
+    // scenes are built (`check_scenes_build`), as omissions.
+    let leave_out = leaves_out(file, crate::study::kinds::plan(kind));
+    let config = match configure(source, &assignments, file, quick, leave_out) {
         Ok(c) => c,
         Err(error) => {
             // Find the assignment at fault: the first that fails on its own.
             for (key, value, line) in &assignments {
-                if let Err(e) = configure(source, &[(key, value, *line)], file, false) {
+                if let Err(e) = configure(source, &[(key, value, *line)], file, false, leave_out) {
                     return Err(StudyError::Scene {
                         path: ctx.path.to_owned(),
                         line: *line,
@@ -553,6 +568,7 @@ fn configure(
     assignments: &[(&str, &Value, usize)],
     file: &StudyFile,
     quick: bool,
+    leave_out: bool,
 ) -> Result<SceneConfig, SceneError> {
     let mut table = source.table.clone();
     for (key, value, _) in assignments {
@@ -563,7 +579,11 @@ fn configure(
             scene::set_value(&mut table, key, value.clone())?;
         }
     }
-    scene::from_table(table, source.text.as_deref(), &source.path)
+    if leave_out {
+        scene::from_table_leaving_refusals(table, source.text.as_deref(), &source.path)
+    } else {
+        scene::from_table(table, source.text.as_deref(), &source.path)
+    }
 }
 
 /// Build each distinct scene once, so a missing mesh file or a bad mesh is reported before

@@ -101,6 +101,7 @@ fn render(
         meta.wall_seconds.map_or("-".into(), |w| format!("{w:.1}")),
     );
     shards_paragraph(&mut out, meta, study.runs.len());
+    omissions_paragraph(&mut out, s);
     crate::study::kinds::present(&s.kind).report_settings(&mut out, &study.file);
     if !references.is_empty() || !failed_references.is_empty() {
         let _ = writeln!(out, "References:\n");
@@ -637,6 +638,43 @@ pub fn compute_findings(
 
 /// The findings with what loading the study warned about first (see `Study::warnings`):
 /// they are about the set-up every number below comes from.
+/// What the study left out, one line per method and reason with its scenes (a suite lists
+/// them on its own page, `omissions.md`).
+fn omissions_paragraph(out: &mut String, s: &crate::study::vocabulary::meta::StudyMeta) {
+    if s.omitted.is_empty() || s.kind == "suite" {
+        return;
+    }
+    let mut grouped: Vec<(String, &str, Vec<&str>)> = Vec::new();
+    for o in &s.omitted {
+        let method = o.method.clone().unwrap_or_else(|| "every method".into());
+        match grouped
+            .iter_mut()
+            .find(|(m, r, _)| *m == method && *r == o.reason)
+        {
+            Some((_, _, scenes)) => scenes.push(&o.scene),
+            None => grouped.push((method, &o.reason, vec![&o.scene])),
+        }
+    }
+    let _ = writeln!(out, "Left out (not run, with why):\n");
+    for (method, reason, scenes) in grouped {
+        let on = scenes
+            .iter()
+            .filter(|s| !s.is_empty())
+            .map(|s| format!("`{s}`"))
+            .collect::<Vec<_>>();
+        let _ = writeln!(
+            out,
+            "- `{method}`{}: {reason}",
+            if on.is_empty() {
+                String::new()
+            } else {
+                format!(" on {}", on.join(", "))
+            }
+        );
+    }
+    let _ = writeln!(out);
+}
+
 fn with_load_warnings(
     mut f: Findings,
     study: &crate::study::vocabulary::meta::StudyMeta,

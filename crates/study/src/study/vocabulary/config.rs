@@ -16,11 +16,12 @@ pub(in crate::study) const SOLVER_KEY: &str = "integrator.linear_solver";
 pub const SWEEP: &str = "sweep";
 
 /// The keys of a study file that are not a kind's settings table.
-pub(in crate::study) const STUDY_KEYS: [&str; 9] = [
+pub(in crate::study) const STUDY_KEYS: [&str; 10] = [
     "name",
     "study",
     "description",
     "scenes",
+    "leave_out_what_cannot_run",
     "set",
     "grid",
     "methods",
@@ -42,6 +43,11 @@ pub struct StudyFile {
     pub description: Option<String>,
     /// Scene files (relative to the study file) or inline scene tables.
     pub scenes: Vec<Spanned<toml::Value>>,
+    /// Leave out, as omissions with the method's reason, the runs whose method cannot run
+    /// their scene (a peer without drags on a dragged body), instead of refusing the study.
+    /// A suite always does.
+    #[serde(default)]
+    pub leave_out_what_cannot_run: bool,
     /// Scene keys set for every run (dotted paths), e.g. `"run.steps" = 100`.
     #[serde(default)]
     pub set: BTreeMap<String, Spanned<toml::Value>>,
