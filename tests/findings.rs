@@ -215,6 +215,20 @@ fn a_work_precision_study_ranks_error_at_equal_cost_and_flags_an_order_above_the
         w.contains("`rk2`: its error is at the reference's noise floor"),
         "{w}"
     );
+    // A run that stopped early is not scored either, but it is warned about as stopped, not
+    // as below the reference's floor (found on the peers' unstable XPBD runs).
+    let mut stopped = runs.clone();
+    let outcome = stopped.column("outcome").unwrap();
+    let rk2 = stopped.rows.iter().position(|r| r[0] == "rk2").unwrap();
+    stopped.rows[rk2][outcome] = "unstable".into();
+    let f = compute_findings("work-precision", &stopped, &params, &BTreeMap::new()).unwrap();
+    assert!(
+        !f.warnings
+            .join("\n")
+            .contains("`rk2`: its error is at the reference's noise floor"),
+        "{:?}",
+        f.warnings
+    );
 }
 
 /// Issue 24: a run that completed with inverted elements (the cow's feet) gets a warning; one

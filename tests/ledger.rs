@@ -438,6 +438,20 @@ fn a_claim_about_a_method_is_judged_on_each_implementation() {
     let judged = judge(&[Claim::read(&path).unwrap()], &tmp.path().join("results"));
     assert_eq!(judged[1].verdict.class, Class::Validated);
     assert_eq!(judged[2].verdict.class, Class::Refuted);
+    // Results made without the peers say so, rather than "too few cases".
+    tmp.write(
+        "results/s/runs.csv",
+        "scene,method,wall_seconds,error\np1,newton,1,0.1\np1,vbd,2,0.2\n",
+    );
+    let judged = judge(&[Claim::read(&path).unwrap()], &tmp.path().join("results"));
+    assert!(
+        judged[1]
+            .verdict
+            .condition
+            .starts_with("no run of `peer-vbd` in `s/runs.csv`"),
+        "{}",
+        judged[1].verdict.condition
+    );
     // Originals need the subject they implement; `claimed_on` is cpu or gpu.
     for (extra, want) in [
         ("", "originals: name the method"),

@@ -349,6 +349,21 @@ fn the_shipped_suite_runs_every_registered_method_in_quick_mode() {
         );
     }
     assert!(omissions.contains("`static`"), "{omissions}");
+    // The peer methods' blocks: this binary registers none, so each is listed with how to
+    // run it.
+    for peer in [
+        "pbat-vbd",
+        "pbat-xpbd",
+        "newton-vbd",
+        "newton-xpbd",
+        "newton-semi-implicit",
+    ] {
+        assert!(
+            omissions.contains(&format!("- `{peer}`: a peer method"))
+                && omissions.contains("python -m softbench"),
+            "{peer}: {omissions}"
+        );
+    }
     let report = std::fs::read_to_string(dir.join("report.md")).unwrap();
     assert!(report.contains("## Suite aggregates"));
     assert!(report.contains("**Ordering across levels.**"));

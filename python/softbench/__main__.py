@@ -17,7 +17,13 @@ from . import _native
 def main(argv=None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     host = [sys.executable, "-m", "softbench"]
-    return _native.cli(["softbench", *argv], host)
+    try:
+        return _native.cli(["softbench", *argv], host)
+    except KeyboardInterrupt:
+        # softbench's own handler has stopped the work at a safe point, written what was
+        # done and said how to resume; Python raises its own once the call returns. Exit as
+        # the binary does after SIGINT.
+        return 130
 
 
 if __name__ == "__main__":

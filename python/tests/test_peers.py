@@ -323,3 +323,37 @@ def test_the_shipped_twins_study_checks_conventions_and_compares_every_pair(root
     steps = pd.read_csv(tmp_path / "twins" / "series" / f"{runs['run_id'].iloc[0]}-steps.csv")
     assert list(steps.columns)[:3] == ["step", "t", "difference"] and len(steps) == 5
     assert (tmp_path / "twins" / "difference-twins_box.png").stat().st_size > 5_000
+
+
+def test_the_shipped_suite_runs_the_peers_as_rows_counted_like_their_twins(root, tmp_path):
+    need("pbatoolkit")
+    need("newton")
+    runs = softbench.run_study(
+        root / "experiments" / "suite.toml", tmp_path, quick=True,
+        only="vibration-soft-xpbd-neo-hookean*",
+    )
+    methods = set(runs["method"])
+    assert {"pbat-vbd", "pbat-xpbd", "newton-vbd", "newton-xpbd"} <= methods, methods
+    peers = runs[runs["method"].isin(["pbat-vbd", "pbat-xpbd", "newton-vbd", "newton-xpbd"])]
+    assert set(peers["outcome"]) == {"completed"}, peers[["run_id", "message"]]
+    # Each peer block sweeps its cut-off, one value per level.
+    assert set(peers["level"]) == {"loose", "tight"}
+    assert set(peers["cutoff"].str.split("=").str[0]) == {
+        "integrator.peer.iterations", "integrator.peer.substeps"
+    }
+    # A peer's sweeps are counted as softbench's: VBD at 10 iterations makes the same element
+    # evaluations in both packages and in softbench's own.
+    row = runs.set_index("run_id")["evaluations"].astype(float)
+    own = row["vibration-soft-xpbd-neo-hookean-nu0.3-vbd-iterations=10"]
+    assert own > 0
+    assert row["vibration-soft-xpbd-neo-hookean-nu0.3-pbat-vbd-iterations=10"] == own
+    assert row["vibration-soft-xpbd-neo-hookean-nu0.3-newton-vbd-iterations=10"] == own
+    # Converged VBD is the backward Euler step in every implementation: the same error.
+    error = runs.set_index("run_id")["error"].astype(float)
+    be = error["vibration-soft-xpbd-neo-hookean-nu0.3-backward-euler-cholesky-tolerance=1e-8"]
+    for peer in ("pbat-vbd", "newton-vbd"):
+        assert abs(error[f"vibration-soft-xpbd-neo-hookean-nu0.3-{peer}-iterations=40"] - be) < 1e-4 * be
+    # What a peer cannot run is omitted with its reason, not refused.
+    omissions = (tmp_path / "suite" / "omissions.md").read_text()
+    assert "`newton-semi-implicit` cannot run" in omissions, omissions
+    assert 'has no "xpbd-neo-hookean" material' in omissions, omissions

@@ -240,3 +240,37 @@ def test_the_example_compares_two_methods_and_plots(root, tmp_path):
     assert (tmp_path / "compare_methods.png").stat().st_size > 10_000
     table = pd.read_csv(tmp_path / "compare_methods.csv")
     assert set(table["method"]) == {"py-backward-euler", "backward-euler"}
+
+
+def test_ctrl_c_stops_python_m_softbench_as_it_stops_the_binary(tmp_path):
+    """SIGINT during ``python -m softbench run`` stops at a safe point and exits 130 with
+    softbench's message, not a Python traceback (found stopping the suite)."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    scene = tmp_path / "long.toml"
+    scene.write_text(
+        "[mesh]\ngenerate = { box = [8, 4, 4], size = [1.0, 0.5, 0.5] }\n"
+        '[material]\nmodel = "stable-neo-hookean"\nyoungs_modulus = 1e5\npoisson_ratio = 0.4\n'
+        'density = 1000.0\n[fixed]\nrule = { axis = "x", side = "min", tolerance = 1e-6 }\n'
+        "[forces]\ngravity = [0.0, -9.81, 0.0]\n"
+        '[integrator]\nmethod = "backward-euler"\n[run]\ndt = 0.001\nsteps = 1000000\n'
+    )
+    study = tmp_path / "study.toml"
+    study.write_text(f'name = "long"\nstudy = "trajectory"\nscenes = ["{scene.as_posix()}"]\n')
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "softbench", "run", study, "--out", tmp_path / "out"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )
+    # Wait until the run has started (its lock and series folder exist), then interrupt it.
+    deadline = time.time() + 120
+    while not (tmp_path / "out" / "long" / "series").exists() and time.time() < deadline:
+        time.sleep(0.2)
+    time.sleep(2.0)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err, err
+    assert "stopped" in err, err

@@ -284,6 +284,20 @@ fn judge_one(
         table = &with_device;
     }
     if let Some(i) = implementation
+        && i.package.is_some()
+        && i.device == Device::Cpu
+        && !table
+            .rows
+            .iter()
+            .any(|row| table.get(row, "method") == Some(i.method.as_str()))
+    {
+        return unmeasured(format!(
+            "no run of `{}` in `{shown}`: its committed results were made without the peer \
+             methods (run the study with `python -m softbench`, docs/peers.md)",
+            i.method
+        ));
+    }
+    if let Some(i) = implementation
         && i.device == Device::Gpu
     {
         let on_gpu = table.rows.iter().any(|row| {

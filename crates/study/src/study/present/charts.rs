@@ -31,8 +31,9 @@ pub(in crate::study) struct SceneRows<'a> {
 pub(in crate::study) type Emit<'e> = dyn FnMut(String, &str, Chart) -> Result<(), PlotError> + 'e;
 
 /// Parameters that set a run's accuracy: the points along one work-precision line (the step,
-/// an adaptive tolerance, a Newton tolerance, a local solver's iterations or substeps).
-pub(in crate::study) const ACCURACY_KNOBS: [&str; 7] = [
+/// an adaptive tolerance, a Newton tolerance, a local solver's iterations or substeps, a peer
+/// method's).
+pub(in crate::study) const ACCURACY_KNOBS: [&str; 9] = [
     "run.dt",
     "integrator.adaptive.tolerance",
     "integrator.newton.tolerance",
@@ -40,6 +41,8 @@ pub(in crate::study) const ACCURACY_KNOBS: [&str; 7] = [
     "integrator.projective_dynamics.iterations",
     "integrator.xpbd.substeps",
     "integrator.xpbd.iterations",
+    "integrator.peer.iterations",
+    "integrator.peer.substeps",
 ];
 
 /// Where a run sits along its work-precision line: larger for smaller steps and tolerances

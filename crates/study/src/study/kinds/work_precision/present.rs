@@ -104,8 +104,10 @@ impl Present for WorkPrecision {
             .collect()
     }
 
+    /// A completed run whose error is below the reference's floor (a run that did not
+    /// complete is not scored either, but its warning says it stopped, not this).
     fn unscored(&self, runs: &Table, row: &[String]) -> bool {
-        runs.get(row, "scored") == Some("no")
+        runs.get(row, "scored") == Some("no") && findings::completed(runs, row)
     }
 
     /// (It draws no time histories, the default: its runs differ only in accuracy.)
