@@ -312,4 +312,17 @@ fn a_peer_key_that_does_not_match_its_method_is_refused() {
             "{block}: {error}"
         );
     }
+    // A study whose only blocks are peers this command has not registered runs nothing.
+    std::fs::write(
+        dir.path().join("only.toml"),
+        "name = \"p\"\nstudy = \"trajectory\"\nscenes = [\"plain.toml\"]\n\
+         [[methods]]\nmethod = \"unregistered-peer\"\npeer = \"otherpkg\"\n",
+    )
+    .unwrap();
+    let error = load_study(&dir.path().join("only.toml")).unwrap_err();
+    assert!(
+        error.contains("every [[methods]] block names a peer method")
+            && error.contains("unregistered-peer"),
+        "{error}"
+    );
 }

@@ -259,7 +259,10 @@ def test_ctrl_c_stops_python_m_softbench_as_it_stops_the_binary(tmp_path):
         '[integrator]\nmethod = "backward-euler"\n[run]\ndt = 0.001\nsteps = 1000000\n'
     )
     study = tmp_path / "study.toml"
-    study.write_text(f'name = "long"\nstudy = "trajectory"\nscenes = ["{scene.as_posix()}"]\n')
+    study.write_text(
+        f'name = "long"\nstudy = "trajectory"\nscenes = ["{scene.as_posix()}"]\n'
+        '[grid]\n"integrator.method" = ["backward-euler"]\n'
+    )
     proc = subprocess.Popen(
         [sys.executable, "-m", "softbench", "run", study, "--out", tmp_path / "out"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
@@ -267,6 +270,7 @@ def test_ctrl_c_stops_python_m_softbench_as_it_stops_the_binary(tmp_path):
     # Wait until the run has started (its lock and series folder exist), then interrupt it.
     deadline = time.time() + 120
     while not (tmp_path / "out" / "long" / "series").exists() and time.time() < deadline:
+        assert proc.poll() is None, proc.communicate()[1]
         time.sleep(0.2)
     time.sleep(2.0)
     proc.send_signal(signal.SIGINT)

@@ -78,6 +78,19 @@ pub fn take_peer_blocks(file: &mut StudyFile, ctx: &Context) -> Result<Vec<Omiss
             }),
         }
     }
+    if kept.is_empty() && !omitted.is_empty() {
+        let names: Vec<&str> = omitted.iter().filter_map(|o| o.method.as_deref()).collect();
+        return Err(ctx.invalid(
+            0,
+            "methods",
+            format!(
+                "every [[methods]] block names a peer method this command has not registered \
+                 ({}), so nothing is left to run: run the study with `python -m softbench` \
+                 after `pip install \".[peers]\"` (docs/peers.md)",
+                names.join(", ")
+            ),
+        ));
+    }
     file.methods = kept;
     Ok(omitted)
 }
