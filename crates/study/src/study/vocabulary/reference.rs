@@ -464,13 +464,7 @@ pub fn reference(
             };
             let (summary, _, snapshots, _) = sampled_run(&mut scene, &run, stride, None, None);
             if !summary.outcome.is_completed() {
-                let (status, message) = outcome_of(&summary.outcome);
-                return Err(format!(
-                    "the reference ({} at dt = {dt:e} s) {status}: {message}; choose another \
-                 reference method or dt (a study's `[<kind>.reference]` table, a suite \
-                 problem's `[problem] reference`)",
-                    method.name()
-                ));
+                return Err(reference_failure(method, dt, &summary.outcome));
             }
             Ok((
                 snapshots,
@@ -672,4 +666,54 @@ pub(in crate::study) fn set_phase_cells(
     let stats = reference.statistic_errors(positions);
     m.set("centroid_error", cell(stats.map(|s| s.0)));
     m.set("bounding_box_error", cell(stats.map(|s| s.1)));
+}
+
+/// Why a reference solve did not give a reference, and what to do: a signal stopped it (run
+/// the command again: the study resumes), or it failed (choose another method or step).
+fn reference_failure(method: Method, dt: f64, outcome: &softbench_run::run::Outcome) -> String {
+    let (status, message) = outcome_of(outcome);
+    let what = format!(
+        "the reference ({} at dt = {dt:e} s) {status}: {message}",
+        method.name()
+    );
+    if outcome.status == softbench_run::run::OutcomeKind::Interrupted {
+        return format!("{what}; run the same command again to resume");
+    }
+    format!(
+        "{what}; choose another reference method or dt (a study's `[<kind>.reference]` table, \
+         a suite problem's `[problem] reference`)"
+    )
+}
+
+#[cfg(test)]
+mod failure_tests {
+    use super::*;
+    use softbench_run::run::{Outcome, OutcomeKind};
+
+    /// Stopping a study by a signal while it computes a reference is not the reference's
+    /// fault: the message says to resume, not to choose another method (found stopping the
+    /// suite).
+    #[test]
+    fn an_interrupted_reference_says_to_resume_and_a_failed_one_to_choose_another() {
+        let method = Method::from_name("esdirk43").unwrap();
+        let stopped = Outcome::ended(
+            OutcomeKind::Interrupted,
+            961,
+            0.12,
+            "interrupted",
+            "stopped by SIGINT after step 961",
+        );
+        let text = reference_failure(method, 1.25e-4, &stopped);
+        assert!(
+            text.ends_with("run the same command again to resume"),
+            "{text}"
+        );
+        assert!(!text.contains("choose another"), "{text}");
+        let failed = Outcome::ended(OutcomeKind::Unstable, 3, 0.1, "energy", "energy grew");
+        let text = reference_failure(method, 1.25e-4, &failed);
+        assert!(
+            text.contains("choose another reference method or dt"),
+            "{text}"
+        );
+    }
 }
