@@ -228,9 +228,31 @@ pub fn from_table_leaving_refusals(
     Ok(config)
 }
 
+/// A refused scene: the key at fault and why (the scene's path is added by the caller).
+struct Refusal {
+    key: String,
+    message: String,
+}
+
+/// Check a parsed scene: every key in its range, the parts consistent with one another; the
+/// error names the key.
 fn validate(c: &SceneConfig, path: &Path) -> Result<(), SceneError> {
-    let invalid = |key: &str, message: String| SceneError::Invalid {
+    let invalid = |r: Refusal| SceneError::Invalid {
         path: path.to_owned(),
+        key: r.key,
+        message: r.message,
+    };
+    check_run(c).map_err(invalid)?;
+    check_mesh(c).map_err(invalid)?;
+    check_start(c).map_err(invalid)?;
+    validate_newton_components(c, path)?;
+    check_contact(c).map_err(invalid)?;
+    Ok(())
+}
+
+/// `[run]` (its step, counts and budget), `[problem]`, the springs and the budget's keys.
+fn check_run(c: &SceneConfig) -> Result<(), Refusal> {
+    let invalid = |key: &str, message: String| Refusal {
         key: key.into(),
         message,
     };
@@ -272,6 +294,15 @@ fn validate(c: &SceneConfig, path: &Path) -> Result<(), SceneError> {
     }
     springs::validate(c).map_err(|e| invalid(&e.key, e.message))?;
     budget::check(c).map_err(|e| invalid(e.key, e.message))?;
+    Ok(())
+}
+
+/// `[mesh]`: one source, and a generated box or ball with positive sizes.
+fn check_mesh(c: &SceneConfig) -> Result<(), Refusal> {
+    let invalid = |key: &str, message: String| Refusal {
+        key: key.into(),
+        message,
+    };
     let mesh = c.mesh.as_ref();
     if let Some(mesh) = mesh {
         match (&mesh.file, &mesh.generate) {
@@ -326,6 +357,15 @@ fn validate(c: &SceneConfig, path: &Path) -> Result<(), SceneError> {
             }
         }
     }
+    Ok(())
+}
+
+/// The fixed rule, the initial state, gravity and the integrator's settings.
+fn check_start(c: &SceneConfig) -> Result<(), Refusal> {
+    let invalid = |key: &str, message: String| Refusal {
+        key: key.into(),
+        message,
+    };
     if let Some(rule) = &c.fixed.rule
         && !(rule.tolerance.is_finite() && rule.tolerance >= 0.0)
     {
@@ -385,7 +425,15 @@ fn validate(c: &SceneConfig, path: &Path) -> Result<(), SceneError> {
     c.integrator
         .validate()
         .map_err(|m| invalid("integrator", m))?;
-    validate_newton_components(c, path)?;
+    Ok(())
+}
+
+/// The obstacles and `[contact]`, and a response that sees the obstacles given.
+fn check_contact(c: &SceneConfig) -> Result<(), Refusal> {
+    let invalid = |key: &str, message: String| Refusal {
+        key: key.into(),
+        message,
+    };
     for (i, o) in c.obstacles.iter().enumerate() {
         o.validate(&format!("obstacles[{i}]"))
             .map_err(|e| invalid(&e.key, e.message))?;

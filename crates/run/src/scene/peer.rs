@@ -2,15 +2,9 @@
 //! settings resolved with the package's defaults, and everything a peer cannot run refused when
 //! the scene is loaded, naming the key and the package — never approximated.
 
-use super::SceneConfig;
+use super::{Refusal, SceneConfig};
 use softbench_core::integrate::peer::{PeerFacts, PeerSettings};
 use softbench_core::model::MassKind;
-
-/// A refused scene: the key at fault and why.
-pub(super) struct Refusal {
-    pub key: String,
-    pub message: String,
-}
 
 fn refuse(key: &str, message: String) -> Refusal {
     Refusal {
