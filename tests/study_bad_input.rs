@@ -230,6 +230,30 @@ fn stability_without_settings_and_bad_bracket() {
 }
 
 #[test]
+fn stability_scan_and_kept_energy_settings_are_checked_and_probes_are_gone() {
+    let base = format!(
+        "{}\n[stability]\ndt_min = 1e-3\ndt_max = 0.01\nhorizon = 1.0\n",
+        GOOD.replace("\"trajectory\"", "\"stability\"")
+    );
+    assert_rejected(
+        &format!("{base}probes = 2\n"),
+        &["stability.probes", "no longer a setting", "scan_per_decade"],
+    );
+    assert_rejected(
+        &format!("{base}scan_per_decade = 0.5\n"),
+        &["stability.scan_per_decade", "[1, 100]", "0.5"],
+    );
+    assert_rejected(
+        &format!("{base}invented_energy_limit = -1\n"),
+        &["stability.invented_energy_limit", "> 0"],
+    );
+    assert_rejected(
+        &format!("{base}\n[quick]\nscan_per_decade = 1000\n"),
+        &["quick.scan_per_decade", "[1, 100]"],
+    );
+}
+
+#[test]
 fn work_precision_dt_must_divide_the_sample_interval() {
     let s = format!(
         "{}\"run.dt\" = [0.01, 0.003]\n\n[work-precision]\nhorizon = 0.04\nsamples = 2\n",

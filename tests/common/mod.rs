@@ -83,6 +83,7 @@ pub fn assert_close(a: f64, b: f64, rel: f64) {
 }
 pub mod bodies;
 pub mod results;
+pub mod stability_study;
 
 /// Run the `softbench` binary with `args` (environment inherited) and collect its output.
 pub fn softbench(args: &[&str]) -> std::process::Output {

@@ -3,7 +3,7 @@
 
 use super::{
     ERROR_COLUMNS, ERROR_TOLERANCES, EXPONENT_TOLERANCE, GROWING_BELOW, MAX_BISECTIONS, ROBUSTNESS,
-    Stability, StabilitySettings, WIDEN_UP, settings,
+    Stability, StabilitySettings, settings,
 };
 use crate::study::kind::{Measure, RunInputs, number};
 use crate::study::vocabulary::columns;
@@ -19,6 +19,7 @@ use crate::study::vocabulary::table::Table;
 use softbench_core::integrate::State;
 use softbench_core::model::Model;
 use softbench_core::parallel::Parallelism;
+use softbench_run::run::growth::MIN_FIT_R2;
 use softbench_run::run::{Observer, Outcome, OutcomeKind, RunSummary, Sample};
 use softbench_run::scene::RunConfig;
 use std::sync::LazyLock;
@@ -30,6 +31,12 @@ pub const OWN_COLUMNS: &[&str] = &[
     "outcome",
     "max_stable_dt",
     "first_unstable_dt",
+    "largest_stable_dt",
+    "stable_fraction",
+    "stable_intervals",
+    "scan_map",
+    "scan_per_decade",
+    "invented_energy_limit",
     "omega_max",
     "dt_theory",
     "stable_over_theory",
@@ -47,10 +54,12 @@ pub const OWN_COLUMNS: &[&str] = &[
     "dt_error_1pct_bound",
     "error_at_dt_error_1pct",
     "energy_excess_at_dt_error_1pct",
+    "dt_error_1pct_met_again",
     "dt_error_10pct",
     "dt_error_10pct_bound",
     "error_at_dt_error_10pct",
     "energy_excess_at_dt_error_10pct",
+    "dt_error_10pct_met_again",
     "error_dt_precision",
     "phases",
     "error_phase1",
@@ -157,14 +166,20 @@ struct Within {
     bound: &'static str,
     error: f64,
     excess: f64,
+    /// The largest tried step above `dt` that meets the tolerance again.
+    met_again: Option<f64>,
 }
 
-/// The smallest ratio of consecutive steps in a growth trend.
-const SPACING: f64 = 1.5;
+/// The smallest ratio of consecutive steps in a growth trend (closer steps, a bisection's
+/// two ends say, make a local exponent noise).
+const SPACING: f64 = 1.04;
 
-/// How the energy's growth rate changes with dt over the three smallest trials (at least
-/// [`SPACING`] apart), when every
-/// trial blew up: `rate ∝ dt^exponent`. Explicit Euler's top mode grows at `omega² dt`
+/// The smallest ratio between the first and last of a trend's three steps.
+const SPAN: f64 = 1.1;
+
+/// How the energy's growth rate changes with dt over the three smallest trials that grew
+/// exponentially (at least [`SPACING`] apart, spanning [`SPAN`]), when every trial blew up
+/// or grew: `rate ∝ dt^exponent`. Explicit Euler's top mode grows at `omega² dt`
 /// (exponent 1) and explicit midpoint's at `omega⁴ dt³ / 4` (exponent 3) below the explicit
 /// limit; a method whose limit lies below the range grows ever more slowly as dt approaches
 /// it (the local exponent steepens), and above `2/omega_max` every explicit method may blow
@@ -187,11 +202,17 @@ impl GrowthTrend {
             .map(|t| Some((t.dt, t.summary.energy_growth?.rate)))
             .collect::<Option<_>>()?;
         points.sort_by(|a, b| a.0.total_cmp(&b.0));
-        // The smallest trial and the next ones at least 1.5x apart (the search runs 2x and 4x
-        // the smallest step): close steps make a local exponent noise.
+        // The smallest step, the next at least SPACING above it, and the next at least
+        // SPACING above that and SPAN above the first.
         let mut spaced: Vec<(f64, f64)> = Vec::with_capacity(3);
         for p in points {
-            if spaced.len() < 3 && spaced.last().is_none_or(|l| p.0 >= SPACING * l.0) {
+            let far_enough = match spaced.as_slice() {
+                [] => true,
+                [first] => p.0 >= SPACING * first.0,
+                [first, second] => p.0 >= (SPACING * second.0).max(SPAN * first.0),
+                _ => false,
+            };
+            if far_enough {
                 spaced.push(p);
             }
         }
@@ -213,12 +234,17 @@ impl GrowthTrend {
         })
     }
 
-    /// Whether the trials show a blow-up at every dt: a rate that shrinks as one positive
-    /// power of dt, at steps below the explicit limit.
+    /// Whether the trials show a blow-up at every dt: a rate that shrinks as a positive
+    /// power of dt, no steeper at the smaller steps than at the larger (a rate that steepens
+    /// towards small steps is heading for a limit where it vanishes; one that keeps its power,
+    /// or flattens as higher-order terms fade, extrapolates to every smaller step), at steps
+    /// below the explicit limit.
     fn every_dt(&self) -> bool {
         let (abs, rel) = EXPONENT_TOLERANCE;
         self.exponent > 0.0
-            && (self.local.0 - self.local.1).abs() <= abs.max(rel * self.exponent)
+            && self.local.0 > 0.0
+            && self.local.1 > 0.0
+            && self.local.0 - self.local.1 <= abs.max(rel * self.exponent)
             && self.over_theory.is_none_or(|b| b <= 1.0)
     }
 }
@@ -238,6 +264,8 @@ struct Trial {
     /// The surface at the recorder's times over the trial's steps (its last valid state if it
     /// failed), for the study's pictures; `None` for a body without tets.
     snapshots: Option<softbench_run::render::Snapshots>,
+    /// Run to check an end of the stable set (a hair from it), not part of the map.
+    check: bool,
 }
 
 impl Trial {
@@ -362,6 +390,25 @@ fn run_trial(
     // trial's need no second run.
     let (mut summary, state, snapshots) =
         run_observed(scene, &run, surface, &mut output, shared.meter);
+    if summary.outcome.is_completed()
+        && let Some(kept) = invented_energy(&summary, &output.rows, state.t)
+        && kept > settings.invented_energy_limit
+    {
+        summary.outcome = Outcome::ended(
+            OutcomeKind::Unstable,
+            summary.steps_completed,
+            state.t,
+            INVENTED,
+            format!(
+                "the energy gained beyond the work done stayed above {} x the energy the body \
+                 holds or exchanges over the last quarter of the horizon (at least {} x; \
+                 stability.invented_energy_limit = {}): energy invented and kept",
+                short(settings.invented_energy_limit),
+                short(kept),
+                short(settings.invented_energy_limit)
+            ),
+        );
+    }
     if summary.outcome.is_completed() && (needed as usize) > steps {
         summary.outcome = Outcome::ended(
             OutcomeKind::HorizonNotReached,
@@ -381,7 +428,23 @@ fn run_trial(
         rows: output.rows,
         positions: output.positions,
         snapshots,
+        check: false,
     }
+}
+
+/// The outcome cause of a trial that completed but kept invented energy.
+const INVENTED: &str = "energy invented";
+
+/// A completed trial whose energy excess stayed above `limit` times the energy scale over the
+/// whole last quarter of the horizon invented that energy and kept it: unstable, even if the
+/// excess stopped growing (a bounded spurious oscillation). Returns the smallest excess over
+/// that quarter, relative to the scale.
+fn invented_energy(summary: &RunSummary, rows: &[Sample], covered: f64) -> Option<f64> {
+    let scale = summary.energy_scale.total().max(f64::MIN_POSITIVE);
+    rows.iter()
+        .filter(|r| r.t >= 0.75 * covered)
+        .map(|r| r.energy_excess / scale)
+        .min_by(f64::total_cmp)
 }
 
 /// Whether every trial blew up.
@@ -391,89 +454,186 @@ fn every_unstable(trials: &[Trial]) -> bool {
         .all(|t| t.summary.outcome.status == OutcomeKind::Unstable)
 }
 
-/// What the search found: the bracket of the largest stable step, what checks it, and every
-/// trial run.
+/// The stable set over the judged range: maximal runs of stable trials among the tried steps
+/// (robustness checks apart), as intervals of their end steps, ascending.
+#[derive(Clone, Debug, Default, PartialEq)]
+struct StableSet {
+    intervals: Vec<(f64, f64)>,
+    lowest: f64,
+    highest: f64,
+}
+
+impl StableSet {
+    /// The stable set of the trials of the map (robustness checks apart).
+    fn of(trials: &[Trial], lowest: f64, highest: f64) -> Self {
+        let points = trials.iter().filter(|t| !t.check).map(|t| (t.dt, t.stable()));
+        Self::from_points(points, lowest, highest)
+    }
+
+    /// The stable set of `(dt, stable)` points, in any order.
+    fn from_points(points: impl Iterator<Item = (f64, bool)>, lowest: f64, highest: f64) -> Self {
+        let mut points: Vec<(f64, bool)> = points.collect();
+        points.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut intervals: Vec<(f64, f64)> = Vec::new();
+        let mut open = false;
+        for (dt, stable) in points {
+            match (stable, open) {
+                (true, true) => intervals.last_mut().expect("open interval").1 = dt,
+                (true, false) => intervals.push((dt, dt)),
+                (false, _) => {}
+            }
+            open = stable;
+        }
+        Self {
+            intervals,
+            lowest,
+            highest,
+        }
+    }
+
+    fn starts_at_lowest(&self) -> bool {
+        self.intervals.first().is_some_and(|i| i.0 <= self.lowest)
+    }
+
+    fn reaches_ceiling(&self) -> bool {
+        self.intervals.last().is_some_and(|i| i.1 >= self.highest)
+    }
+
+    /// The largest step below which every tried step is stable.
+    fn max_stable(&self) -> Option<f64> {
+        self.starts_at_lowest().then(|| self.intervals[0].1)
+    }
+
+    /// The largest stable step tried.
+    fn largest(&self) -> Option<f64> {
+        self.intervals.last().map(|i| i.1)
+    }
+
+    /// The stable share of the judged range, in log dt.
+    fn fraction(&self) -> f64 {
+        let range = (self.highest / self.lowest).ln();
+        if range <= 0.0 {
+            return if self.intervals.is_empty() { 0.0 } else { 1.0 };
+        }
+        self.intervals.iter().map(|i| (i.1 / i.0).ln()).sum::<f64>() / range
+    }
+
+    /// What the map shows, when anything is stable.
+    fn class(&self) -> Option<&'static str> {
+        match (self.intervals.len(), self.starts_at_lowest(), self.reaches_ceiling()) {
+            (0, ..) => None,
+            (1, true, true) => Some("stable-to-ceiling"),
+            (1, true, false) => Some("limit-found"),
+            (1, false, true) => Some("stable-only-above"),
+            _ => Some("stable-in-bands"),
+        }
+    }
+
+    /// `[lo, hi]` per interval, for the `stable_intervals` column.
+    fn text(&self) -> String {
+        self.intervals
+            .iter()
+            .map(|(lo, hi)| format!("[{}, {}]", short(*lo), short(*hi)))
+            .collect::<Vec<_>>()
+            .join(" ")
+    }
+}
+
+/// What the search found: the stable set, what checks it, and every trial run.
 struct Found {
-    /// The largest stable step and the smallest unstable one above it (`None`: stable to the
-    /// ceiling); `None` when no step is stable.
+    set: StableSet,
+    /// The largest step below which every tried step is stable, and the smallest unstable
+    /// step above it (`None`: stable to the ceiling); `None` when the lowest step is unstable.
     bracket: Option<(f64, Option<f64>)>,
-    /// The first probe below the limit that failed.
+    /// The largest unstable step tried below the largest stable one (the map is not one
+    /// interval from the lowest step).
     non_monotone: Option<f64>,
-    /// The trials a hair from the bracket's ends that disagree with them.
+    /// The trials a hair from the intervals' ends that disagree with them.
     not_robust: Vec<f64>,
     /// How the growth rate follows dt, where nothing (or only a slowly growing step) was
     /// stable.
     trend: Option<GrowthTrend>,
     /// The largest step that completed though its energy still grew, and by how much, when
-    /// the growth above it follows one power of dt (the bracket is then the horizon's).
+    /// the growth above it follows one power of dt (the limit is then the horizon's).
     growing_below: Option<(f64, f64)>,
-    /// The largest stable step within each error tolerance.
+    /// The largest step below which every tried step is within each error tolerance.
     within: Vec<Option<Within>>,
+    /// The scanned steps, ascending.
+    scan: Vec<f64>,
     trials: Vec<Trial>,
 }
 
 impl Found {
-    /// Run the search and its checks.
+    /// Scan the range, bisect every change, check the ends, then the error steps.
     fn search<F: FnMut(f64) -> Trial>(
         mut search: Search<F>,
         settings: &StabilitySettings,
         shared: &RunInputs,
     ) -> Self {
-        let lowest = settings.lowest_dt();
-        let highest = settings.highest_dt();
-        let bracket = search.find(settings);
-        let non_monotone = probe_below(&mut search, bracket, settings);
-        let not_robust = robustness(&mut search, bracket, settings);
-        // Nothing stable and every trial a blow-up: does the growth shrink as dt does?
-        let mut trend = None;
-        if bracket.is_none() && every_unstable(&search.trials) {
-            for k in [2.0, 4.0] {
-                if lowest * k <= highest {
-                    search.stable(lowest * k);
-                }
+        let (lowest, highest) = (settings.lowest_dt(), settings.highest_dt());
+        let scan = settings.scan();
+        for &dt in &scan {
+            search.stable(dt);
+        }
+        for pair in scan.windows(2) {
+            if search.stable(pair[0]) != search.stable(pair[1]) {
+                search.bisect(pair[0], pair[1]);
             }
-            trend = GrowthTrend::of(search.trials.iter(), shared.omega);
         }
-        let growing_below = growing_below(&mut search, bracket, settings, shared);
-        if let Some((_, t)) = growing_below {
+        let mut set = StableSet::of(&search.trials, lowest, highest);
+        let not_robust = robustness(&mut search, &set, settings);
+        let mut trend = None;
+        if set.intervals.is_empty() && every_unstable(&search.trials) {
+            trend = GrowthTrend::of(search.trials.iter().filter(|t| !t.check), shared.omega);
+        }
+        let bracket = set.max_stable().map(|lo| (lo, first_above(&search.trials, lo)));
+        let growing_below = growing_below(&mut search, &set, bracket, settings, shared);
+        if let Some(((lo, _), t)) = growing_below {
+            // Then the steps up to `lo` are not stable: they only did not show it within the
+            // horizon.
             trend = Some(t);
+            set.intervals.retain(|i| i.0 > lo);
         }
-        // Then no step is stable: the trials below only did not show it within the horizon.
         let bracket = if growing_below.is_some() {
             None
         } else {
             bracket
         };
-        // The largest stable step within each error tolerance: what ranks methods that are
-        // stable up to the ceiling (and the rest at their limit's accuracy).
-        let mut within = Vec::new();
-        if let (Some((limit, _)), Some(reference)) = (bracket, shared.reference) {
-            for &tolerance in &ERROR_TOLERANCES {
-                within.push(search.largest_within(
-                    limit,
-                    lowest,
-                    tolerance,
-                    settings.error_dt_precision,
-                    reference,
-                ));
-            }
-        }
+        let within = match shared.reference {
+            Some(reference) if !set.intervals.is_empty() => ERROR_TOLERANCES
+                .iter()
+                .map(|&tolerance| {
+                    search.largest_within(tolerance, settings.error_dt_precision, reference)
+                })
+                .collect(),
+            _ => Vec::new(),
+        };
+        let largest = set.largest();
+        let non_monotone = largest.and_then(|top| {
+            search
+                .trials
+                .iter()
+                .filter(|t| !t.check && !t.stable() && t.dt < top)
+                .map(|t| t.dt)
+                .max_by(f64::total_cmp)
+        });
         Self {
+            set,
             bracket,
             non_monotone,
             not_robust,
             trend,
             growing_below: growing_below.map(|(g, _)| g),
             within,
+            scan,
             trials: search.trials,
         }
     }
 
     /// The run's verdict.
     fn verdict(&self) -> &'static str {
-        match self.bracket {
-            Some((_, None)) => "stable-to-ceiling",
-            Some((_, Some(_))) => "limit-found",
+        match self.set.class() {
+            Some(class) => class,
             None if (every_unstable(&self.trials) || self.growing_below.is_some())
                 && self.trend.is_some_and(|t| t.every_dt()) =>
             {
@@ -483,18 +643,23 @@ impl Found {
         }
     }
 
-    /// The trial at the largest stable step, and the first unstable trial (above the limit,
-    /// or with nothing stable the smallest step tried, which decides "nothing was stable").
+    /// The trial at the largest stable step, and the unstable trial the row reports: the
+    /// first above the largest stable step (a limit), or the largest below the stable set
+    /// (unstable at small steps), or with nothing stable the smallest step tried, which
+    /// decides "nothing was stable".
     fn reported(&self) -> (Option<&Trial>, Option<&Trial>) {
-        let trials = &self.trials;
+        let tried = || self.trials.iter().filter(|t| !t.check);
         let best = self
-            .bracket
-            .and_then(|(dt, _)| trials.iter().find(|t| t.dt == dt && t.stable()));
-        let first_unstable = match self.bracket {
-            Some((_, Some(hi))) => trials.iter().find(|t| t.dt == hi),
-            Some((_, None)) => None,
-            None => trials
-                .iter()
+            .set
+            .largest()
+            .and_then(|dt| tried().find(|t| t.dt == dt && t.stable()));
+        let first_unstable = match (self.bracket, self.set.intervals.first()) {
+            (Some((_, Some(hi))), _) => tried().find(|t| t.dt == hi),
+            (Some((_, None)), _) => None,
+            (None, Some(&(lo, _))) => tried()
+                .filter(|t| !t.stable() && t.dt < lo)
+                .max_by(|a, b| a.dt.total_cmp(&b.dt)),
+            (None, None) => tried()
                 .filter(|t| !t.stable())
                 .min_by(|a, b| a.dt.total_cmp(&b.dt)),
         };
@@ -542,13 +707,30 @@ impl Found {
         m.tables = vec![("trials", trial_table(&self.trials, shared.reference))];
         m.snapshots = pictured.and_then(|dt| {
             let mut trials = self.trials;
-            let t = trials.iter_mut().find(|t| t.dt == dt)?;
+            let t = trials.iter_mut().find(|t| t.dt == dt && !t.check)?;
             t.snapshots.take()
         });
         m
     }
 
-    /// The verdict, the bracket, its checks and the steps within each error tolerance.
+    /// The scan as one character per scanned step, ascending: `#` stable, `~` energy
+    /// invented and kept, `x` blew up, `!` any other failure.
+    fn scan_map(&self) -> String {
+        self.scan
+            .iter()
+            .map(|&dt| {
+                let t = self.trials.iter().find(|t| t.dt == dt && !t.check);
+                match t {
+                    Some(t) if t.stable() => '#',
+                    Some(t) if t.summary.outcome.cause == INVENTED => '~',
+                    Some(t) if t.summary.outcome.status == OutcomeKind::Unstable => 'x',
+                    _ => '!',
+                }
+            })
+            .collect()
+    }
+
+    /// The verdict, the stable set, its checks and the steps within each error tolerance.
     fn set_search_cells(
         &self,
         m: &mut Measured,
@@ -560,6 +742,15 @@ impl Found {
         m.set("stability", verdict.to_owned());
         m.set("max_stable_dt", cell(bracket.map(|(lo, _)| lo)));
         m.set("first_unstable_dt", cell(bracket.and_then(|(_, hi)| hi)));
+        m.set("largest_stable_dt", cell(self.set.largest()));
+        m.set("stable_fraction", cell(Some(self.set.fraction())));
+        m.set("stable_intervals", self.set.text());
+        m.set("scan_map", self.scan_map());
+        m.set("scan_per_decade", cell(Some(settings.scan_per_decade)));
+        m.set(
+            "invented_energy_limit",
+            cell(Some(settings.invented_energy_limit)),
+        );
         m.set("non_monotone_dt", cell(self.non_monotone));
         m.set(
             "energy_growth_rate",
@@ -572,6 +763,7 @@ impl Found {
             m.set(name[1], found.map_or(String::new(), |w| w.bound.into()));
             m.set(name[2], cell(found.map(|w| w.error)));
             m.set(name[3], cell(found.map(|w| w.excess)));
+            m.set(name[4], cell(found.and_then(|w| w.met_again)));
         }
         m.set(
             "error_dt_precision",
@@ -579,44 +771,40 @@ impl Found {
         );
         m.set(
             "limit_robust",
-            match bracket {
-                None => String::new(),
-                Some(_) if !settings.robustness_trials => "not-checked".into(),
-                Some(_) if self.not_robust.is_empty() => "yes".into(),
-                Some(_) => "no".into(),
+            match self.set.intervals.is_empty() {
+                true => String::new(),
+                false if !settings.robustness_trials => "not-checked".into(),
+                false if self.not_robust.is_empty() => "yes".into(),
+                false => "no".into(),
             },
         );
     }
 
-    /// The run's message: why nothing was stable, or what is wrong with the bracket.
+    /// The run's message: why nothing was stable, or what is wrong with the stable set.
     fn explain(&self, m: &mut Measured, verdict: &str, settings: &StabilitySettings) {
-        if verdict != "limit-found" && verdict != "stable-to-ceiling" {
+        let range = format!(
+            "[{}, {}] s",
+            short(settings.lowest_dt()),
+            short(settings.highest_dt())
+        );
+        if self.set.intervals.is_empty() {
             let why = self.why_unstable(verdict);
+            m.message = format!("{verdict} in {range}: {why}; {}", m.message);
+        } else if verdict == "stable-only-above" || verdict == "stable-in-bands" {
             m.message = format!(
-                "{verdict} in [{}, {}] s: {why}; {}",
-                short(settings.lowest_dt()),
-                short(settings.highest_dt()),
+                "{verdict}: stable in {} of {range}; {}",
+                self.set.text(),
                 m.message
             );
         } else if !self.not_robust.is_empty() {
             m.message = format!(
-                "the bracket is not robust: trials at {} (within {ROBUSTNESS:e} of its ends) \
+                "the stable set is not robust: trials at {} (within {ROBUSTNESS:e} of its ends) \
                  disagree with them",
                 self.not_robust
                     .iter()
                     .map(|d| format!("{d:e}"))
                     .collect::<Vec<_>>()
                     .join(", ")
-            );
-        } else if let Some(dt) = self.non_monotone {
-            m.message = format!(
-                "not monotone: the smaller step {} failed ({})",
-                short(dt),
-                self.trials
-                    .iter()
-                    .find(|t| t.dt == dt)
-                    .map(|t| outcome_of(&t.summary.outcome).1)
-                    .unwrap_or_default()
             );
         }
     }
@@ -661,42 +849,51 @@ impl Found {
     }
 }
 
-/// Probe smaller steps below a limit: the first that fails makes the limit non-monotone.
-fn probe_below<F: FnMut(f64) -> Trial>(
-    search: &mut Search<F>,
-    bracket: Option<(f64, Option<f64>)>,
-    settings: &StabilitySettings,
-) -> Option<f64> {
-    let mut non_monotone = None;
-    if let Some((limit, Some(_))) = bracket {
-        let mut dt = limit;
-        for _ in 0..settings.probes {
-            dt /= 2.0;
-            if dt < settings.lowest_dt() {
-                break;
-            }
-            if !search.stable(dt) && non_monotone.is_none() {
-                non_monotone = Some(dt);
-            }
+/// Of `(dt, meets)` points ascending, the largest `dt` at or below which every point meets,
+/// and the next point above it (which misses); `(None, _)` when the smallest misses.
+fn holds_below(points: &[(f64, bool)]) -> (Option<f64>, Option<f64>) {
+    let mut lo = None;
+    for &(dt, meets) in points {
+        if !meets {
+            return (lo, Some(dt));
         }
+        lo = Some(dt);
     }
-    non_monotone
+    (lo, None)
 }
 
-/// A bracket is robust when trials a hair away from its ends agree with them: the trials
-/// that do not.
+/// The smallest unstable step tried above `dt` (robustness checks apart).
+fn first_above(trials: &[Trial], dt: f64) -> Option<f64> {
+    trials
+        .iter()
+        .filter(|t| !t.check && !t.stable() && t.dt > dt)
+        .map(|t| t.dt)
+        .min_by(f64::total_cmp)
+}
+
+/// The stable set is robust when trials a hair away from each end of each interval inside
+/// the range agree with that end: the trials that do not.
 fn robustness<F: FnMut(f64) -> Trial>(
     search: &mut Search<F>,
-    bracket: Option<(f64, Option<f64>)>,
+    set: &StableSet,
     settings: &StabilitySettings,
 ) -> Vec<f64> {
     let mut not_robust = Vec::new();
-    let range = settings.lowest_dt()..=settings.highest_dt();
-    if let Some((lo, hi)) = bracket.filter(|_| settings.robustness_trials) {
-        let ends = [(lo, true)].into_iter().chain(hi.map(|h| (h, false)));
-        for (end, stable) in ends {
-            for dt in [end * (1.0 - ROBUSTNESS), end * (1.0 + ROBUSTNESS)] {
-                if range.contains(&dt) && search.stable(dt) != stable {
+    if !settings.robustness_trials {
+        return not_robust;
+    }
+    let range = set.lowest..=set.highest;
+    for &(lo, hi) in &set.intervals {
+        for (end, outward) in [(lo, -1.0), (hi, 1.0)] {
+            if end <= set.lowest || end >= set.highest {
+                continue;
+            }
+            // Just inside the interval: stable; just outside: unstable.
+            for (dt, stable) in [
+                (end * (1.0 - outward * ROBUSTNESS), true),
+                (end * (1.0 + outward * ROBUSTNESS), false),
+            ] {
+                if range.contains(&dt) && search.check(dt) != stable {
                     not_robust.push(dt);
                 }
             }
@@ -705,13 +902,17 @@ fn robustness<F: FnMut(f64) -> Trial>(
     not_robust
 }
 
-/// A bracket below which the excess still grows, only too slowly to be sustained growth
-/// within the horizon, is where growth became detectable, not where it starts: if the growth
-/// above it follows one power of dt below 2/omega_max (explicit midpoint's dt^3), the method
-/// blows up at every dt and the bracket is the horizon's, not the method's. Returns the
-/// largest completed step and its growth factor, with the trend above it.
+/// A stable interval from the lowest step whose every trial gained energy exponentially
+/// (a positive fitted rate with R^2 >= [`MIN_FIT_R2`]), its largest by more than
+/// [`GROWING_BELOW`] x over its last half, is where growth became detectable within the
+/// horizon, not where it starts: if the growth rates from the smallest step up (the interval's
+/// and the unstable trials' above it) follow one positive power of dt below 2/omega_max
+/// (explicit midpoint's dt^3, BDF3's on an undamped body), the method blows up at every dt
+/// and the interval is the horizon's, not the method's. Returns the interval's top step and
+/// its growth factor, with the trend.
 fn growing_below<F: FnMut(f64) -> Trial>(
     search: &mut Search<F>,
+    set: &StableSet,
     bracket: Option<(f64, Option<f64>)>,
     settings: &StabilitySettings,
     shared: &RunInputs,
@@ -719,23 +920,34 @@ fn growing_below<F: FnMut(f64) -> Trial>(
     let (lo, Some(hi)) = bracket? else {
         return None;
     };
-    let below = search
+    let growing = |t: &Trial| {
+        t.summary
+            .energy_growth
+            .is_some_and(|g| g.rate > 0.0 && g.r2 >= MIN_FIT_R2)
+    };
+    let interval = |t: &&Trial| !t.check && t.stable() && t.dt <= lo;
+    if !search.trials.iter().filter(interval).all(growing) {
+        return None;
+    }
+    let top = search
         .trials
         .iter()
-        .find(|t| t.dt == lo)
+        .find(|t| t.dt == lo && !t.check)
         .and_then(|t| t.summary.energy_growth)
         .filter(|g| g.rate > 0.0 && g.factor >= GROWING_BELOW)?;
-    for k in [SPACING, SPACING * SPACING] {
-        if hi * k <= settings.highest_dt() {
+    // Enough unstable trials above for a trend when the interval is one or two steps.
+    for k in [1.5, 2.25] {
+        if hi * k <= settings.highest_dt() && set.intervals.len() == 1 {
             search.stable(hi * k);
         }
     }
-    let above = search
-        .trials
-        .iter()
-        .filter(|t| t.dt >= hi && t.summary.outcome.status == OutcomeKind::Unstable);
-    let t = GrowthTrend::of(above, shared.omega)?;
-    t.every_dt().then_some(((lo, below.factor), t))
+    let trend = search.trials.iter().filter(|t| {
+        !t.check
+            && (interval(t)
+                || (t.dt >= hi && t.summary.outcome.status == OutcomeKind::Unstable))
+    });
+    let t = GrowthTrend::of(trend, shared.omega)?;
+    t.every_dt().then_some(((lo, top.factor), t))
 }
 
 /// The cost and error of the largest stable trial: its summary, its steady cost per simulated
@@ -808,67 +1020,40 @@ struct Search<F: FnMut(f64) -> Trial> {
 impl<F: FnMut(f64) -> Trial> Search<F> {
     /// Whether the trial at `dt` is stable (run now, or recalled).
     fn stable(&mut self, dt: f64) -> bool {
+        self.tried(dt, false)
+    }
+
+    /// Whether the trial at `dt` is stable, run as a robustness check (not part of the map).
+    fn check(&mut self, dt: f64) -> bool {
+        self.tried(dt, true)
+    }
+
+    fn tried(&mut self, dt: f64, check: bool) -> bool {
         if let Some(t) = self.trials.iter().find(|t| t.dt == dt) {
             return t.stable();
         }
-        let trial = (self.run)(dt);
+        let mut trial = (self.run)(dt);
+        trial.check = check;
         let stable = trial.stable();
         self.trials.push(trial);
         stable
     }
 
-    fn closed(&self, lo: f64, hi: f64) -> bool {
-        hi / lo - 1.0 <= self.precision
-    }
-
-    /// The bracket `(largest stable dt, smallest unstable dt above it)`, `(ceiling, None)`
-    /// when the ceiling is stable, or `None` when no step in range is.
-    fn find(&mut self, settings: &StabilitySettings) -> Option<(f64, Option<f64>)> {
-        let (lowest, highest) = (settings.lowest_dt(), settings.highest_dt());
-        let start = settings.dt_max.clamp(lowest, highest);
-        if self.stable(start) {
-            // Widen upward until a failure or the ceiling.
-            let mut lo = start;
-            while lo < highest {
-                let next = (lo * WIDEN_UP).min(highest);
-                if !self.stable(next) {
-                    return Some(self.bisect(lo, next));
-                }
-                lo = next;
-            }
-            return Some((lo, None));
-        }
-        // `lo` is presumed stable: a trial at the lowest step is the most expensive one (an
-        // implicit method over the whole horizon at its smallest step), so it is tried only
-        // once the bracket has closed in on it (within 4x) without a stable trial above it.
-        // If it fails, the bracket widens downward by 10x steps to `lowest`.
-        let mut hi = start;
-        let mut lo = settings.dt_min.clamp(lowest, hi);
-        if lo >= hi {
-            lo = (hi / 10.0).max(lowest);
-        }
+    /// Bisect in log dt between two steps whose trials differ (either may be the stable
+    /// one) until they are `precision` apart.
+    fn bisect(&mut self, mut lo: f64, mut hi: f64) {
+        let low_stable = self.stable(lo);
         for _ in 0..MAX_BISECTIONS {
-            if lo >= hi {
-                return None;
-            }
-            if self.closed(lo, hi) || hi / lo <= 4.0 {
-                if self.stable(lo) {
-                    return Some(self.bisect(lo, hi));
-                }
-                if lo <= lowest * (1.0 + 1e-12) {
-                    return None;
-                }
-                hi = lo;
-                lo = (lo / 10.0).max(lowest);
-                continue;
+            if hi / lo - 1.0 <= self.precision {
+                break;
             }
             let mid = (lo * hi).sqrt();
-            if self.stable(mid) {
-                return Some(self.bisect(mid, hi));
+            if self.stable(mid) == low_stable {
+                lo = mid;
+            } else {
+                hi = mid;
             }
-            hi = mid;
         }
-        None
     }
 
     /// The error of the trial at `dt` against `reference` (run now, or recalled); `None` when
@@ -881,15 +1066,14 @@ impl<F: FnMut(f64) -> Trial> Search<F> {
         reference.relative_l2_error(&trial.positions)
     }
 
-    /// The largest stable step at most `limit` (the largest stable one) whose error is at most
-    /// `tolerance`: `limit` itself if it is, else by bisection in log dt (to `precision`)
-    /// between a step within the tolerance (found by quartering down to `lowest`) and one
-    /// beyond it. `None` when no step down to `lowest` is within it, or the tolerance is
-    /// below the reference's own accuracy (errors there are not scored).
+    /// The largest step below which every tried step (robustness checks apart) is stable
+    /// with an error of at most `tolerance`: the largest such tried step, then bisected in log
+    /// dt (to `precision`) towards the next tried step above it, which misses. A tried step
+    /// above the answer that meets the tolerance again is reported, not claimed. `None` when
+    /// the smallest step misses it, or the tolerance is below the reference's own accuracy
+    /// (errors there are not scored).
     fn largest_within(
         &mut self,
-        limit: f64,
-        lowest: f64,
         tolerance: f64,
         precision: f64,
         reference: &Reference,
@@ -897,56 +1081,53 @@ impl<F: FnMut(f64) -> Trial> Search<F> {
         if tolerance <= reference.floor() {
             return None;
         }
-        let within = |s: &mut Self, dt: f64| s.error(dt, reference).is_some_and(|e| e <= tolerance);
-        let (mut lo, mut hi) = (limit, None);
-        while !within(self, lo) {
-            hi = Some(lo);
-            lo /= 4.0;
-            if lo < lowest {
-                return None;
-            }
-        }
+        let meets = |s: &mut Self, dt: f64| s.error(dt, reference).is_some_and(|e| e <= tolerance);
+        let tried = |s: &Self| {
+            let mut dts: Vec<f64> = s.trials.iter().filter(|t| !t.check).map(|t| t.dt).collect();
+            dts.sort_by(f64::total_cmp);
+            dts
+        };
+        let points: Vec<(f64, bool)> = tried(self)
+            .into_iter()
+            .map(|dt| (dt, meets(self, dt)))
+            .collect();
+        let (lo, hi) = holds_below(&points);
+        let mut lo = lo?;
         if let Some(mut hi) = hi {
             for _ in 0..MAX_BISECTIONS {
                 if hi / lo - 1.0 <= precision {
                     break;
                 }
                 let mid = (lo * hi).sqrt();
-                if within(self, mid) {
+                if meets(self, mid) {
                     lo = mid;
                 } else {
                     hi = mid;
                 }
             }
         }
+        let met_again = tried(self)
+            .into_iter()
+            .filter(|&dt| dt > lo)
+            .filter(|&dt| meets(self, dt))
+            .max_by(f64::total_cmp);
         let trial = self.trials.iter().find(|t| t.dt == lo)?;
         let scale = trial.summary.energy_scale.total();
         let excess = trial
             .rows
             .last()
             .map_or(0.0, |r| r.energy_excess / scale.max(f64::MIN_POSITIVE));
+        let limit = StableSet::of(&self.trials, f64::MIN_POSITIVE, f64::MAX)
+            .intervals
+            .first()
+            .map(|i| i.1);
         Some(Within {
             dt: lo,
-            bound: if lo == limit { "limit" } else { "error" },
+            bound: if Some(lo) == limit { "limit" } else { "error" },
             error: self.error(lo, reference)?,
             excess,
+            met_again,
         })
-    }
-
-    /// Bisect in log dt between a stable `lo` and an unstable `hi`.
-    fn bisect(&mut self, mut lo: f64, mut hi: f64) -> (f64, Option<f64>) {
-        for _ in 0..MAX_BISECTIONS {
-            if self.closed(lo, hi) {
-                break;
-            }
-            let mid = (lo * hi).sqrt();
-            if self.stable(mid) {
-                lo = mid;
-            } else {
-                hi = mid;
-            }
-        }
-        (lo, Some(hi))
     }
 }
 
@@ -994,5 +1175,69 @@ fn trial_table(trials: &[Trial], reference: Option<&Reference>) -> Table {
                 ]
             })
             .collect(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{StableSet, holds_below};
+    use crate::study::kinds::stability::StabilitySettings;
+
+    fn set(points: &[(f64, bool)]) -> StableSet {
+        StableSet::from_points(points.iter().copied(), 1e-4, 1e-1)
+    }
+
+    #[test]
+    fn the_map_says_what_the_stable_set_is() {
+        let (s, u) = (true, false);
+        let ceiling = set(&[(1e-4, s), (1e-3, s), (1e-2, s), (1e-1, s)]);
+        assert_eq!(ceiling.class(), Some("stable-to-ceiling"));
+        assert_eq!(ceiling.max_stable(), Some(1e-1));
+        assert!((ceiling.fraction() - 1.0).abs() < 1e-12);
+        let limit = set(&[(1e-4, s), (1e-3, s), (2e-3, u), (1e-1, u)]);
+        assert_eq!(limit.class(), Some("limit-found"));
+        assert_eq!(limit.max_stable(), Some(1e-3));
+        // Unstable at small steps, stable above: no step below which every step is stable.
+        let above = set(&[(1e-1, s), (1e-4, u), (1e-3, u), (1e-2, s)]);
+        assert_eq!(above.class(), Some("stable-only-above"));
+        assert_eq!(above.max_stable(), None);
+        assert_eq!(above.largest(), Some(1e-1));
+        assert!((above.fraction() - 1.0 / 3.0).abs() < 1e-12);
+        let bands = set(&[(1e-4, s), (1e-3, u), (1e-2, s), (1e-1, u)]);
+        assert_eq!(bands.class(), Some("stable-in-bands"));
+        assert_eq!(bands.max_stable(), Some(1e-4));
+        assert_eq!(bands.intervals, vec![(1e-4, 1e-4), (1e-2, 1e-2)]);
+        assert_eq!(bands.text(), "[1e-4, 1e-4] [0.01, 0.01]");
+        let inside = set(&[(1e-4, u), (1e-3, s), (1e-1, u)]);
+        assert_eq!(inside.class(), Some("stable-in-bands"));
+        assert_eq!(set(&[(1e-4, u), (1e-1, u)]).class(), None);
+    }
+
+    #[test]
+    fn an_error_step_holds_below_it_and_a_non_monotone_curve_is_not_claimed_above_the_jump() {
+        // Errors 0.01, 0.05, 0.085, then a jump to 0.46 and back to 0.08 at a larger step:
+        // within 10 % holds up to the third step only.
+        let errors = [(1e-3, 0.01), (2e-3, 0.05), (5e-3, 0.085), (5.5e-3, 0.46), (8e-3, 0.08)];
+        let points: Vec<(f64, bool)> = errors.iter().map(|&(dt, e)| (dt, e <= 0.1)).collect();
+        assert_eq!(holds_below(&points), (Some(5e-3), Some(5.5e-3)));
+        // The smallest misses: no step.
+        assert_eq!(holds_below(&[(1e-3, false), (2e-3, true)]), (None, Some(1e-3)));
+        assert_eq!(holds_below(&[(1e-3, true), (2e-3, true)]), (Some(2e-3), None));
+    }
+
+    #[test]
+    fn the_scan_covers_the_judged_range_and_the_first_step() {
+        let settings: StabilitySettings = toml::from_str(
+            "dt_min = 1e-4\ndt_max = 0.0123\nhorizon = 1.0\nmax_steps = 10000\nmin_steps = 10\n\
+             scan_per_decade = 4",
+        )
+        .unwrap();
+        let scan = settings.scan();
+        assert_eq!(scan.first(), Some(&1e-4));
+        assert_eq!(scan.last(), Some(&0.1));
+        assert!(scan.contains(&0.0123));
+        // Three decades at four per decade, both ends, and dt_max.
+        assert_eq!(scan.len(), 14);
+        assert!(scan.windows(2).all(|w| w[1] > w[0] && w[1] / w[0] <= 10f64.powf(0.25) + 1e-9));
     }
 }

@@ -1,25 +1,34 @@
-//! Stability runs: the largest time step at which a method covers a fixed horizon, what it
-//! costs per simulated second there and how wrong it is, next to the explicit limit
-//! 2/omega_max of the scene at rest.
+//! Stability runs: the set of time steps at which a method covers a fixed horizon, drawn as a
+//! map over the whole judged range, what it costs per simulated second at its largest stable
+//! step and how wrong it is, next to the explicit limit 2/omega_max of the scene at rest.
 //!
 //! A trial at `dt` is stable when it covers the whole horizon in at least `min_steps` and at
-//! most `max_steps` steps with every step taken and no blow-up (see [`softbench_run::run::balance`]: a
-//! blow-up is energy gained beyond the work done on the body that keeps growing, not a level
-//! crossed). Steps outside `[lowest_dt, highest_dt]` are never judged, so no cap decides a
-//! verdict. The search: try `dt_max`; if it is stable, widen upward (x4) to the ceiling;
-//! otherwise bisect in log dt between a presumed-stable `dt_min` (tried once the bracket
-//! closes in on it, widened downward by 10x to `lowest_dt` if it fails) and the failure.
-//! Bisection presumes stability is monotone in dt; after it, a few smaller steps are probed
-//! and a failure there is reported (`non_monotone_dt`), and trials [`ROBUSTNESS`] away from
-//! each end of the bracket must agree with that end (`limit_robust`).
+//! most `max_steps` steps with every step taken, no blow-up (see [`softbench_run::run::balance`]:
+//! a blow-up is energy gained beyond the work done on the body that keeps growing, not a level
+//! crossed) and no invented energy kept: an excess above `invented_energy_limit` times the
+//! energy scale throughout the last quarter of the horizon is instability even when it stopped
+//! growing (a bounded spurious oscillation). Steps outside `[lowest_dt, highest_dt]` are never
+//! judged, so no cap decides a verdict.
 //!
-//! The verdict (`stability`): `limit-found` (a bracket: `max_stable_dt`, `first_unstable_dt`),
-//! `stable-to-ceiling`, `unstable-at-every-dt` (every trial blew up and the growth rate of the
-//! three smallest shrinks as one positive power of dt, `growth_exponent`, below 2/omega_max:
-//! see [`GrowthTrend`]; also when the trials below a bracket still grew, only too slowly to
-//! show within the horizon, and the growth above it follows such a power) or
+//! The search does not presume stability is monotone in dt. It scans the whole judged range,
+//! `scan_per_decade` log-spaced steps per decade (and `dt_max`), then bisects *every* change
+//! between stable and unstable between neighbouring trials to `relative_precision`; the stable
+//! set is reported as intervals (`stable_intervals`, `scan_map`). Trials [`ROBUSTNESS`] away
+//! from each end of each interval inside the range must agree with that end (`limit_robust`).
+//!
+//! The verdict (`stability`) says what the map shows: `stable-to-ceiling` (every step tried is
+//! stable), `limit-found` (stable from the lowest step up to `max_stable_dt`, unstable above:
+//! `first_unstable_dt`), `stable-only-above` (unstable at the small steps, stable from some step
+//! up to the ceiling: BDF3-6 on lightly damped bodies), `stable-in-bands` (any other stable
+//! set), `unstable-at-every-dt` (every trial blew up and the growth rate of the three smallest
+//! shrinks as a positive power of dt, no steeper at the smaller steps, `growth_exponent`,
+//! below 2/omega_max: see `GrowthTrend`; also when the trials of a stable interval from the
+//! lowest step all still grew, only too slowly to show within the horizon, and the rates from
+//! the smallest step up follow such a power) or
 //! `no-stable-dt-in-range` (no trial was stable, which says nothing about steps below the
-//! range). The `outcome` column is how the first unstable trial ended.
+//! range). Rankings use `max_stable_dt`, the largest step below which every tried step is
+//! stable, and `stable_fraction`, the stable share of the range in log dt. The `outcome` column
+//! is how the reported unstable trial ended.
 
 mod measure;
 mod plan;
@@ -53,11 +62,10 @@ fn settings(file: &StudyFile) -> Option<StabilitySettings> {
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct StabilitySettings {
-    /// Presumed-stable lower end of the first bracket (s); tried only once the bracket closes
-    /// in on it.
+    /// The smallest step of interest (s): the judged range's floor defaults to `dt_min / 1000`.
     pub dt_min: f64,
-    /// The first step tried (s). If it is stable the bracket widens upward (x4 at a time) to
-    /// `dt_ceiling`, so methods stable there are still ranked.
+    /// A step the scan always tries (s), the scene's own step say; the judged range reaches up
+    /// to `dt_ceiling` above it, so methods stable there are still ranked.
     pub dt_max: f64,
     /// Simulated time every trial must cover (s).
     pub horizon: f64,
@@ -67,11 +75,12 @@ pub struct StabilitySettings {
     /// level). Default 1.
     #[serde(default = "default_energy_factor")]
     pub energy_factor: f64,
-    /// Bisection stops when `hi/lo - 1` is below this. Default 0.01.
+    /// Each change between stable and unstable is bisected until `hi/lo - 1` is below this.
+    /// Default 0.01.
     #[serde(default = "default_relative_precision")]
     pub relative_precision: f64,
-    /// If `dt_min` is unstable the bracket widens downward by 10x steps to this floor (or to
-    /// `horizon / max_steps`, whichever is larger). Default `dt_min / 1000`.
+    /// The judged range's lower end (or `horizon / max_steps`, whichever is larger). Default
+    /// `dt_min / 1000`.
     #[serde(default)]
     pub dt_floor: Option<f64>,
     /// The largest step tried (s). Default and upper bound: `horizon / min_steps`.
@@ -85,10 +94,20 @@ pub struct StabilitySettings {
     /// Default 20.
     #[serde(default = "default_min_steps")]
     pub min_steps: usize,
-    /// After a limit is found, this many smaller steps (dt/2, dt/4, ...) are tried; a failure
-    /// there flags the result as non-monotone. Default 2.
-    #[serde(default = "default_probes")]
-    pub probes: usize,
+    /// Log-spaced steps per decade of the judged range the scan tries before any bisection
+    /// (both ends included). Default 6.
+    #[serde(default = "default_scan_per_decade")]
+    pub scan_per_decade: f64,
+    /// Written by softbench before the stability maps (smaller steps probed below a limit
+    /// found by bisection): read back only so results written then redraw and say how they
+    /// were searched. A study file that sets it is refused.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub probes: Option<usize>,
+    /// A trial that completed but kept an energy excess above this many times the energy
+    /// scale over the whole last quarter of its horizon invented that energy: it is unstable
+    /// (`energy-invented`). Default 0.05.
+    #[serde(default = "default_invented_energy_limit")]
+    pub invented_energy_limit: f64,
     /// Newton must converge within its iteration cap, or the step fails as `solver-failed`
     /// (otherwise unconverged steps are accepted and counted). Default true.
     #[serde(default = "yes")]
@@ -132,8 +151,12 @@ fn default_min_steps() -> usize {
     20
 }
 
-fn default_probes() -> usize {
-    2
+fn default_scan_per_decade() -> f64 {
+    6.0
+}
+
+fn default_invented_energy_limit() -> f64 {
+    0.05
 }
 
 fn default_error_dt_precision() -> f64 {
@@ -165,12 +188,39 @@ impl StabilitySettings {
         let bound = self.horizon / self.min_steps.max(1) as f64;
         self.dt_ceiling.map_or(bound, |c| c.min(bound))
     }
+
+    /// The scan's steps, ascending: `scan_per_decade` log-spaced steps per decade over the
+    /// judged range, both ends included, and `dt_max` when it lies inside.
+    pub fn scan(&self) -> Vec<f64> {
+        let (lowest, highest) = (self.lowest_dt(), self.highest_dt());
+        if highest <= lowest {
+            return vec![lowest];
+        }
+        let cells = ((highest / lowest).log10() * self.scan_per_decade)
+            .ceil()
+            .max(1.0) as usize;
+        let mut steps: Vec<f64> = (0..=cells)
+            .map(|i| match i {
+                0 => lowest,
+                i if i == cells => highest,
+                i => lowest * (highest / lowest).powf(i as f64 / cells as f64),
+            })
+            .collect();
+        if lowest < self.dt_max && self.dt_max < highest {
+            steps.push(self.dt_max);
+            steps.sort_by(f64::total_cmp);
+            steps.dedup_by(|a, b| (*a / *b - 1.0).abs() < 1e-12);
+        }
+        steps
+    }
 }
 
 /// The verdicts of the `stability` column.
-pub const VERDICTS: [&str; 4] = [
+pub const VERDICTS: [&str; 6] = [
     "limit-found",
     "stable-to-ceiling",
+    "stable-only-above",
+    "stable-in-bands",
     "unstable-at-every-dt",
     "no-stable-dt-in-range",
 ];
@@ -179,30 +229,32 @@ pub const VERDICTS: [&str; 4] = [
 /// largest stable step is reported: `dt_error_1pct` and `dt_error_10pct`.
 pub const ERROR_TOLERANCES: [f64; 2] = [0.01, 0.1];
 
-/// Per tolerance: the step, what bounds it (`limit` when the largest stable step is within
-/// the tolerance, `error` when the error is), the error there, and the energy excess at the
-/// end of that trial over the energy the body holds or exchanges (signed: negative = lost).
-const ERROR_COLUMNS: [[&str; 4]; 2] = [
+/// Per tolerance: the largest step below which every tried step meets it, what bounds it
+/// (`limit` when it is the largest stable step, `error` when a larger step misses the
+/// tolerance), the error there, the energy excess at the end of that trial over the energy the
+/// body holds or exchanges (signed: negative = lost), and the largest tried step above it that
+/// meets the tolerance again (a non-monotone error curve: that step is not claimed).
+const ERROR_COLUMNS: [[&str; 5]; 2] = [
     [
         "dt_error_1pct",
         "dt_error_1pct_bound",
         "error_at_dt_error_1pct",
         "energy_excess_at_dt_error_1pct",
+        "dt_error_1pct_met_again",
     ],
     [
         "dt_error_10pct",
         "dt_error_10pct_bound",
         "error_at_dt_error_10pct",
         "energy_excess_at_dt_error_10pct",
+        "dt_error_10pct_met_again",
     ],
 ];
 
-/// How far the two local exponents of the growth rate may differ (absolute, or this fraction
-/// of the fitted exponent if larger) for the growth to follow one power of dt.
+/// How much steeper the local exponent of the growth rate between the two smaller steps of a
+/// trend may be than between the two larger (absolute, or this fraction of the fitted
+/// exponent if larger) for the growth to extrapolate to every smaller step.
 const EXPONENT_TOLERANCE: (f64, f64) = (0.5, 0.25);
-
-/// Upward widening factor when `dt_max` is stable.
-const WIDEN_UP: f64 = 4.0;
 
 /// Bisections at most (a precision near round-off cannot loop forever).
 const MAX_BISECTIONS: usize = 64;

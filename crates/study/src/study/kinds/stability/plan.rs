@@ -26,6 +26,8 @@ struct Quick {
     relative_precision: Option<f64>,
     /// The precision of the error-tolerance search (default: the study's, at least 0.5).
     error_dt_precision: Option<f64>,
+    /// The scan's steps per decade (default: the study's, at most 3).
+    scan_per_decade: Option<f64>,
     /// Refused: a stability study keeps its horizon (see `check_quick`).
     horizon: Option<f64>,
     /// Refused: a stability study keeps its judged range (see `check_quick`).
@@ -37,14 +39,17 @@ const QUICK_PRECISION: f64 = 0.1;
 
 const QUICK_ERROR_DT_PRECISION: f64 = 0.5;
 
+/// Quick mode's default scan density (steps per decade) at most.
+const QUICK_SCAN_PER_DECADE: f64 = 3.0;
+
 impl Plan for Stability {
     fn name(&self) -> &'static str {
         NAME
     }
 
     fn description(&self) -> &'static str {
-        "each run's largest stable time step over a horizon, by bisection, and its cost and \
-         error there"
+        "each run's stable time steps over a horizon, scanned over the whole judged range and \
+         every change bisected, and its cost and error at its largest stable step"
     }
 
     fn example(&self) -> &'static str {
@@ -74,6 +79,7 @@ impl Plan for Stability {
         &[
             "relative_precision",
             "error_dt_precision",
+            "scan_per_decade",
             "horizon",
             "max_steps",
         ]
@@ -100,6 +106,14 @@ impl Plan for Stability {
                     format!("must be in [{MIN_RELATIVE_PRECISION:e}, 1) (got {p})"),
                 ));
             }
+        }
+        if let Some(n) = file.quick.get::<f64>("scan_per_decade")
+            && !(n.is_finite() && (1.0..=100.0).contains(&n))
+        {
+            return Err(bad(
+                "quick.scan_per_decade",
+                format!("must be in [1, 100] steps per decade (got {n})"),
+            ));
         }
         Ok(())
     }
@@ -171,11 +185,12 @@ impl Plan for Stability {
         settings(file).map(|s| (s.horizon, "horizon / dt steps of each dt the search tries"))
     }
 
-    /// About a dozen trials (widening, bisection, probes), each covering the horizon at a
-    /// step near the first one tried.
+    /// The scan's trials, each covering the horizon (dominated by the smallest steps), and
+    /// a few bisections near the first one tried.
     fn estimated_steps(&self, file: &StudyFile, _: &SceneConfig) -> f64 {
         settings(file).map_or(1.0, |s| {
-            12.0 * (s.horizon / s.dt_max).clamp(s.min_steps as f64, s.max_steps as f64)
+            let scanned: f64 = s.scan().iter().map(|dt| s.horizon / dt).sum();
+            scanned + 8.0 * (s.horizon / s.dt_max).clamp(s.min_steps as f64, s.max_steps as f64)
         })
     }
 }
@@ -234,6 +249,32 @@ fn check(
             format!(
                 "must be in [{MIN_RELATIVE_PRECISION:e}, 1) (got {})",
                 s.error_dt_precision
+            ),
+        ));
+    }
+    if s.probes.is_some() {
+        return Err(bad(
+            "stability.probes",
+            "is no longer a setting: the search scans the whole judged range and bisects every \
+             change (`scan_per_decade`, default 6), so no step below a limit goes untried"
+                .into(),
+        ));
+    }
+    if !(s.scan_per_decade.is_finite() && (1.0..=100.0).contains(&s.scan_per_decade)) {
+        return Err(bad(
+            "stability.scan_per_decade",
+            format!(
+                "must be in [1, 100] steps per decade (got {})",
+                s.scan_per_decade
+            ),
+        ));
+    }
+    if !(s.invented_energy_limit.is_finite() && s.invented_energy_limit > 0.0) {
+        return Err(bad(
+            "stability.invented_energy_limit",
+            format!(
+                "must be > 0 times the energy scale (got {})",
+                s.invented_energy_limit
             ),
         ));
     }
@@ -305,7 +346,8 @@ fn check_quick(file: &StudyFile, ctx: &Context) -> Result<(), StudyError> {
                 message: "a stability study keeps its horizon and its judged range of steps in \
                           quick mode, so every quick trial is the full study's trial at that \
                           step and every quick verdict of the full study's class; [quick] may \
-                          set relative_precision and error_dt_precision (coarser searches)"
+                          set relative_precision, error_dt_precision and scan_per_decade \
+                          (coarser searches)"
                     .into(),
             });
         }
@@ -323,6 +365,9 @@ fn quick_table(file: &mut StudyFile, _: &Context) -> Result<(), StudyError> {
         s.error_dt_precision = q
             .get("error_dt_precision")
             .unwrap_or(s.error_dt_precision.max(QUICK_ERROR_DT_PRECISION));
+        s.scan_per_decade = q
+            .get("scan_per_decade")
+            .unwrap_or(s.scan_per_decade.min(QUICK_SCAN_PER_DECADE));
         s.robustness_trials = false;
         file.set_settings(NAME, &s);
     }

@@ -21,6 +21,8 @@ impl Present for Stability {
             "max_stable_dt",
             "outcome",
             "first_unstable_dt",
+            "stable_intervals",
+            "stable_fraction",
             "stable_over_theory",
             "cost_per_simulated_second",
             "evaluations_per_simulated_second",
@@ -42,12 +44,11 @@ impl Present for Stability {
 
     fn quick_notice(&self) -> &'static str {
         "the same horizon, judged range and criterion (a verdict at a step is the full \
-         study's, and a run's verdict of the same class), but coarser searches and no \
-         robustness trials"
+         study's), but a coarser scan and searches and no robustness trials, so a narrow band \
+         the full scan resolves may be missed"
     }
 
-    /// The `stability` column: clean when it answers the question (a limit, or stable up to
-    /// the ceiling).
+    /// The `stability` column: clean when the map shows a stable set.
     fn verdict<'a>(&self, runs: &'a Table, row: &'a [String]) -> Verdict<'a> {
         let word = runs.get(row, "stability").unwrap_or_default();
         Verdict {
@@ -56,8 +57,8 @@ impl Present for Stability {
         }
     }
 
-    /// A limit below which a smaller step failed, or whose bracket is not robust, is listed,
-    /// though it was found.
+    /// A stable set with an unstable step below its top, or whose ends are not robust, is
+    /// listed, though it was mapped.
     fn flagged(&self, runs: &Table, row: &[String]) -> bool {
         runs.get(row, "non_monotone_dt")
             .is_some_and(|v| !v.is_empty())
@@ -74,11 +75,21 @@ impl Present for Stability {
         report_settings(out, file);
     }
 
-    fn scene_charts(&self, s: &SceneRows, _: &Path, emit: &mut Emit) -> Result<(), PlotError> {
-        scene_charts(s, emit)
+    fn report_findings(
+        &self,
+        out: &mut String,
+        runs: &Table,
+        _: &crate::study::vocabulary::meta::StudyMeta,
+    ) {
+        stability_maps(out, runs);
     }
 
-    /// The largest stable dt, and the cost per simulated second there.
+    fn scene_charts(&self, s: &SceneRows, dir: &Path, emit: &mut Emit) -> Result<(), PlotError> {
+        scene_charts(s, dir, emit)
+    }
+
+    /// The largest step below which every tried step is stable, the stable share of the
+    /// range, the same within each error tolerance, and the cost at the largest stable step.
     fn rankings(&self, s: &SceneRows, _: Option<&str>) -> Vec<Ranking> {
         let runs = s.runs;
         let has = |c: &str| runs.column(c).is_some();
@@ -86,14 +97,27 @@ impl Present for Stability {
         if has("max_stable_dt") {
             out.extend(findings::ranking(
                 s,
-                "largest stable dt (s)".into(),
+                "largest dt below which every tried step is stable (s)".into(),
                 Better::Larger,
                 &|r| {
                     runs.number(r, "max_stable_dt").ok_or_else(|| {
-                        runs.get(r, "stability")
-                            .unwrap_or("no limit found")
-                            .to_owned()
+                        let verdict = runs.get(r, "stability").unwrap_or("no limit found");
+                        match runs.get(r, "stable_intervals").filter(|v| !v.is_empty()) {
+                            Some(set) => format!("{verdict}: stable in {set}"),
+                            None => verdict.to_owned(),
+                        }
                     })
+                },
+            ));
+        }
+        if has("stable_fraction") {
+            out.extend(findings::ranking(
+                s,
+                "stable share of the judged range (in log dt)".into(),
+                Better::Larger,
+                &|r| {
+                    runs.number(r, "stable_fraction")
+                        .ok_or_else(|| "not measured".to_owned())
                 },
             ));
         }
@@ -103,14 +127,14 @@ impl Present for Stability {
                 out.extend(findings::ranking(
                     s,
                     format!(
-                        "largest stable dt with a position error of at most {}% against the \
-                         reference (s)",
+                        "largest dt below which every tried step is stable with a position \
+                         error of at most {}% against the reference (s)",
                         tolerance * 100.0
                     ),
                     Better::Larger,
                     &|r| {
                         runs.number(r, column)
-                            .ok_or_else(|| "no stable step within it".to_owned())
+                            .ok_or_else(|| "no such step: the smallest misses it".to_owned())
                     },
                 ));
             }
@@ -182,8 +206,19 @@ impl Present for Stability {
     }
 }
 
-/// Cost against error at the largest stable steps, and the largest stable step per method.
-fn scene_charts(s: &SceneRows, emit: &mut Emit) -> Result<(), PlotError> {
+/// Cost against error at the largest stable steps, the largest stable step per method and
+/// the error against dt of every stable trial.
+fn scene_charts(s: &SceneRows, dir: &Path, emit: &mut Emit) -> Result<(), PlotError> {
+    if let Some(chart) = error_dt_chart(s, dir) {
+        emit(
+            format!("error-dt-{}", s.slug),
+            "Relative L2 position error against dt of every stable trial of each method \
+             (log-log; the scan, its bisections and the error-tolerance searches). A curve that \
+             rises as dt shrinks is non-monotone: the step reported within a tolerance is the \
+             largest below which every tried step meets it.",
+            Chart::Line(chart),
+        )?;
+    }
     if let Some(chart) = cost_error_chart(s.scene, s.runs, s.params, s.rows) {
         emit(
             format!("cost-error-{}", s.slug),
@@ -195,9 +230,10 @@ fn scene_charts(s: &SceneRows, emit: &mut Emit) -> Result<(), PlotError> {
     }
     emit(
         format!("stable-dt-{}", s.slug),
-        "Largest stable time step per method (log scale); the line is the explicit limit \
-         2/omega_max of the scene at rest. Bars marked >= ceiling were stable at the largest \
-         step judged (horizon / min_steps).",
+        "Largest step below which every tried step is stable, per method (log scale); the line \
+         is the explicit limit 2/omega_max of the scene at rest. Bars marked >= ceiling were \
+         stable at every step judged up to the ceiling (horizon / min_steps); a method stable \
+         only above some step or in bands has no bar and says where (the maps in the report).",
         Chart::Bar(stable_dt_chart(s.scene, s.runs, s.params, s.rows)),
     )
 }
@@ -206,29 +242,55 @@ fn scene_charts(s: &SceneRows, emit: &mut Emit) -> Result<(), PlotError> {
 /// decide a result.
 fn report_settings(out: &mut String, file: &StudyFile) {
     if let Some(st) = &settings(file) {
+        if let Some(probes) = st.probes {
+            // Results written before the stability maps: say how they were searched.
+            let _ = writeln!(
+                out,
+                "Stability search (softbench before the stability maps): first trial at {} s, \
+                 bisection down to a presumed-stable {} s or widening up (x4) to the ceiling, to \
+                 {}% precision, then {probes} smaller probe(s); steps judged in [{}, {}] s over \
+                 a {} s horizon in {} to {} steps; energy limit {} x the energy scale. A \
+                 stability study now scans the whole range and bisects every change: rerun it \
+                 for its stability maps.\n",
+                short(st.dt_max),
+                short(st.dt_min),
+                st.relative_precision * 100.0,
+                short(st.lowest_dt()),
+                short(st.highest_dt()),
+                short(st.horizon),
+                st.min_steps,
+                st.max_steps,
+                st.energy_factor,
+            );
+            return;
+        }
         let _ = writeln!(
             out,
-            "Stability search: first trial at {} s, bisection down to a presumed-stable {} s or \
-             widening up (x4) to the ceiling, to {}% precision, then {} smaller probe(s){}. A trial is \
-             stable when it covers the {} s horizon in {} to {} steps with every step taken and \
-             no blow-up: its energy gain beyond the work done on the body never passed {} x the \
-             energy the body holds or exchanges while growing ({GROWN:e} x its first half's) \
-             and did not grow exponentially over the last half (x{} with R^2 >= {}); so only steps in [{}, {}] s are judged. With no stable trial, \
-             `unstable-at-every-dt` needs the three smallest trials' growth rates to follow \
-             one positive power of dt below 2/omega_max; a bracket whose largest stable trial's \
-             excess grew more than {GROWING_BELOW} x, and above which the growth rates follow \
-             such a power, is the horizon's and reported as `unstable-at-every-dt` too. With a \
-             reference, the largest stable \
-             step within each error tolerance ({}) is searched to {}% precision. Newton \
+            "Stability map: every run scans its judged range [{}, {}] s at {} log-spaced steps \
+             per decade (and {} s), then bisects every change between stable and unstable to \
+             {}% precision{}. A trial is stable when it covers the {} s horizon in {} to {} \
+             steps with every step taken and no blow-up: its energy gain beyond the work done on \
+             the body never passed {} x the energy the body holds or exchanges while growing \
+             ({GROWN:e} x its first half's), did not grow exponentially over the last half (x{} \
+             with R^2 >= {}), and did not stay above {} x that scale over the whole last \
+             quarter of the horizon (energy invented and kept, `~` in the maps). With no stable \
+             trial, `unstable-at-every-dt` needs the three smallest trials' growth rates to \
+             follow one positive power of dt below 2/omega_max; a limit whose largest stable \
+             trial's excess grew more than {GROWING_BELOW} x, and above which the growth rates \
+             follow such a power, is the horizon's and reported as `unstable-at-every-dt` too. \
+             With a reference, the largest step below which every tried step meets each error \
+             tolerance ({}) is searched to {}% precision; a tried step above it that meets the \
+             tolerance again is reported (`dt_error_*_met_again`), not claimed. Newton \
              convergence {}.\n",
+            short(st.lowest_dt()),
+            short(st.highest_dt()),
+            st.scan_per_decade,
             short(st.dt_max),
-            short(st.dt_min),
             st.relative_precision * 100.0,
-            st.probes,
             if st.robustness_trials {
                 format!(
-                    " and a trial {ROBUSTNESS:e} (relative) on each side of each end of the \
-                     bracket"
+                    ", and a trial {ROBUSTNESS:e} (relative) on each side of each end of the \
+                     stable intervals inside the range"
                 )
             } else {
                 " (no robustness trials: `limit_robust` is `not-checked`)".to_owned()
@@ -239,8 +301,7 @@ fn report_settings(out: &mut String, file: &StudyFile) {
             st.energy_factor,
             softbench_run::run::growth::SUSTAINED_GROWTH,
             softbench_run::run::growth::MIN_FIT_R2,
-            short(st.lowest_dt()),
-            short(st.highest_dt()),
+            short(st.invented_energy_limit),
             ERROR_TOLERANCES
                 .iter()
                 .map(|t| format!("{}%", t * 100.0))
@@ -257,8 +318,13 @@ fn report_settings(out: &mut String, file: &StudyFile) {
     }
 }
 
-/// The verdicts that answer the question (a limit, or stable up to the ceiling).
-const ANSWERED: [&str; 2] = ["limit-found", "stable-to-ceiling"];
+/// The verdicts that answer the question: a stable set was mapped.
+const ANSWERED: [&str; 4] = [
+    "limit-found",
+    "stable-to-ceiling",
+    "stable-only-above",
+    "stable-in-bands",
+];
 
 /// The largest stable step per method, with 2/omega_max as a line (or a tick per bar when
 /// the physics differ).
@@ -300,6 +366,10 @@ fn stable_dt_chart(
                     label.push_str(" (non-monotone)");
                 }
                 let note = match verdict {
+                    "stable-only-above" | "stable-in-bands" => Some(format!(
+                        "{verdict}: {}",
+                        runs.get(r, "stable_intervals").unwrap_or("?")
+                    )),
                     "unstable-at-every-dt" => Some(match runs.number(r, "energy_growth_rate") {
                         Some(rate) => format!(
                             "unstable at every dt (energy e-folds at {}/s)",
@@ -370,6 +440,92 @@ fn cost_error_chart(
         title: format!("Cost against error at the largest stable step: {scene}"),
         x_label: "relative L2 position error at the largest stable dt".into(),
         y_label: "wall seconds per simulated second".into(),
+        x_log: true,
+        y_log: true,
+        series,
+    })
+}
+
+/// Per scene, each run's scan as one character per scanned step (smallest first) with its
+/// stable intervals: the map the verdicts summarize.
+fn stability_maps(out: &mut String, runs: &Table) {
+    if runs.column("scan_map").is_none() {
+        return;
+    }
+    let mut scenes: Vec<&str> = runs.rows.iter().filter_map(|r| runs.get(r, "scene")).collect();
+    scenes.dedup();
+    let _ = writeln!(
+        out,
+        "## Stability maps\n\nOne character per scanned step, smallest first (log-spaced over \
+         the judged range): `#` stable, `~` energy invented and kept, `x` blew up, `!` any \
+         other failure (solver failed, left the material's domain, step cap); then the stable \
+         intervals after bisecting every change.\n"
+    );
+    for scene in scenes {
+        let rows: Vec<&Vec<String>> = runs
+            .rows
+            .iter()
+            .filter(|r| runs.get(r, "scene") == Some(scene))
+            .collect();
+        let Some(first) = rows.first() else { continue };
+        let _ = writeln!(
+            out,
+            "**{scene}**, dt from {} s to {} s, {} steps per decade:\n\n```text",
+            runs.get(first, "lowest_dt").unwrap_or("?"),
+            runs.get(first, "highest_dt").unwrap_or("?"),
+            runs.get(first, "scan_per_decade").unwrap_or("?"),
+        );
+        let name = |r: &Vec<String>| {
+            let id = runs.get(r, "run_id").unwrap_or("?");
+            id.strip_prefix(scene)
+                .map_or(id, |s| s.trim_start_matches('-'))
+                .to_owned()
+        };
+        let width = rows.iter().map(|r| name(r).len()).max().unwrap_or(0);
+        for r in &rows {
+            let _ = writeln!(
+                out,
+                "{:width$}  {}  {}",
+                name(r),
+                runs.get(r, "scan_map").unwrap_or(""),
+                runs.get(r, "stable_intervals")
+                    .filter(|v| !v.is_empty())
+                    .unwrap_or("nothing stable"),
+            );
+        }
+        let _ = writeln!(out, "```\n");
+    }
+}
+
+/// The error against dt of every stable trial of each run of a scene, from its trials table.
+fn error_dt_chart(s: &SceneRows, dir: &Path) -> Option<LineChart> {
+    let series: Vec<Series> = s
+        .rows
+        .iter()
+        .filter_map(|r| {
+            let id = s.runs.get(r, "run_id")?;
+            let path = dir.join("series").join(format!("{id}-trials.csv"));
+            let trials = Table::read(&path).ok().flatten()?;
+            let mut points: Vec<(f64, f64)> = trials
+                .rows
+                .iter()
+                .filter(|t| trials.get(t, "stable") == Some("true"))
+                .filter_map(|t| Some((trials.number(t, "dt")?, trials.number(t, "error")?)))
+                .filter(|p| p.1 > 0.0)
+                .collect();
+            points.sort_by(|a, b| a.0.total_cmp(&b.0));
+            points.dedup_by(|a, b| a.0 == b.0);
+            (points.len() >= 2).then(|| Series {
+                label: label(s.runs, s.params, r, &[]),
+                points,
+                ended: false,
+            })
+        })
+        .collect();
+    (!series.is_empty()).then(|| LineChart {
+        title: format!("Error against dt of every stable trial: {}", s.scene),
+        x_label: "time step dt (s)".into(),
+        y_label: "relative L2 position error".into(),
         x_log: true,
         y_log: true,
         series,
