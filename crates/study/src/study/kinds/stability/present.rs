@@ -452,8 +452,13 @@ fn stability_maps(out: &mut String, runs: &Table) {
     if runs.column("scan_map").is_none() {
         return;
     }
-    let mut scenes: Vec<&str> = runs.rows.iter().filter_map(|r| runs.get(r, "scene")).collect();
-    scenes.dedup();
+    // The scenes in the order of their first row.
+    let mut scenes: Vec<&str> = Vec::new();
+    for scene in runs.rows.iter().filter_map(|r| runs.get(r, "scene")) {
+        if !scenes.contains(&scene) {
+            scenes.push(scene);
+        }
+    }
     let _ = writeln!(
         out,
         "## Stability maps\n\nOne character per scanned step, smallest first (log-spaced over \
