@@ -89,6 +89,10 @@ pub struct StepReport {
     pub projected_elements: u64,
     /// Times a failed step was retried as two steps of half the size.
     pub dt_halvings: u32,
+    /// Newton solves that stopped at their iteration cap after inexact directions (an
+    /// iterative solver at the forcing term) and were redone from the same start with exact
+    /// directions, so the accepted state is the one a direct solver gives.
+    pub exact_redos: u32,
     /// Trust-region subproblems that stopped at `trust_region_cg_iterations` (their last CG
     /// iterate taken as the step).
     pub capped_subproblems: u32,
@@ -164,6 +168,7 @@ impl StepReport {
         self.projected_elements += other.projected_elements;
         self.dt_halvings += other.dt_halvings;
         self.capped_subproblems += other.capped_subproblems;
+        self.exact_redos += other.exact_redos;
         self.filtered_steps += other.filtered_steps;
         self.times.assemble += other.times.assemble;
         self.times.factor += other.times.factor;

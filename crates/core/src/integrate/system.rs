@@ -346,6 +346,11 @@ impl ImplicitSystem {
         self.solver.set_forcing(forcing);
     }
 
+    /// Whether the solver loosens its solves to a forcing term (an iterative solver).
+    pub fn honours_forcing(&self) -> bool {
+        self.solver.honours_forcing()
+    }
+
     pub fn solve(
         &mut self,
         model: &mut Model,

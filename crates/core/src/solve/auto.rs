@@ -265,6 +265,10 @@ impl LinearSolver for AutoSolver {
         }
     }
 
+    fn honours_forcing(&self) -> bool {
+        self.inner.as_ref().is_some_and(|s| s.honours_forcing())
+    }
+
     fn set_coordinates(&mut self, positions: &[f64]) {
         if let Some(s) = self.inner.as_mut() {
             s.set_coordinates(positions);

@@ -338,6 +338,10 @@ impl LinearSolver for CgSolver {
         self.forcing = forcing;
     }
 
+    fn honours_forcing(&self) -> bool {
+        true
+    }
+
     fn set_coordinates(&mut self, positions: &[f64]) {
         self.precond.set_coordinates(positions);
     }

@@ -94,6 +94,13 @@ pub trait LinearSolver: Send {
     /// tolerance. Iterative solvers only: a direct solver solves exactly and ignores it.
     fn set_forcing(&mut self, _forcing: Option<f64>) {}
 
+    /// Whether [`Self::set_forcing`] loosens the next solves (an iterative solver). A Newton
+    /// solve that stops at its iteration cap after such inexact directions is redone with
+    /// exact ones, so the accepted state does not depend on the linear solver.
+    fn honours_forcing(&self) -> bool {
+        false
+    }
+
     /// The current positions of the unknowns (stacked xyz per vertex), for preconditioners
     /// that build the rigid-body modes (AMG); called before `factor`. Default: ignored.
     fn set_coordinates(&mut self, _positions: &[f64]) {}

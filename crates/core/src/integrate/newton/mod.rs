@@ -175,6 +175,12 @@ pub struct Newton {
     /// Iteration records since the last [`Self::drain_log`] (with `log_iterations`).
     log: Vec<IterationRecord>,
     solves: u64,
+    /// The solve's start (after the guess was made feasible), for an exact redo.
+    start: Vec<f64>,
+    /// A direction of this solve stopped at the forcing term, not the solver's tolerance.
+    inexact: bool,
+    /// Solve every direction to the solver's tolerance (the redo of a capped solve).
+    exact: bool,
 }
 
 impl Newton {
@@ -201,6 +207,9 @@ impl Newton {
             auto_radius: None,
             log: Vec::new(),
             solves: 0,
+            start: Vec::new(),
+            inexact: false,
+            exact: false,
         }
     }
 
@@ -356,11 +365,26 @@ impl Newton {
             }
             Err(e) => return Err(e.into()),
         };
+        self.start.clear();
+        self.start.extend_from_slice(x);
+        self.inexact = false;
+        self.exact = false;
         let mut converged = if self.constraints.is_some() {
             self.iterate_constrained(model, p, x, current, t, report)?
         } else {
             self.iterate(model, p, x, current, t, report)?
         };
+        if !converged && self.inexact && self.constraints.is_none() {
+            // The cap ended a solve whose directions an iterative solver left inexact: its
+            // end would depend on the linear solver. Redo it from the same start exactly.
+            x.copy_from_slice(&self.start);
+            self.exact = true;
+            self.trace.gradient_norms.clear();
+            self.trace.first_step_lengths.clear();
+            report.exact_redos += 1;
+            let current = self.objective(model, p, x)?;
+            converged = self.iterate(model, p, x, current, t, report)?;
+        }
         // Lagged quantities updated at the solution change the potential: minimize again.
         while converged && self.step_filter.as_mut().is_some_and(|f| f.relag(x, t)) {
             let current = self.objective(model, p, x)?;
@@ -532,8 +556,9 @@ impl Newton {
                 Globalization::TrustRegion => {
                     self.trust_region_direction(model, p, x, radius, &sc, report)?
                 }
-                _ if s.direction == Direction::Newton && s.forcing_max > 0.0 => {
+                _ if s.direction == Direction::Newton && s.forcing_max > 0.0 && !self.exact => {
                     // Inexact Newton: an iterative solve stops at the forcing term.
+                    self.inexact |= self.system.honours_forcing();
                     let forcing = (norm(&self.potential.g)
                         / sc.initial_gradient.max(f64::MIN_POSITIVE))
                     .sqrt()

@@ -163,7 +163,9 @@ pub struct NewtonSettings {
     /// chose CG) may stop: each Newton direction is solved to `min(forcing_max,
     /// sqrt(‖g‖/‖g₀‖))` (the inexact-Newton forcing term, g₀ the solve's first gradient) or
     /// the solver's own tolerance, whichever is larger. Direct solvers solve exactly whatever
-    /// it says. 0 solves every direction to the solver's tolerance. Default 0.1.
+    /// it says. A solve that stops at `max_iterations` unconverged after inexact directions is
+    /// redone with exact ones (its end would otherwise depend on the linear solver). 0 solves
+    /// every direction to the solver's tolerance. Default 0.1.
     pub forcing_max: f64,
 }
 
