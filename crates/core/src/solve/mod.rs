@@ -25,6 +25,7 @@ mod common;
 pub mod dense;
 mod faer_common;
 pub mod faer_direct;
+pub mod gmres;
 mod kind;
 pub mod ordering;
 mod precond;
@@ -45,6 +46,7 @@ pub(crate) use common::{
 pub use dense::DenseCholeskySolver;
 pub use faer_common::{FAER_LOOP_PARALLEL_MIN_FLOPS, PARALLEL_MIN_FLOPS};
 pub use faer_direct::{CholeskySolver, FaerDirectSolver, LdltSolver};
+pub use gmres::{Gmres, GmresReport};
 pub use kind::{
     DirectSettings, LINEAR_SOLVERS, LinearSolverKind, Scheduler, SolverEntry, SolverSettings,
     Supernodal,
