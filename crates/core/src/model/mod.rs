@@ -7,7 +7,8 @@
 //! across thread counts. Every evaluation is counted in [`EvalCounters`].
 //!
 //! [`highest_mode`] finds the highest natural frequency of the linearized model (the explicit
-//! stability limit `2 / omega_max`).
+//! stability limit `2 / omega_max`), [`lowest_modes`] its lowest modes (errors in the motion a
+//! user sees).
 
 mod build;
 mod contact_potential;
@@ -21,6 +22,7 @@ mod evaluate;
 mod local;
 mod mass;
 mod measures;
+mod modes;
 mod pattern;
 mod spectrum;
 mod springs;
@@ -34,6 +36,7 @@ pub use error::ModelError;
 pub use local::ElasticElements;
 pub(crate) use mass::MassInverse;
 pub use mass::{MassKind, MassMatrix};
+pub use modes::{Modes, lowest_modes};
 pub use pattern::BlockPattern;
 pub use spectrum::{HighestMode, SpectrumError, SpectrumSettings, highest_mode};
 pub use springs::Spring;

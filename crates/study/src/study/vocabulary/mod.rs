@@ -17,6 +17,7 @@ pub mod machine;
 pub mod measured;
 pub mod meta;
 pub mod meter;
+pub mod modal;
 pub mod reference;
 pub mod settings;
 pub mod shard;

@@ -12,6 +12,7 @@
 use crate::study::vocabulary::format::{cell, short};
 use crate::study::vocabulary::measured::{Measured, build, outcome_of, run_observed};
 use crate::study::vocabulary::meter::StepMeter;
+use crate::study::vocabulary::modal::{ModalBasis, StoredModes};
 use crate::study::vocabulary::shared_store::{bits, from_bits};
 use crate::study::vocabulary::spec::RunSpec;
 use softbench_core::integrate::{Method, State};
@@ -128,7 +129,17 @@ pub struct ReferenceSettings {
     /// whose options (chosen for that run's method) would otherwise carry over. Default false.
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub default_integrator: bool,
+    /// The lowest vibration modes of the body at rest that the modal error (`modal_error`)
+    /// projects on; 0 measures no modal error. Default [`DEFAULT_MODES`].
+    pub modes: usize,
 }
+
+/// The modes the modal error counts by default: enough to hold the large-scale motion of a
+/// body (bending, twisting, stretching in each direction and their first overtones), few
+/// enough to leave out the ringing of its small-scale modes.
+pub const DEFAULT_MODES: usize = 10;
+/// The most modes a study may ask for (each costs a block vector in the subspace iteration).
+pub const MAX_MODES: usize = 200;
 
 impl Default for ReferenceSettings {
     fn default() -> Self {
@@ -141,6 +152,7 @@ impl Default for ReferenceSettings {
             floor_factor: 2.0,
             independent: None,
             default_integrator: false,
+            modes: DEFAULT_MODES,
         }
     }
 }
@@ -181,6 +193,9 @@ pub struct Reference {
     pub phase_differences: Vec<f64>,
     /// Errors below `floor_factor * difference` are not scored.
     floor_factor: f64,
+    /// The lowest modes of the body at rest, and the reference's own difference in them.
+    modal: Option<ModalBasis>,
+    pub modal_difference: Option<f64>,
 }
 
 impl Reference {
@@ -221,6 +236,26 @@ impl Reference {
             return None;
         }
         relative_l2(positions, &self.snapshots.q, &self.rest, &|_| true)
+    }
+
+    /// The relative L2 position error in the lowest modes of the body at rest (see
+    /// [`crate::study::vocabulary::modal`]); `None` without modes or unless `positions` hold
+    /// every sample time.
+    pub fn modal_error(&self, positions: &[Vec<f64>]) -> Option<f64> {
+        self.modal
+            .as_ref()?
+            .relative_error(positions, &self.snapshots.q, &self.rest)
+    }
+
+    /// The modal cells of a run at `positions` (see [`crate::study::vocabulary::modal`]).
+    pub(in crate::study) fn set_modal_cells(&self, m: &mut Measured, positions: &[Vec<f64>]) {
+        crate::study::vocabulary::modal::set_modal_cells(
+            m,
+            self.modal.as_ref(),
+            self.modal_error(positions),
+            self.modal_difference,
+            self.floor_factor,
+        );
     }
 
     /// The relative L2 position error within each phase, `None` where it is within
@@ -502,6 +537,17 @@ pub fn reference(
             .unwrap_or(f64::NAN)
         })
         .collect();
+    let modal = match settings.reference.modes {
+        0 => None,
+        count => {
+            let mut scene = build(template, parallelism).map_err(|e| e.to_string())?;
+            Some(ModalBasis::of(&mut scene.model, count)?)
+        }
+    };
+    let modal_difference = modal.as_ref().and_then(|b| match independent {
+        Some(_) => b.relative_error(&fine.q, &coarse.q, &rest),
+        None => b.relative_error(&coarse.q, &fine.q, &rest),
+    });
     // With an independent solution the reference is the declared one, and the other is only
     // its check; else the finer (or tighter) of the two.
     let (reference, reference_dt) = match independent {
@@ -523,6 +569,8 @@ pub fn reference(
         phases: settings.phases.clone(),
         phase_differences,
         floor_factor: settings.reference.floor_factor,
+        modal,
+        modal_difference,
     })
 }
 
@@ -562,6 +610,9 @@ pub(in crate::study) struct StoredReference {
     /// The independent solution's method and step (bits), if any.
     #[serde(default)]
     independent: Option<(String, u64)>,
+    /// The lowest modes and the reference's own difference in them (bits), if measured.
+    #[serde(default)]
+    modal: Option<(StoredModes, Option<u64>)>,
 }
 
 impl Reference {
@@ -590,6 +641,10 @@ impl Reference {
             independent: self
                 .independent
                 .map(|i| (i.method.name().to_owned(), bits(i.dt))),
+            modal: self
+                .modal
+                .as_ref()
+                .map(|b| (b.stored(), self.modal_difference.map(bits))),
         }
     }
 
@@ -634,6 +689,8 @@ impl Reference {
                 }),
                 None => None,
             },
+            modal: s.modal.as_ref().map(|(b, _)| ModalBasis::from_stored(b)),
+            modal_difference: s.modal.as_ref().and_then(|(_, d)| d.map(from_bits)),
         })
     }
 }

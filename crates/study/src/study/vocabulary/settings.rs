@@ -48,6 +48,16 @@ pub(in crate::study) fn check_reference(
             format!("must be >= 1 (got {})", r.dt_factor),
         ));
     }
+    let max_modes = crate::study::vocabulary::reference::MAX_MODES;
+    if r.modes > max_modes {
+        return Err(bad(
+            &format!("{table}.reference.modes"),
+            format!(
+                "must be at most {max_modes} (got {}; 0 measures no modal error)",
+                r.modes
+            ),
+        ));
+    }
     if r.dt.is_some_and(|dt| !(dt.is_finite() && dt > 0.0)) {
         return Err(bad(
             &format!("{table}.reference.dt"),

@@ -45,6 +45,10 @@ pub const OWN_COLUMNS: &[&str] = &[
     "reference_difference_phase4",
     "centroid_error",
     "bounding_box_error",
+    "modal_error",
+    "reference_modal_difference",
+    "modal_modes",
+    "modal_omega_cutoff",
     "tets",
 ];
 
@@ -173,6 +177,7 @@ pub(in crate::study) fn measure_with(
             m.set("error_unscored", cell((!scored).then_some(error)));
             m.set("energy_error", cell(Some(energy)));
             crate::study::vocabulary::reference::set_phase_cells(&mut m, reference, &snapshots.q);
+            reference.set_modal_cells(&mut m, &snapshots.q);
             if !scored {
                 m.message = format!(
                     "error {error:.3e} is below {} x the reference's own difference {:.3e}: \

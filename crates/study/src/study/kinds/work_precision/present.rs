@@ -189,16 +189,41 @@ fn report_settings(out: &mut String, file: &StudyFile) {
 
 /// Observed order of each line of a work-precision study: the slope of log(error) against
 /// log(dt) between its two smallest scored time steps.
+/// Next to it, the order in the lowest modes' error (`modal_error`) where it was measured.
 fn orders(out: &mut String, runs: &Table) {
+    let modal: BTreeMap<(String, String), f64> = observed_orders_in(runs, "modal_error")
+        .into_iter()
+        .map(|(scene, method, order)| ((scene, method), order))
+        .collect();
     let mut text = String::new();
     for (scene, method, order) in observed_orders(runs) {
-        let _ = writeln!(text, "| {scene} | {method} | {order:.2} |");
+        let in_modes = modal
+            .get(&(scene.clone(), method.clone()))
+            .map_or("-".to_owned(), |o| format!("{o:.2}"));
+        let _ = writeln!(text, "| {scene} | {method} | {order:.2} | {in_modes} |");
     }
     if !text.is_empty() {
+        let modes = runs
+            .rows
+            .iter()
+            .find_map(|r| {
+                Some((
+                    runs.get(r, "modal_modes")?,
+                    runs.number(r, "modal_omega_cutoff")?,
+                ))
+            })
+            .map_or(String::new(), |(n, w)| {
+                format!(
+                    "; in the lowest modes: the same in the error of the {n} lowest vibration \
+                     modes of the body at rest (up to {w:.3e} rad/s), which leaves out the \
+                     ringing of the higher modes"
+                )
+            });
         let _ = writeln!(
             out,
             "Observed order (slope of log error against log dt between the two smallest scored \
-             steps; adaptive methods, whose dt is only an output interval, are left out):\n\n| scene | method | order |\n|---|---|---|\n{text}"
+             steps; adaptive methods, whose dt is only an output interval, are left out{modes}):\n\n\
+             | scene | method | order | in the lowest modes |\n|---|---|---|---|\n{text}"
         );
     }
 }
@@ -259,13 +284,18 @@ fn work_precision_chart(
 /// slope of log error against log dt between the two smallest steps with a scored error.
 /// Adaptive methods (dt is only their output interval) are left out.
 pub(in crate::study) fn observed_orders(runs: &Table) -> Vec<(String, String, f64)> {
+    observed_orders_in(runs, "error")
+}
+
+/// [`observed_orders`] of the error in `column`.
+fn observed_orders_in(runs: &Table, column: &str) -> Vec<(String, String, f64)> {
     let mut lines: BTreeMap<(String, String), Vec<(f64, f64)>> = BTreeMap::new();
     for r in &runs.rows {
         let method = runs.get(r, "method").unwrap_or_default();
         if Method::from_name(method).is_ok_and(|m| m.is_adaptive()) {
             continue;
         }
-        if let (Some(dt), Some(e)) = (runs.number(r, "dt"), runs.number(r, "error")) {
+        if let (Some(dt), Some(e)) = (runs.number(r, "dt"), runs.number(r, column)) {
             let solver = runs.get(r, "linear_solver").unwrap_or_default();
             let name = if solver.is_empty() || solver == "-" {
                 method.to_owned()
