@@ -98,7 +98,9 @@ fn unconditionally_stable_methods_are_ranked_by_the_largest_step_within_an_error
     assert!(found[1].1[0] > 2.0 * found[0].1[0], "{found:?}");
     let report = std::fs::read_to_string(dir.join("report.md")).unwrap();
     assert!(
-        report.contains("largest dt below which every tried step is stable with a position error of at most 1%"),
+        report.contains(
+            "largest dt below which every tried step is stable with a position error of at most 1%"
+        ),
         "{report}"
     );
 }

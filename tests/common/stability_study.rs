@@ -40,7 +40,13 @@ pub fn clamped_box(
 
 /// Run a stability study of `methods` on `scene_text` with the `[stability]` lines given (no
 /// reference unless they set `error_samples`); its runs.csv.
-pub fn stability(tmp: &TempDir, name: &str, scene_text: &str, methods: &[&str], table: &str) -> Table {
+pub fn stability(
+    tmp: &TempDir,
+    name: &str,
+    scene_text: &str,
+    methods: &[&str],
+    table: &str,
+) -> Table {
     tmp.write(&format!("{name}-scene.toml"), scene_text);
     let list: Vec<String> = methods.iter().map(|m| format!("\"{m}\"")).collect();
     let study = tmp.write(
@@ -69,4 +75,3 @@ pub fn row<'a>(runs: &'a Table, method: &str) -> &'a Vec<String> {
         .find(|r| runs.get(r, "method") == Some(method))
         .unwrap_or_else(|| panic!("no row for {method}"))
 }
-

@@ -462,7 +462,8 @@ fn stability_maps(out: &mut String, runs: &Table) {
     let _ = writeln!(
         out,
         "## Stability maps\n\nOne character per scanned step, smallest first (log-spaced over \
-         the judged range): `#` stable, `~` energy invented and kept, `x` blew up, `!` any \
+         the judged range): `#` stable, `^` completed but growing on a trend that blows up at \
+         every step, `~` energy invented and kept, `x` blew up, `!` any \
          other failure (solver failed, left the material's domain, step cap); then the stable \
          intervals after bisecting every change.\n"
     );
