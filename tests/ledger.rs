@@ -739,7 +739,7 @@ better = "smaller""#;
     let v = evaluate(&rule(compare), &t);
     assert_eq!(problems(&v), (3, 3, 3));
     assert_eq!(v.class, Class::Validated);
-    assert_eq!(v.tally(), "3 of 3 problems held (3 tied); 6 cases");
+    assert_eq!(v.tally(), "3 of 3 problems held (3 more tied); 6 cases");
     // As single numbers every pair would decide.
     let single = rule(&format!("{compare}\nsingle_timings = true"));
     assert_eq!(problems(&evaluate(&single, &t)), (6, 6, 0));
@@ -823,7 +823,7 @@ better = "smaller""#;
     );
     assert_eq!(
         v.tally(),
-        "0 of 0 problems held (3 timed without a spread); 3 cases"
+        "0 of 0 problems held (3 more timed without a spread); 3 cases"
     );
     let v = evaluate(&rule(&format!("{compare}\nsingle_timings = true")), &t);
     assert_eq!((problems(&v), v.class), ((3, 3, 0), Class::Validated));
@@ -871,10 +871,10 @@ fn every_verdict_says_how_many_problems_decided_it() {
     let judged = judge(&claims, &tmp.path().join("results"));
     let v = &judged[0].verdict;
     assert_eq!(v.class, Class::Validated);
-    assert_eq!(v.tally(), "3 of 3 problems held (1 tied); 10 cases");
+    assert_eq!(v.tally(), "3 of 3 problems held (1 more tied); 10 cases");
     let page = page::render(&judged, "results");
     assert!(
-        page.contains("| **validated** | 3 of 3 problems held (1 tied); 10 cases |"),
+        page.contains("| **validated** | 3 of 3 problems held (1 more tied); 10 cases |"),
         "{page}"
     );
     assert!(
@@ -904,7 +904,7 @@ fn every_verdict_says_how_many_problems_decided_it() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let printed = String::from_utf8_lossy(&o.stdout);
     assert!(
-        printed.contains("c: validated, 3 of 3 problems held (1 tied); 10 cases"),
+        printed.contains("c: validated, 3 of 3 problems held (1 more tied); 10 cases"),
         "{printed}"
     );
     let results = tmp.path().join("results").display().to_string();

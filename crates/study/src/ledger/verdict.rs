@@ -150,23 +150,27 @@ impl Verdict {
         }
     }
 
-    /// How many problems decided it, in a line: "3 of 4 problems held (1 split, 2 tied); 12
-    /// cases".
+    /// How many problems decided it, in a line: "3 of 5 problems held (1 failed, 1 split; 2
+    /// more tied); 14 cases".
     pub fn tally(&self) -> String {
         let p = &self.problems;
         let mut out = format!("{} of {} held", p.held, count(p.decided(), "problem"));
-        let mut extra = Vec::new();
-        if p.split > 0 {
-            extra.push(format!("{} split", p.split));
-        }
-        if p.tied > 0 {
-            extra.push(format!("{} tied", p.tied));
-        }
-        if p.unspread > 0 {
-            extra.push(format!("{} timed without a spread", p.unspread));
-        }
-        if !extra.is_empty() {
-            out += &format!(" ({})", extra.join(", "));
+        let decided: Vec<String> = [(p.failed, "failed"), (p.split, "split")]
+            .iter()
+            .filter(|(n, _)| *n > 0)
+            .map(|(n, what)| format!("{n} {what}"))
+            .collect();
+        let undecided: Vec<String> = [(p.tied, "tied"), (p.unspread, "timed without a spread")]
+            .iter()
+            .filter(|(n, _)| *n > 0)
+            .map(|(n, what)| format!("{n} more {what}"))
+            .collect();
+        let parts: Vec<String> = [decided.join(", "), undecided.join(", ")]
+            .into_iter()
+            .filter(|s| !s.is_empty())
+            .collect();
+        if !parts.is_empty() {
+            out += &format!(" ({})", parts.join("; "));
         }
         out + &format!("; {}", count(self.cases.total(), "case"))
     }
