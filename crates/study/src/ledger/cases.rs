@@ -67,6 +67,8 @@ impl<'t> Case<'t> {
     }
 }
 
+/// A row's cells in `columns` (empty where the table lacks the column): a pair's, a group's
+/// or a problem's name.
 pub(super) fn key(table: &Table, row: &[String], columns: &[String]) -> Vec<String> {
     columns
         .iter()
