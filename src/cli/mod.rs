@@ -850,6 +850,23 @@ fn ledger(args: &LedgerArgs) -> Result<ExitCode, Error> {
         format!("{n} {}", c.name())
     })
     .collect();
+    // Each verdict with the problems that decided it.
+    for j in &judged {
+        let on = j
+            .implementation
+            .as_ref()
+            .map_or(String::new(), |i| format!(" (on {})", i.label(j.timed())));
+        console::out(&format!(
+            "{}{on}: {}{}",
+            j.claim.id,
+            j.verdict.class.name(),
+            if j.verdict.cases.total() == 0 {
+                format!(" ({})", j.verdict.condition)
+            } else {
+                format!(", {}", j.verdict.tally())
+            }
+        ));
+    }
     if args.check {
         let on_disk = std::fs::read_to_string(&out).unwrap_or_default();
         if on_disk != page {

@@ -5,12 +5,15 @@
 //! A claim is one TOML file in a folder (`claims/`): the paper, the claim in one sentence,
 //! its dimension (speed, robustness, accuracy, convergence), the study whose results test it
 //! (`results/<study>/`), optionally the two methods it ranks (`beats = ["a", "b"]`, an edge of
-//! the claims graph), and a `[rule]` (see [`rule`]; [`verdict`] counts its cases). A claim
-//! about one method names it (`subject = "vbd"`) and the field's own implementations of it
-//! (`[[originals]]`, peer methods): it is then judged on each, and every verdict says which
-//! implementation, and for a time on which device, it is about ([`implementation`]).
+//! the claims graph), and a `[rule]` (see [`rule`]; [`cases`] reads its cases from the table,
+//! [`verdict`] counts them by problem: a claim's evidence is its independent problems, not
+//! the rungs of one ladder). A claim about one method names it (`subject = "vbd"`) and the
+//! field's own implementations of it (`[[originals]]`, peer methods): it is then judged on
+//! each, and every verdict says which implementation, and for a time on which device, it is
+//! about ([`implementation`]).
 //! `softbench ledger` evaluates every claim and renders the ledger as one page ([`page`]).
 
+pub mod cases;
 pub mod filter;
 pub mod implementation;
 pub mod page;
@@ -253,15 +256,7 @@ pub fn judge(claims: &[Claim], results: &Path) -> Vec<Judged> {
 }
 
 fn unmeasured(why: String) -> Verdict {
-    Verdict {
-        class: verdict::Class::Unmeasured,
-        condition: why,
-        held: 0,
-        decided: 0,
-        ties: 0,
-        strata: Vec::new(),
-        examples: Vec::new(),
-    }
+    Verdict::unmeasured(why)
 }
 
 /// `rule` on `table`, or why it cannot be: a column it reads is missing, or (a GPU verdict) no

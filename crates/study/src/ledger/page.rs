@@ -6,7 +6,8 @@
 //! and the results give, so rendering it again from the same files gives the same bytes.
 
 use super::Judged;
-use super::verdict::Class;
+use super::cases::Outcome;
+use super::verdict::{Class, count};
 use std::fmt::Write;
 
 /// The page for `judged` (claims in file order); `results` is how the page names the results
@@ -23,7 +24,11 @@ pub fn render(judged: &[Judged], results: &str) -> String {
          the claim's rule (written next to it in `claims/<id>.toml`) and those results: \
          **{} validated, {} qualified, {} refuted, {} unmeasured**. A verdict is only as wide \
          as the study behind it: the caveats say what the test does not cover, and a verdict \
-         that rests on a time names the device it was measured on.\n",
+         that rests on a time names the device it was measured on. A verdict counts independent \
+         problems (a scene with its material and setting), not the rungs of one ladder \
+         (accuracy targets, steps, tolerances, cut-off levels), and one that rests on a time \
+         compares spreads: times whose spreads overlap tie, and a time without a spread decides \
+         nothing. *Decided by* says how many problems decided each verdict.\n",
         claims(judged).len(),
         claims(judged).len(),
         judged.len(),
@@ -34,12 +39,13 @@ pub fn render(judged: &[Judged], results: &str) -> String {
     );
     let _ = writeln!(
         out,
-        "| claim | judged on | dimension | tested by | verdict |\n|---|---|---|---|---|"
+        "| claim | judged on | dimension | tested by | verdict | decided by |\n\
+         |---|---|---|---|---|---|"
     );
     for j in judged {
         let _ = writeln!(
             out,
-            "| [{}](#{}) | {} | {} | `{}` | **{}**{} |",
+            "| [{}](#{}) | {} | {} | `{}` | **{}**{} | {} |",
             j.claim.claim.replace('|', "\\|"),
             j.claim.id,
             judged_on(j),
@@ -50,6 +56,11 @@ pub fn render(judged: &[Judged], results: &str) -> String {
                 String::new()
             } else {
                 format!(": {}", j.verdict.condition.replace('|', "\\|"))
+            },
+            if j.verdict.cases.total() == 0 {
+                "-".to_owned()
+            } else {
+                j.verdict.tally()
             }
         );
     }
@@ -178,36 +189,82 @@ fn evidence(out: &mut String, j: &Judged, at: &str) {
     let v = &j.verdict;
     let rule = j.implementation.as_ref().map_or(&j.claim.rule, |i| &i.rule);
     let _ = writeln!(out, "{at}- Rule: {}", rule.describe());
+    let (p, c) = (&v.problems, &v.cases);
+    let mut undecided = Vec::new();
+    if p.tied > 0 {
+        undecided.push(format!("{} more tied", p.tied));
+    }
+    if p.unspread > 0 {
+        undecided.push(format!("{} more had timings without a spread", p.unspread));
+    }
     let _ = writeln!(
         out,
-        "{at}- Evidence: it held in {} of {} decided cases{}.",
-        v.held,
-        v.decided,
-        if v.ties > 0 {
-            format!(" ({} more were ties and decide nothing)", v.ties)
+        "{at}- Evidence: decided by {}: it held on {}, failed on {}, was split on {}{}. Behind \
+         them, {}: {} held, {} did not, {} tied{}.",
+        count(p.decided(), "problem"),
+        p.held,
+        p.failed,
+        p.split,
+        if undecided.is_empty() {
+            String::new()
+        } else {
+            format!("; {}, and decide nothing", undecided.join(" and "))
+        },
+        count(c.total(), "case"),
+        c.held,
+        c.failed,
+        c.tied,
+        if c.unspread > 0 {
+            format!(", {} timed without a spread", c.unspread)
         } else {
             String::new()
         }
     );
-    if !v.strata.is_empty() {
-        let mut by_column: Vec<(&str, Vec<String>)> = Vec::new();
-        for (column, value, held, n) in &v.strata {
-            let text = format!("{} {held}/{n}", if value.is_empty() { "-" } else { value });
-            match by_column.iter_mut().find(|(c, _)| c == column) {
-                Some((_, list)) => list.push(text),
-                None => by_column.push((column, vec![text])),
+    let mut by_column: Vec<(&str, Vec<String>)> = Vec::new();
+    for s in v.strata.iter().filter(|s| s.problems.decided() > 0) {
+        let text = format!(
+            "{} {}/{}{}",
+            if s.value.is_empty() { "-" } else { &s.value },
+            s.problems.held,
+            s.problems.decided(),
+            if s.problems.split > 0 {
+                format!(" ({} split)", s.problems.split)
+            } else {
+                String::new()
             }
-        }
-        for (column, list) in by_column {
-            let _ = writeln!(out, "{at}  - by {column}: {}", list.join(", "));
+        );
+        match by_column.iter_mut().find(|(c, _)| *c == s.column) {
+            Some((_, list)) => list.push(text),
+            None => by_column.push((&s.column, vec![text])),
         }
     }
-    for (label, held) in &v.examples {
+    for (column, list) in by_column {
+        let _ = writeln!(out, "{at}  - by {column}: {}", list.join(", "));
+    }
+    for e in &v.examples {
+        let cases: Vec<String> = e
+            .cases
+            .iter()
+            .map(|(label, o)| {
+                if e.outcome == Outcome::Split {
+                    format!("{}: {label}", o.name())
+                } else {
+                    label.clone()
+                }
+            })
+            .collect();
         let _ = writeln!(
             out,
-            "{at}  - {}: {}",
-            if *held { "holds" } else { "does not hold" },
-            label
+            "{at}  - {} on {} ({}): {}{}",
+            e.outcome.name(),
+            e.problem,
+            count(e.decided, "decided case"),
+            cases.join("; "),
+            if e.decided > e.cases.len() {
+                "; …"
+            } else {
+                ""
+            }
         );
     }
 }

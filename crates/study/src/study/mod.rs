@@ -41,4 +41,4 @@ pub use vocabulary::settings::check_name as check_study_name;
 pub use vocabulary::shard::Shard;
 pub use vocabulary::shard_record::ShardRecord;
 pub use vocabulary::spec::{RunSpec, Study};
-pub use vocabulary::{config, format, shard, table};
+pub use vocabulary::{config, format, shard, spread, table};

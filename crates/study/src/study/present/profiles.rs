@@ -16,6 +16,7 @@
 //! when the study repeated its runs (`wall_seconds_min`/`max`): two solvers whose intervals
 //! overlap tie, so "cheapest" counts every solver that ties with the cheapest.
 
+use crate::study::vocabulary::spread;
 use crate::study::vocabulary::table::Table;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -92,8 +93,13 @@ pub const NEEDED: [&str; 7] = [
 pub struct Solved {
     /// The cheapest solving run's cost.
     pub cost: f64,
-    /// Its spread `[low, high]` (the cost itself when not repeated).
+    /// Its spread `[low, high]` over repeats (the cost itself when not repeated): what the
+    /// `best` count ties on.
     pub spread: [f64; 2],
+    /// A wall time's spread from repeats and the step-time quartiles
+    /// ([`spread::wall_seconds`]), as `costs.csv` writes it for the ledger; `None` in
+    /// evaluations or when the run records neither.
+    pub timing: Option<[f64; 2]>,
 }
 
 /// The costs of every solver on every problem, in one unit.
@@ -185,14 +191,18 @@ impl CostTable {
             else {
                 continue;
             };
-            let (value, spread) = match cost {
+            let (value, spread, timing) = match cost {
                 Cost::Wall => {
                     let Some(w) = table.number(row, "wall_seconds") else {
                         continue;
                     };
                     let low = table.number(row, "wall_seconds_min").unwrap_or(w);
                     let high = table.number(row, "wall_seconds_max").unwrap_or(w);
-                    (w, [low.min(w), high.max(w)])
+                    (
+                        w,
+                        [low.min(w), high.max(w)],
+                        spread::wall_seconds(table, row),
+                    )
                 }
                 Cost::Work => {
                     let (Some(f), Some(h)) = (
@@ -201,7 +211,7 @@ impl CostTable {
                     ) else {
                         continue;
                     };
-                    (f + h, [f + h, f + h])
+                    (f + h, [f + h, f + h], None)
                 }
             };
             let scene = table.get(row, "scene").unwrap_or_default();
@@ -218,6 +228,7 @@ impl CostTable {
                     *slot = Some(Solved {
                         cost: value,
                         spread,
+                        timing,
                     });
                 }
             }
@@ -444,7 +455,8 @@ fn fraction(x: f64) -> String {
 
 /// Write the profiles of `table` for `targets` into `out` (created if needed):
 /// `profiles.csv` (every step of every profile), `costs.csv` (each solver's cost on each
-/// problem, empty where it did not solve it), `profiles.md` (the summary per solver and cost)
+/// problem, empty where it did not solve it, with the wall time's spread
+/// `wall_seconds_low`/`wall_seconds_high` from [`spread::wall_seconds`]), `profiles.md` (the summary per solver and cost)
 /// and the four charts `performance-{wall,work}` and `data-{wall,work}` (PNG and SVG).
 pub fn write(
     table: &Table,
@@ -465,10 +477,18 @@ pub fn write(
             .collect(),
     );
     let mut costs_table = Table::new(
-        ["scene", "target", "solver", "wall_seconds", "evaluations"]
-            .iter()
-            .map(|s| s.to_string())
-            .collect(),
+        [
+            "scene",
+            "target",
+            "solver",
+            "wall_seconds",
+            "evaluations",
+            "wall_seconds_low",
+            "wall_seconds_high",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect(),
     );
     let mut md = String::from(
         "# Profiles\n\nA problem is a scene with an accuracy target; a method solves it when one of \
@@ -487,12 +507,15 @@ pub fn write(
         for (s, solver) in wall.solvers.iter().enumerate() {
             let cell =
                 |c: &CostTable| c.costs[p][s].map_or(String::new(), |x| format!("{}", x.cost));
+            let [low, high] = spread::cells(wall.costs[p][s].and_then(|x| x.timing));
             costs_table.rows.push(vec![
                 scene.clone(),
                 format!("{target:e}"),
                 solver.clone(),
                 cell(wall),
                 cell(work),
+                low,
+                high,
             ]);
         }
     }
@@ -667,6 +690,43 @@ mod tests {
         // In evaluations they are equal: both cheapest.
         let w = CostTable::new(&t, &[1e-2], Cost::Work, 2.0).summary();
         assert_eq!((w[0].best, w[1].best), (1, 1));
+    }
+
+    #[test]
+    fn a_wall_cost_carries_the_spread_of_the_run_that_gave_it() {
+        let mut t = table(&[
+            ("a", "x", "completed", 1e-3, 3.0, 10.0),
+            ("a", "x", "completed", 1e-3, 2.0, 10.0),
+            ("a", "y", "completed", 1e-3, 1.0, 10.0),
+        ]);
+        t.header.extend(
+            [
+                "steps",
+                "step_seconds_median",
+                "step_seconds_q1",
+                "step_seconds_q3",
+            ]
+            .map(String::from),
+        );
+        // x's cheaper run: 11 steps, the ten steady ones 0.19 s (0.18 to 0.21); y: one step.
+        t.rows[0].extend(["11", "0.29", "0.28", "0.3"].map(String::from));
+        t.rows[1].extend(["11", "0.19", "0.18", "0.21"].map(String::from));
+        t.rows[2].extend(["1", "0", "0", "0"].map(String::from));
+        let c = CostTable::new(&t, &[1e-2], Cost::Wall, 2.0);
+        let x = c.costs[0][0].unwrap();
+        assert_eq!(x.cost, 2.0);
+        let [lo, hi] = x.timing.unwrap();
+        assert!(
+            (lo - 1.9).abs() < 1e-9 && (hi - 2.2).abs() < 1e-9,
+            "{lo} {hi}"
+        );
+        assert_eq!(c.costs[0][1].unwrap().timing, None, "one step: no spread");
+        assert_eq!(
+            CostTable::new(&t, &[1e-2], Cost::Work, 2.0).costs[0][0]
+                .unwrap()
+                .timing,
+            None
+        );
     }
 
     #[test]

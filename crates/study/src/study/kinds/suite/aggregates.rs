@@ -12,6 +12,7 @@
 //! stays as it is.
 
 use crate::study::present::profiles::{CostTable, Solved};
+use crate::study::vocabulary::spread;
 use crate::study::vocabulary::table::Table;
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -60,6 +61,7 @@ impl Cost {
                 Some(Solved {
                     cost: c,
                     spread: [c, c],
+                    timing: None,
                 })
             }
             Cost::Wall => {
@@ -69,6 +71,7 @@ impl Cost {
                 Some(Solved {
                     cost: w,
                     spread: [low.min(w), high.max(w)],
+                    timing: spread::wall_seconds(runs, row),
                 })
             }
         }

@@ -8,6 +8,7 @@ use crate::study::present::charts::Emit;
 use crate::study::present::profiles::{CostTable, Steps};
 use crate::study::vocabulary::meta::StudyMeta;
 use crate::study::vocabulary::spec::Omission;
+use crate::study::vocabulary::spread;
 use crate::study::vocabulary::table::Table;
 use softbench_run::plot::{Chart, LineChart, PlotError, Series};
 use std::collections::{BTreeMap, BTreeSet};
@@ -172,6 +173,8 @@ impl Aggregates {
                 "tolerance",
                 "evaluations",
                 "wall_seconds",
+                "wall_seconds_low",
+                "wall_seconds_high",
             ]),
             pairwise: header(&[
                 "level",
@@ -188,7 +191,8 @@ impl Aggregates {
         }
     }
 
-    /// Each run's cost at `level`.
+    /// Each run's cost at `level`, its wall time with the spread the ledger reads
+    /// ([`spread::wall_seconds`]).
     fn add_costs(&mut self, suite: &Suite, runs: &Table, level: &str) {
         for p in &suite.problems {
             for m in &suite.methods {
@@ -196,6 +200,7 @@ impl Aggregates {
                     continue;
                 };
                 let g = |c: &str| runs.get(r, c).unwrap_or_default().to_owned();
+                let [low, high] = spread::cells(spread::wall_seconds(runs, r));
                 self.costs.rows.push(vec![
                     p.name.clone(),
                     level.to_owned(),
@@ -206,6 +211,8 @@ impl Aggregates {
                     g("tolerance"),
                     g("evaluations"),
                     g("wall_seconds"),
+                    low,
+                    high,
                 ]);
             }
         }
