@@ -6,6 +6,9 @@
 
 use super::dot;
 
+/// The operator: `apply(v, w)` sets `w = A v`; an error ends the solve.
+pub type Operator<'a, E> = dyn FnMut(&[f64], &mut [f64]) -> Result<(), E> + 'a;
+
 /// What a solve did.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GmresReport {
@@ -47,7 +50,7 @@ impl Gmres {
     /// error ends the solve.
     pub fn solve<E>(
         &mut self,
-        apply: &mut dyn FnMut(&[f64], &mut [f64]) -> Result<(), E>,
+        apply: &mut Operator<'_, E>,
         b: &[f64],
         x: &mut [f64],
         tolerance: f64,
@@ -117,12 +120,7 @@ impl Gmres {
     /// Arnoldi step `k`: `w = A v_k` orthogonalized against `v_0..v_k` into `v_{k+1}`, the
     /// Hessenberg column rotated by the earlier Givens rotations and a new one that zeroes
     /// its subdiagonal, applied to `g`.
-    fn arnoldi<E>(
-        &mut self,
-        apply: &mut dyn FnMut(&[f64], &mut [f64]) -> Result<(), E>,
-        n: usize,
-        k: usize,
-    ) -> Result<(), E> {
+    fn arnoldi<E>(&mut self, apply: &mut Operator<'_, E>, n: usize, k: usize) -> Result<(), E> {
         let m1 = self.restart + 1;
         apply(&self.basis[k * n..(k + 1) * n], &mut self.w)?;
         let column = &mut self.hessenberg[k * m1..(k + 1) * m1];
