@@ -18,9 +18,9 @@ fn run(scene: &Path, out: &Path, extra: &[&str]) -> (Vec<f64>, serde_json::Value
         .records()
         .map(|r| r.unwrap()[col].parse::<f64>().unwrap())
         .collect();
-    let summary: serde_json::Value =
+    let file: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
-    (elastic, summary)
+    (elastic, file["summary"].clone())
 }
 
 /// Runs `scene` with Cholesky, CG and `auto` (overrides `extra`) and checks that every
