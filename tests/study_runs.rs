@@ -302,14 +302,16 @@ fn armadillo_stability_quick_writes_every_output() {
         return;
     }
     let tmp = TempDir::new("study-arma");
-    // The four Euler methods on both scenes with the course material: every verdict class
-    // the full study gives them (no stable step in range, a limit, stable to the ceiling) in
-    // a minute; the whole quick study takes far longer, as its explicit trials are
-    // microseconds apart (results/README.md compares it to the full one).
+    // Explicit and symplectic Euler on both scenes with the course material: the quick study
+    // judges the full study's range, 2 us to 0.02 s, so these trials are the full study's
+    // and give its verdict classes (no stable step in range, a limit). Its implicit methods
+    // are left out here: their maps run 1e5 Newton steps at the floor, minutes each
+    // (stiffness_sweep's test covers `stable-to-ceiling`).
+    // (`*euler-model=` leaves out the implicit ones, whose ids name their linear solver.)
     run_study_ok(
         &study("armadillo_stability.toml"),
         tmp.path(),
-        &["--quick", "--only", "armadillo_*-*euler*-model=neo-hookean"],
+        &["--quick", "--only", "armadillo_*-*euler-model=neo-hookean"],
     );
     let mut columns = IDENTITY.to_vec();
     columns.extend([
@@ -330,7 +332,7 @@ fn armadillo_stability_quick_writes_every_output() {
     let theory = runs.number(&runs.rows[0], "dt_theory").unwrap();
     assert!((1e-7..1e-4).contains(&theory), "2/omega_max = {theory}");
     // Quick mode gives each of them the committed full study's verdict.
-    assert_eq!(assert_full_verdict_classes("armadillo_stability", &runs), 8);
+    assert_eq!(assert_full_verdict_classes("armadillo_stability", &runs), 4);
 }
 
 #[test]
