@@ -28,11 +28,13 @@ impl ModalBasis {
     /// The `count` lowest modes of `model` at its rest state.
     pub fn of(model: &mut Model, count: usize) -> Result<Self, String> {
         let rest = model.rest_state();
-        let modes =
-            lowest_modes(model, &rest, count).map_err(|e| format!("the lowest modes: {e}"))?;
+        const OFF: &str = "(`modes = 0` in the reference table measures no modal error)";
+        let modes = lowest_modes(model, &rest, count)
+            .map_err(|e| format!("the lowest modes for the modal error: {e} {OFF}"))?;
         if !modes.converged {
             return Err(format!(
-                "the {count} lowest modes did not converge in {} subspace iterations",
+                "the {count} lowest modes for the modal error did not converge in {} subspace \
+                 iterations {OFF}",
                 modes.iterations
             ));
         }
