@@ -53,6 +53,12 @@ fn orders(tmp: &TempDir, name: &str, scene: &str) -> Vec<(&'static str, f64, f64
         .unwrap();
     let report = std::fs::read_to_string(out.join(name).join("report.md")).unwrap();
     assert!(report.contains("| scene | method | order | in the lowest modes |"));
+    // The report names the body whose modes it counts, with their highest frequency.
+    let cutoff = runs.number(&runs.rows[0], "modal_omega_cutoff").unwrap();
+    assert!(
+        report.contains(&format!("10 up to {cutoff:.3e} rad/s on {name}")),
+        "{report}"
+    );
     let error = |method: &str, dt: f64, column: &str| {
         let r = runs
             .rows

@@ -203,22 +203,32 @@ fn orders(out: &mut String, runs: &Table) {
         let _ = writeln!(text, "| {scene} | {method} | {order:.2} | {in_modes} |");
     }
     if !text.is_empty() {
-        let modes = runs
-            .rows
-            .iter()
-            .find_map(|r| {
-                Some((
-                    runs.get(r, "modal_modes")?,
-                    runs.number(r, "modal_omega_cutoff")?,
-                ))
-            })
-            .map_or(String::new(), |(n, w)| {
-                format!(
-                    "; in the lowest modes: the same in the error of the {n} lowest vibration \
-                     modes of the body at rest (up to {w:.3e} rad/s), which leaves out the \
-                     ringing of the higher modes"
-                )
-            });
+        // Each scene's body has its own modes: the count and the highest frequency kept.
+        let mut per_scene: BTreeMap<String, (String, f64)> = BTreeMap::new();
+        for r in &runs.rows {
+            if let (Some(scene), Some(n), Some(w)) = (
+                runs.get(r, "scene"),
+                runs.get(r, "modal_modes"),
+                runs.number(r, "modal_omega_cutoff"),
+            ) {
+                per_scene
+                    .entry(scene.to_owned())
+                    .or_insert_with(|| (n.to_owned(), w));
+            }
+        }
+        let modes = if per_scene.is_empty() {
+            String::new()
+        } else {
+            let list: Vec<String> = per_scene
+                .iter()
+                .map(|(scene, (n, w))| format!("{n} up to {w:.3e} rad/s on {scene}"))
+                .collect();
+            format!(
+                "; in the lowest modes: the same in the error of the lowest vibration modes of \
+                 the body at rest ({}), which leaves out the ringing of the higher modes",
+                list.join(", ")
+            )
+        };
         let _ = writeln!(
             out,
             "Observed order (slope of log error against log dt between the two smallest scored \
