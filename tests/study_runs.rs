@@ -517,10 +517,10 @@ fn an_interrupted_study_resumes_where_it_stopped() {
     let o = softbench(&args);
     assert!(o.status.success(), "{}", stderr(&o));
     let total = Table::read(&dir.join("runs.csv")).unwrap().unwrap();
-    assert_eq!(total.rows.len(), 52);
-    let message = format!("{} of 52 runs already complete", recorded.rows.len());
+    assert_eq!(total.rows.len(), 78);
+    let message = format!("{} of 78 runs already complete", recorded.rows.len());
     if finished_early {
-        assert!(stderr(&o).contains("52 of 52 runs already complete"));
+        assert!(stderr(&o).contains("78 of 78 runs already complete"));
     } else {
         assert!(
             stderr(&o).contains(&message),
