@@ -129,6 +129,16 @@ struct Scales {
     gravity: f64,
 }
 
+/// What a globalized step starts from: the objective at `x`, the slope `g·dx` of the
+/// direction, the Newton iteration and the time at which a step filter checks it.
+#[derive(Clone, Copy)]
+struct Trial<'a> {
+    current: &'a Objective,
+    slope: f64,
+    iteration: u32,
+    t: f64,
+}
+
 /// How the current iterate was reached (NaN at the initial guess).
 #[derive(Clone, Copy, Debug)]
 struct Reached {
@@ -552,24 +562,7 @@ impl Newton {
             if iteration == 0 && s.globalization == Globalization::TrustRegion {
                 radius = self.first_radius(model);
             }
-            let slope = match s.globalization {
-                Globalization::TrustRegion => {
-                    self.trust_region_direction(model, p, x, radius, &sc, report)?
-                }
-                _ if s.direction == Direction::Newton && s.forcing_max > 0.0 && !self.exact => {
-                    // Inexact Newton: an iterative solve stops at the forcing term.
-                    self.inexact |= self.system.honours_forcing();
-                    let forcing = (norm(&self.potential.g)
-                        / sc.initial_gradient.max(f64::MIN_POSITIVE))
-                    .sqrt()
-                    .min(s.forcing_max);
-                    self.system.set_forcing(Some(forcing));
-                    let slope = self.direction(model, p, x, iteration, report);
-                    self.system.set_forcing(None);
-                    slope?
-                }
-                _ => self.direction(model, p, x, iteration, report)?,
-            };
+            let slope = self.globalized_direction(model, p, x, radius, &sc, iteration, report)?;
             record.decrement = -slope;
             record.linear_iterations = report.linear_iterations - before.0;
             record.factorizations = report.factorizations - before.1;
@@ -597,25 +590,13 @@ impl Newton {
                 axpy(alpha, &self.dx, x);
                 None
             } else {
-                match s.globalization {
-                    Globalization::Backtracking => Some(
-                        self.line_search(model, p, x, &current, slope, None, iteration, report)?,
-                    ),
-                    Globalization::FullStep => {
-                        Some(self.full_step(model, p, x, iteration, t, report)?)
-                    }
-                    Globalization::TrustRegion => self.trust_region_step(
-                        model,
-                        p,
-                        x,
-                        &current,
-                        &mut radius,
-                        &sc,
-                        t,
-                        iteration,
-                        report,
-                    )?,
-                }
+                let trial = Trial {
+                    current: &current,
+                    slope,
+                    iteration,
+                    t,
+                };
+                self.globalized_step(model, p, x, trial, &mut radius, &sc, report)?
             };
             let (next, alpha, backtracks) = match accepted {
                 Some(accepted) => accepted,
@@ -641,6 +622,72 @@ impl Newton {
             };
             self.record(record, Stop::Running, start);
         }
+    }
+
+    /// The direction of the settings' globalization into `self.dx`; returns `g·dx` (< 0).
+    /// A trust region solves its subproblem; inexact Newton stops an iterative solve at the
+    /// forcing term (relative to the first gradient, capped by `forcing_max`).
+    #[allow(clippy::too_many_arguments)]
+    fn globalized_direction(
+        &mut self,
+        model: &mut Model,
+        p: &Problem<'_>,
+        x: &[f64],
+        radius: f64,
+        sc: &Scales,
+        iteration: u32,
+        report: &mut StepReport,
+    ) -> Result<f64, StepError> {
+        let s = self.settings;
+        match s.globalization {
+            Globalization::TrustRegion => {
+                self.trust_region_direction(model, p, x, radius, sc, report)
+            }
+            _ if s.direction == Direction::Newton && s.forcing_max > 0.0 && !self.exact => {
+                self.inexact |= self.system.honours_forcing();
+                let forcing = (norm(&self.potential.g)
+                    / sc.initial_gradient.max(f64::MIN_POSITIVE))
+                .sqrt()
+                .min(s.forcing_max);
+                self.system.set_forcing(Some(forcing));
+                let slope = self.direction(model, p, x, iteration, report);
+                self.system.set_forcing(None);
+                slope
+            }
+            _ => self.direction(model, p, x, iteration, report),
+        }
+    }
+
+    /// Moves `x` along `self.dx` by the settings' globalization (line search, full step or
+    /// trust region); returns the new objective, the step length and the backtracks (or
+    /// rejections), or `None` when a trust region's predicted decrease is below round-off and
+    /// its full step was taken.
+    #[allow(clippy::too_many_arguments)]
+    fn globalized_step(
+        &mut self,
+        model: &mut Model,
+        p: &Problem<'_>,
+        x: &mut [f64],
+        trial: Trial<'_>,
+        radius: &mut f64,
+        sc: &Scales,
+        report: &mut StepReport,
+    ) -> Result<Option<(Objective, f64, u32)>, StepError> {
+        let Trial {
+            current,
+            slope,
+            iteration,
+            t,
+        } = trial;
+        Ok(match self.settings.globalization {
+            Globalization::Backtracking => {
+                Some(self.line_search(model, p, x, current, slope, None, iteration, report)?)
+            }
+            Globalization::FullStep => Some(self.full_step(model, p, x, iteration, t, report)?),
+            Globalization::TrustRegion => {
+                self.trust_region_step(model, p, x, current, radius, sc, t, iteration, report)?
+            }
+        })
     }
 
     /// The direction of `settings.direction` from `x` into `self.dx`; returns `g·dx` (< 0).
