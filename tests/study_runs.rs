@@ -294,6 +294,20 @@ fn stiffness_sweep_quick_writes_every_output() {
     assert!(dir.join("sweep-max_stable_dt.png").is_file());
     // Every run, with limits found and methods stable to the ceiling among them.
     assert_eq!(assert_full_verdict_classes("stiffness_sweep", &runs), 20);
+    // The maps' scan density reads as a count, not in the table's number format ("3e0").
+    let report = std::fs::read_to_string(dir.join("report.md")).unwrap();
+    let headings: Vec<&str> = report
+        .lines()
+        .filter_map(|l| l.strip_suffix(" steps per decade:"))
+        .collect();
+    assert!(!headings.is_empty(), "no map heading in:\n{report}");
+    for heading in headings {
+        let density = heading.rsplit(' ').next().unwrap();
+        assert!(
+            density.parse::<u32>().is_ok(),
+            "`{heading} steps per decade:`"
+        );
+    }
 }
 
 #[test]

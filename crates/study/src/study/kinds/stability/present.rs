@@ -479,7 +479,10 @@ fn stability_maps(out: &mut String, runs: &Table) {
             "**{scene}**, dt from {} s to {} s, {} steps per decade:\n\n```text",
             runs.get(first, "lowest_dt").unwrap_or("?"),
             runs.get(first, "highest_dt").unwrap_or("?"),
-            runs.get(first, "scan_per_decade").unwrap_or("?"),
+            // The table writes every number in one format ("6e0"); a count reads as one.
+            runs.get(first, "scan_per_decade")
+                .and_then(|n| n.parse::<f64>().ok())
+                .map_or_else(|| "?".to_owned(), |n| n.to_string()),
         );
         let name = |r: &Vec<String>| {
             let id = runs.get(r, "run_id").unwrap_or("?");
